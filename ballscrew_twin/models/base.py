@@ -1,0 +1,127 @@
+"""The interface every fidelity level shares: operating point in, :class:`TwinOutput` out."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import OperatingPointError
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True, kw_only=True)
+class OperatingPoint:
+    """Commanded operating condition of the screw.
+
+    Attributes:
+        screw_speed: screw angular speed about its axis [rad/s]; the sign is the direction.
+        temperature: bulk temperature of screw, nut, spheres and lubricant [K].
+        preload: preload force between the two nuts [N], >= 0.
+        axial_load: external axial load on the nut assembly along +z [N].
+    """
+
+    screw_speed: float
+    temperature: float
+    preload: float
+    axial_load: float = 0.0
+
+    def validate(self) -> None:
+        """Raise :class:`OperatingPointError` naming the first invalid quantity."""
+        for name in ("screw_speed", "temperature", "preload", "axial_load"):
+            value = getattr(self, name)
+            if not math.isfinite(value):
+                raise OperatingPointError(f"{name} = {value!r} is not a finite number")
+        if self.temperature <= 138.0:
+            raise OperatingPointError(
+                f"temperature = {self.temperature} K is at or below 138 K, where the Roelands "
+                "law is undefined (temperatures are in kelvin, not degrees Celsius)"
+            )
+        if self.preload < 0.0:
+            raise OperatingPointError(f"preload = {self.preload} N must be >= 0")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TorqueBreakdown:
+    """Drag torque on the screw split by mechanism [N m].
+
+    For models that resolve mechanisms the fields sum to the drag torque; the catalogue model
+    resolves none and leaves them all zero.
+    """
+
+    lubricant_shear: float = 0.0
+    dry_contact: float = 0.0
+    rolling_resistance: float = 0.0
+    hysteresis: float = 0.0
+    curvature: float = 0.0
+    spin: float = 0.0
+
+    @property
+    def total(self) -> float:
+        """Sum of all mechanisms [N m]."""
+        return float(sum(getattr(self, f.name) for f in fields(self)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ContactStates:
+    """State of every sphere/half-groove contact, arrays of equal length (one row a contact).
+
+    Half grooves are numbered 0..3 = S1, S2, N1, N2; nuts 0 = master (upper), 1 = slave.
+    """
+
+    sphere: NDArray[np.int64]
+    nut: NDArray[np.int64]
+    half_groove: NDArray[np.int64]
+    in_contact: NDArray[np.bool_]
+    normal_force: FloatArray  # N
+    friction_force: FloatArray  # N, magnitude of the sliding traction F_t (Eq. 36)
+    contact_angle: FloatArray  # rad (Eq. 8)
+    approach: FloatArray  # m, interpenetration delta (Eq. 17)
+    stiffness: FloatArray  # N m^-1.5, K_H
+    max_pressure: FloatArray  # Pa
+    semi_axis_x: FloatArray  # m, rolling direction
+    semi_axis_y: FloatArray  # m, transverse
+    film_thickness: FloatArray  # m, total central film h_Tc (Eq. 33)
+    tallian_parameter: FloatArray  # - (Eq. 38)
+    load_share: FloatArray  # -, asperity share f(Lambda) (Eq. 37)
+    shear_stress: FloatArray  # Pa, lubricant shear stress (Eq. 35)
+    lubricant_share: FloatArray  # -, lubricant part of F_t / F_t
+    dry_share: FloatArray  # -, dry part of F_t / F_t
+    slip_speed: FloatArray  # m/s, |v_t| at the contact centre (Eq. 12)
+
+
+@dataclass(frozen=True, kw_only=True)
+class TwinOutput:
+    """What a model returns for one operating point.
+
+    Attributes:
+        drag_torque: torque the drive must apply to the screw to hold its speed [N m]; it has
+            the sign of the speed (positive drag opposes positive rotation).
+        nut_torque: share of ``drag_torque`` from the master and slave nut spheres [N m].
+        breakdown: the same torque split by mechanism.
+        fidelity: name of the model that produced it.
+        contacts: per-contact states, when the model resolves them.
+        notes: what the model skipped or clamped, and why.
+    """
+
+    drag_torque: float
+    nut_torque: tuple[float, float]
+    breakdown: TorqueBreakdown
+    fidelity: str
+    operating_point: OperatingPoint
+    contacts: ContactStates | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+class SteadyStateModel(Protocol):
+    """Anything that maps an operating point to a drag torque."""
+
+    name: str
+
+    def evaluate(self, op: OperatingPoint) -> TwinOutput:
+        """Drag torque and (if resolved) contact states at ``op``."""
+        ...

@@ -1,0 +1,323 @@
+"""Forces and moments of every ball-groove contact for given ball states (reference, numpy).
+
+One call evaluates all balls and all four half grooves at once: no Python loop over spheres.
+The steady-state model drives it with a Newton solver; the dynamic model will call the same
+laws. Frames and numbering: :mod:`ballscrew_twin.physics.geometry`.
+
+Kinematics are written in the frame of the screw. Everything that moves along the thread does
+so by a helical motion about z with the screw's lead: the ball centre (rate w_B), the contact
+points (w_B), the nut (w_N = -screw speed). A helical motion with rate w moves a point r (from
+the axis) with velocity w (z x r + p/(2 pi) z).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..params import TwinConfig
+from ..physics import film, geometry, hertz, lubricant, rolling, traction
+
+FloatArray = NDArray[np.float64]
+
+SPIN_SLIDING_FACTOR = 4.0 / (3.0 * math.pi)  # mean |y| / a_y under a Hertz pressure, thin ellipse
+
+
+@dataclass(frozen=True)
+class ContactScene:
+    """Per-operating-point constants of the contact laws (computed once per solve)."""
+
+    config: TwinConfig
+    geometry: object  # ScrewGeometry at temperature (typed loosely to avoid a cycle in docs)
+    temperature: float  # K
+    screw_speed: float  # rad/s
+    e_star: float  # Pa, Hertz modulus
+    e_reduced: float  # Pa, E' = 2 E*
+    viscosity_atm: float  # Pa s, eta_0T at the temperature
+    ball_mass: float  # kg
+    ball_inertia: float  # kg m^2
+    deformation_ball_share: float  # delta_ball / delta (Eq. 20-21)
+    surface_radius: float  # m, R_c of MC
+
+
+def make_scene(config: TwinConfig, temperature: float, screw_speed: float) -> ContactScene:
+    """Thermally expanded geometry and lubricant state at ``temperature`` [K]."""
+    geom = geometry.thermally_expanded(config.screw, config.materials, temperature)
+    mats = config.materials
+    e_star = float(
+        hertz.effective_modulus(
+            mats.ball.young_modulus, mats.ball.poisson_ratio,
+            mats.screw.young_modulus, mats.screw.poisson_ratio,
+        )
+    )
+    d_ball, _ = hertz.deformation_split(
+        1.0, mats.ball.young_modulus, mats.ball.poisson_ratio,
+        mats.screw.young_modulus, mats.screw.poisson_ratio,
+    )
+    mass = mats.ball.density * 4.0 / 3.0 * math.pi * geom.ball_radius**3
+    return ContactScene(
+        config=config,
+        geometry=geom,
+        temperature=temperature,
+        screw_speed=screw_speed,
+        e_star=e_star,
+        e_reduced=2.0 * e_star,
+        viscosity_atm=float(lubricant.viscosity_atmospheric(config.lubricant, temperature)),
+        ball_mass=mass,
+        ball_inertia=0.4 * mass * geom.ball_radius**2,
+        deformation_ball_share=float(d_ball),
+        surface_radius=rolling.deformed_surface_radius(geom.ball_radius, geom.groove_radius),
+    )
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    return np.asarray(np.cross(a, b))
+
+
+def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
+    return np.asarray(np.einsum("...i,...i->...", a, b))
+
+
+def _unit(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    norm = np.sqrt(_dot(v, v))
+    return v / np.maximum(norm, 1e-300)[..., None], norm
+
+
+def sliding_friction(
+    scene: ContactScene,
+    speed: FloatArray,
+    normal_force: FloatArray,
+    area: FloatArray,
+    mean_pressure: FloatArray,
+    film_total: FloatArray,
+    load_share: FloatArray,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Friction magnitude at sliding speed ``speed`` [m/s], Eqs. 34-36 regularised (D6, D8).
+
+    F(v) = [ (1 - f) A tau(max(v, v_r)) + f mu_dry F_n ] tanh(v / v_r): the paper's law above
+    the threshold speed v_r, linear in v below it (section 3 of the paper).
+
+    Returns:
+        (lubricant part [N], dry part [N], lubricant shear stress tau [Pa]).
+    """
+    lub = scene.config.lubricant
+    law = scene.config.contact
+    v_r = law.dry_friction_regularisation_speed
+    eta = lubricant.viscosity(lub, mean_pressure, scene.temperature)
+    rate = traction.shear_rate(np.maximum(speed, v_r), np.maximum(film_total, 1e-12))
+    limit = traction.limiting_shear_stress(
+        lub.limiting_shear_stress, lub.limiting_shear_pressure_coefficient, mean_pressure
+    )
+    tau = traction.eyring_shear_stress(eta, rate, lub.eyring_stress, limit)
+    ramp = traction.dry_friction_factor(speed, v_r)
+    lub_part, dry_part = traction.friction_force(
+        tau, area, load_share, law.dry_friction_coefficient, 1.0, normal_force
+    )
+    return np.asarray(lub_part * ramp), np.asarray(dry_part * ramp), np.asarray(tau * ramp)
+
+
+@dataclass(frozen=True)
+class ContactEvaluation:
+    """Everything the contacts do to the balls for one set of ball states.
+
+    Array shapes: B balls, 4 half grooves; vectors have a last axis (t, n, b).
+    """
+
+    force: FloatArray  # (B, 3) N, total force on each ball incl. gravity and inertia
+    moment: FloatArray  # (B, 3) N m, total moment on each ball about its centre incl. inertia
+    groove_force: FloatArray  # (B, 4, 3) N, force of the ball on each half groove
+    groove_moment_z: FloatArray  # (B, 4) N m, moment about the screw axis on each half groove
+    active: NDArray[np.bool_]  # (B, 4)
+    approach: FloatArray  # (B, 4) m
+    contact_angle: FloatArray  # (B, 4) rad
+    hertz: hertz.HertzContact  # fields (B, 4)
+    film_total: FloatArray  # (B, 4) m
+    tallian: FloatArray  # (B, 4)
+    load_share: FloatArray  # (B, 4)
+    slip: FloatArray  # (B, 4) m/s, |v_t| at the contact centre
+    spin: FloatArray  # (B, 4) rad/s, relative spin about the normal
+    roll: FloatArray  # (B, 4) rad/s, relative rolling speed
+    entrainment: FloatArray  # (B, 4) m/s, u of Eq. 23 along t
+    friction_lubricant: FloatArray  # (B, 4) N, lubricant part of F_t at the centre slip
+    friction_dry: FloatArray  # (B, 4) N, dry part of F_t at the centre slip
+    shear_stress: FloatArray  # (B, 4) Pa, at the characteristic sliding speed
+    sliding_coefficient: FloatArray  # (B, 4) mu_s
+    dissipation: dict[str, FloatArray]  # mechanism -> (B, 4) W
+
+
+def evaluate_contacts(
+    scene: ContactScene,
+    ball_nb: FloatArray,
+    kinematics: FloatArray,
+    nut_offset: FloatArray,
+    gravity_frenet: FloatArray,
+) -> ContactEvaluation:
+    """Contact forces, moments, states and dissipation of B balls.
+
+    Args:
+        scene: constants of the operating point.
+        ball_nb: (B, 2) ball-centre offsets (n, b) from the ideal helix point B [m].
+        kinematics: (B, 4) orbital rate w_B of the ball along the thread relative to the screw
+            [rad/s] and ball angular velocity relative to the screw (t, n, b) [rad/s].
+        nut_offset: (B,) b-offset e of the nut groove of each ball's nut [m].
+        gravity_frenet: (B, 3) gravitational acceleration in Frenet components [m/s^2].
+    """
+    cfg = scene.config
+    geom = scene.geometry
+    assert isinstance(geom, type(cfg.screw))
+    r_b, r_s, r_m = geom.ball_radius, geom.groove_radius, geom.pitch_radius
+    lead_rate = geom.lead / (2.0 * math.pi)
+    zhat = geometry.axis_direction(geom.helix_angle)
+    that = np.array([1.0, 0.0, 0.0])
+    nhat = np.array([0.0, 1.0, 0.0])
+
+    centres = geometry.half_groove_centres(geom, nut_offset)
+    approach, normal_nb, angle = geometry.contact_geometry(ball_nb, centres, r_b, r_s)
+    active = geometry.contact_exists(
+        approach, angle, geom.inner_containment_angle, geom.outer_containment_angle
+    )
+    delta = np.where(active, approach, 0.0)
+    k_roll, k_trans = geometry.principal_curvatures(geom, angle, np.arange(4))
+    radius_x, radius_y = geometry.reduced_radii(r_b, k_roll, k_trans)
+    hc = hertz.contact_from_approach(delta, radius_x, radius_y, scene.e_star)
+    f_n = np.asarray(hc.stiffness * delta**1.5)  # Eq. 18, static part
+
+    def helical(rate: FloatArray | float, r: FloatArray) -> FloatArray:
+        return np.asarray(np.asarray(rate)[..., None] * (_cross(zhat, r) + lead_rate * zhat))
+
+    zeros = np.zeros(normal_nb.shape[:-1])
+    d_plane = np.stack([zeros, normal_nb[..., 0], normal_nb[..., 1]], axis=-1)  # (B, 4, 3)
+    r_ball = np.stack(
+        [np.zeros(len(ball_nb)), ball_nb[:, 0] - r_m, ball_nb[:, 1]], axis=-1
+    )  # ball centre from the axis, (B, 3)
+    arm_length = r_b - scene.deformation_ball_share * delta
+    # Both grooves are helicoids of the same lead, tangent to the helical field V(r) at every
+    # point: the true normal at the contact point is the normal-plane one with V projected out
+    # (a t-component of order (offset / r_m) sin l). Without it the normal force would do
+    # spurious work and the power balance would not close (docs/model.md, D12).
+    field = helical(np.ones(zeros.shape), r_ball[:, None, :] + arm_length[..., None] * d_plane)
+    d = d_plane - (_dot(d_plane, field) / _dot(field, field))[..., None] * field
+    d, _ = _unit(d)
+    arm = arm_length[..., None] * d  # F -> contact point
+    r_point = r_ball[:, None, :] + arm
+
+    w_ball = kinematics[:, 0]
+    omega = kinematics[:, 1:4]
+    w_nut = -scene.screw_speed
+    nut = geometry.IS_NUT[None, :, None]
+    v_centre = helical(w_ball, r_ball)  # (B, 3)
+    v_ball_point = v_centre[:, None, :] + _cross(omega[:, None, :], arm)
+    v_groove = np.where(nut, helical(np.full(r_point.shape[:-1], w_nut), r_point), 0.0)
+    v_contact = helical(np.broadcast_to(w_ball[:, None], r_point.shape[:-1]), r_point)
+    rel = v_ball_point - v_groove
+    slip_vec = rel - _dot(rel, d)[..., None] * d
+    slip_dir, slip = _unit(slip_vec)
+    u1 = _dot(v_ball_point - v_contact, that)
+    u2 = _dot(v_groove - v_contact, that)
+    entrain = 0.5 * (u1 + u2)
+    srr = np.abs(u1 - u2) / np.maximum(np.abs(entrain), 1e-12)
+    e_dir = np.where(entrain >= 0.0, 1.0, -1.0)[..., None] * that
+    omega_groove = np.where(nut, w_nut * zhat, 0.0)
+    omega_rel = omega[:, None, :] - omega_groove
+    spin = _dot(omega_rel, d)
+    roll_vec = omega_rel - spin[..., None] * d
+    roll_dir, roll = _unit(roll_vec)
+
+    # Lubrication (Eqs. 26-33, 37-38).
+    lub = cfg.lubricant
+    h_iso = film.film_thickness_central_isothermal(
+        f_n, entrain, scene.viscosity_atm, radius_x, radius_y, scene.e_reduced,
+        lub.pressure_viscosity_coefficient,
+    )
+    l_th = film.thermal_loading_parameter(
+        scene.viscosity_atm, lub.viscosity_temperature_coefficient, entrain,
+        lub.thermal_conductivity,
+    )
+    c_th = film.thermal_reduction_factor(hc.max_pressure, scene.e_reduced, l_th, srr)
+    h_tot = film.film_thickness_total(c_th, h_iso, lub.residual_layer)
+    tallian = film.tallian_parameter(h_tot, cfg.composite_roughness)
+    share = traction.load_share_asperities(tallian)
+
+    # Sliding friction at the centre slip, and the spin sliding (Eqs. 34-36, 45).
+    args = (f_n, hc.area, hc.mean_pressure, h_tot, share)
+    lub_c, dry_c, _ = sliding_friction(scene, slip, *args)
+    f_centre = lub_c + dry_c
+    semi_major = np.maximum(hc.semi_axis_x, hc.semi_axis_y)
+    semi_minor = np.minimum(hc.semi_axis_x, hc.semi_axis_y)
+    v_spin = SPIN_SLIDING_FACTOR * semi_major * np.abs(spin)
+    lub_s, dry_s, _ = sliding_friction(scene, v_spin, *args)
+    ellipticity = semi_major / np.maximum(semi_minor, 1e-300)
+    mp = rolling.spin_moment(rolling.spin_moment_factor(ellipticity), semi_major, lub_s + dry_s)
+    lub_m, dry_m, tau = sliding_friction(scene, slip + v_spin, *args)
+    mu_s = np.where(f_n > 0.0, (lub_m + dry_m) / np.maximum(f_n, 1e-300), 0.0)
+    law = cfg.contact
+    mer = rolling.hysteresis_moment(
+        f_n, r_b, radius_y / radius_x, mu_s, max(law.dry_friction_coefficient, 1e-6)
+    )
+    mc = rolling.curvature_moment(f_n, hc.semi_axis_y, scene.surface_radius, mu_s)
+    fr = rolling.rolling_resistance_force(
+        f_n, entrain, scene.viscosity_atm, radius_x, radius_y, scene.e_reduced
+    )
+    fp = rolling.pressure_rolling_force(fr, radius_x, r_b)
+
+    # Forces and moments on the ball (Eqs. 46-47) and their reactions on the grooves (48-49).
+    contact_on_ball = (
+        -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
+    )
+    pressure_on_ball = fp[..., None] * e_dir  # acts at the ball centre
+    free_moment = -(mer + mc)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
+    moment_contacts = _cross(arm, contact_on_ball) + free_moment
+    groove_force = -(contact_on_ball + pressure_on_ball)
+    groove_moment = _cross(r_point, groove_force) - free_moment
+    groove_moment_z = _dot(groove_moment, zhat)
+
+    orbit_rate = scene.screw_speed + w_ball  # absolute rate of the ball's Frenet frame
+    radius_centre = r_m - ball_nb[:, 0]
+    inertial = (scene.ball_mass * orbit_rate**2 * radius_centre)[:, None] * (-nhat)
+    force = (contact_on_ball + pressure_on_ball).sum(axis=1) + scene.ball_mass * gravity_frenet
+    force = force + inertial
+    omega_abs = omega + scene.screw_speed * zhat
+    gyro = orbit_rate[:, None] * _cross(
+        np.broadcast_to(zhat, omega_abs.shape), scene.ball_inertia * omega_abs
+    )
+    moment = moment_contacts.sum(axis=1) - gyro
+
+    # Dissipated power of each mechanism (>= 0 by construction of every law). The FP pair acts
+    # at two different points (ball centre, groove at P): its power is taken in the inertial
+    # frame, where the screw frame's rotation adds screw_speed z x (r_F - r_P).
+    rel_centre = v_centre[:, None, :] - v_groove + scene.screw_speed * _cross(
+        np.broadcast_to(zhat, arm.shape), -arm
+    )
+    dissipation = {
+        "lubricant_shear": lub_c * slip,
+        "dry_contact": dry_c * slip,
+        "rolling_resistance": -fp * _dot(e_dir, rel_centre) + fr * _dot(e_dir, slip_vec),
+        "hysteresis": mer * roll,
+        "curvature": mc * roll,
+        "spin": mp * np.abs(spin),
+    }
+    return ContactEvaluation(
+        force=force,
+        moment=moment,
+        groove_force=groove_force,
+        groove_moment_z=groove_moment_z,
+        active=active,
+        approach=approach,
+        contact_angle=angle,
+        hertz=hc,
+        film_total=np.where(active, h_tot, 0.0),
+        tallian=np.where(active, tallian, 0.0),
+        load_share=np.where(active, share, 0.0),
+        slip=np.where(active, slip, 0.0),
+        spin=spin,
+        roll=roll,
+        entrainment=entrain,
+        friction_lubricant=lub_c,
+        friction_dry=dry_c,
+        shear_stress=np.where(active, tau, 0.0),
+        sliding_coefficient=mu_s,
+        dissipation=dissipation,
+    )

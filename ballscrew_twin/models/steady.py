@@ -1,0 +1,445 @@
+"""Steady-state (quasi-static) model: equilibrium of every loaded sphere at constant speed.
+
+For each sphere the unknowns are its centre offset (n, b) from the ideal helix, its orbital rate
+along the thread and its angular velocity (6 per sphere); for each nut, the axial offset of its
+groove. The equations are the sphere's force and moment balance including centrifugal force,
+gyroscopic moment and gravity (6 per sphere), and the axial balance of each nut under preload,
+nut weight and external load (docs/model.md, section "Steady state").
+
+The drag torque is the dissipated power divided by the screw speed, so the torque of lifting the
+nut against gravity is removed as the paper does; the direct sum of the moments on the screw is
+kept as ``screw_torque_direct`` for the power balance check.
+
+When all spheres of a nut are equivalent (vertical screw, no per-sphere difference) one sphere
+stands for all of them (symmetric mode); otherwise every sphere is solved (full mode) with one
+Newton iteration over all of them at once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import SolverError
+from ..params import TwinConfig
+from ..physics import geometry, hertz
+from .base import ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
+from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, make_scene
+
+FloatArray = NDArray[np.float64]
+Mode = Literal["auto", "symmetric", "full"]
+
+NEWTON_MAX_ITER = 60
+LINE_SEARCH_STEPS = 12
+POSITION_STEP = 1e-10  # m, finite-difference step of the ball and nut offsets
+KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to the screw speed
+MECHANISMS = (
+    "lubricant_shear", "dry_contact", "rolling_resistance", "hysteresis", "curvature", "spin"
+)
+
+
+@dataclass(frozen=True)
+class BallSet:
+    """The spheres solved: their nut, azimuth and how many physical spheres each stands for."""
+
+    nut: NDArray[np.int64]  # (B,) 0 master, 1 slave
+    azimuth: FloatArray  # (B,) rad
+    weight: FloatArray  # (B,) physical spheres represented
+    gravity: FloatArray  # (B, 3) m/s^2 in Frenet components
+
+
+@dataclass
+class SteadyState:
+    """Solved unknowns, reusable as a warm start."""
+
+    ball_nb: FloatArray  # (B, 2) m
+    kinematics: FloatArray  # (B, 4) rad/s
+    nut_offset: FloatArray  # (2,) m
+    screw_speed: float  # rad/s at which it was solved
+
+
+@dataclass(frozen=True)
+class SteadySolution:
+    """A converged steady state with what it implies."""
+
+    output: TwinOutput
+    state: SteadyState
+    balls: BallSet
+    contacts: ContactEvaluation
+    screw_torque_direct: float  # N m, sum of moments of the spheres on the screw (with gravity)
+    gravity_torque: float  # N m, the part of the direct torque that lifts nuts and spheres
+    iterations: int
+    residual: float  # max scaled residual at convergence
+
+
+class SteadyStateModel:
+    """Quasi-static equilibrium of all loaded spheres of both nuts.
+
+    Args:
+        config: parameter set.
+        mode: ``"symmetric"`` (one sphere per nut), ``"full"`` (every sphere) or ``"auto"``
+            (symmetric whenever the spheres of a nut are equivalent: vertical screw).
+        tolerance: convergence limit of the scaled residual (force / load scale) [-].
+    """
+
+    def __init__(self, config: TwinConfig, mode: Mode = "auto", tolerance: float = 1e-10) -> None:
+        if mode not in ("auto", "symmetric", "full"):
+            raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
+        if not 0.0 < tolerance < 1e-2:
+            raise ValueError(f"tolerance = {tolerance!r} must be in (0, 1e-2)")
+        self.config = config
+        self.mode = mode
+        self.tolerance = tolerance
+        self.name = "steady"
+        self._warm: SteadyState | None = None
+
+    # ------------------------------------------------------------------ set-up
+
+    def resolved_mode(self) -> Literal["symmetric", "full"]:
+        """The mode used: symmetric needs gravity to act alike on every sphere (vertical screw)."""
+        if self.mode != "auto":
+            return self.mode
+        return "symmetric" if self.config.screw.orientation == "vertical" else "full"
+
+    def ball_set(self, mode: Literal["symmetric", "full"]) -> BallSet:
+        """Spheres to solve, their azimuths and gravity in their Frenet frames."""
+        screw = self.config.screw
+        g = self.config.environment.gravity
+        z_count = screw.balls_per_nut
+        if mode == "symmetric":
+            nut = np.array([0, 1])
+            azimuth = np.zeros(2)
+            weight = np.full(2, float(z_count))
+        else:
+            spacing = 2.0 * math.pi * screw.loaded_turns / z_count
+            per_nut = np.arange(z_count) * spacing
+            nut = np.repeat(np.array([0, 1]), z_count)
+            azimuth = np.concatenate([per_nut, per_nut])
+            weight = np.ones(2 * z_count)
+        frames = geometry.frenet_frame(azimuth, screw.helix_angle)  # (B, 3, 3) rows t, n, b
+        if screw.orientation == "vertical":
+            g_world = np.array([0.0, 0.0, -g])  # screw axis z points up
+        else:
+            g_world = np.array([0.0, -g, 0.0])  # horizontal axis, gravity along -y
+        gravity = np.einsum("bij,j->bi", frames, g_world)
+        return BallSet(nut=nut, azimuth=azimuth, weight=weight, gravity=gravity)
+
+    def nut_axial_loads(self, op: OperatingPoint) -> FloatArray:
+        """Force the spheres must exert on each nut along +z [N] (master, slave).
+
+        The preload pushes the master nut up and the slave nut down (paper: preload force between
+        the nuts); each nut's weight pulls it down on a vertical screw; the external axial load
+        acts on the master nut.
+        """
+        weight = self.config.screw.nut_mass * self.config.environment.gravity
+        if self.config.screw.orientation != "vertical":
+            weight = 0.0
+        master = -(op.preload - weight + op.axial_load)
+        slave = -(-op.preload - weight)
+        return np.array([master, slave])
+
+    # ------------------------------------------------------------------ solve
+
+    def _initial_state(
+        self, scene: ContactScene, balls: BallSet, loads: FloatArray
+    ) -> SteadyState:
+        """Hertz estimate of the offsets and the pure-rolling estimate of the rates."""
+        geom = scene.geometry
+        assert isinstance(geom, type(self.config.screw))
+        r_b, r_s = geom.ball_radius, geom.groove_radius
+        clearance = r_s - r_b
+        b_touch = math.sqrt(max(clearance**2 - geom.centre_offset**2, 0.0)) - geom.ogival_offset
+        alpha = geom.free_contact_angle
+        per_ball = np.abs(loads) / self.config.screw.balls_per_nut
+        q = per_ball / (math.sin(alpha) * math.cos(geom.helix_angle))
+        k_roll, k_trans = geometry.principal_curvatures(geom, np.array([alpha]), np.array([0]))
+        rx, ry = geometry.reduced_radii(r_b, k_roll, k_trans)
+        stiffness = float(hertz.hertz_stiffness(rx, ry, scene.e_star)[0])
+        delta = (q / stiffness) ** (2.0 / 3.0)
+        # Nut pushed down by its spheres (load < 0) bears on S2/N1: ball and nut go +b.
+        sign = np.where(loads < 0.0, 1.0, -1.0)
+        ball_b = sign * (b_touch + delta / math.sin(alpha))
+        nut_offset = sign * 2.0 * (b_touch + delta / math.sin(alpha))
+        ball_nb = np.stack([np.zeros(len(balls.nut)), ball_b[balls.nut]], axis=-1)
+        kin = np.zeros((len(balls.nut), 4))
+        if scene.screw_speed != 0.0:
+            kin = self._rolling_kinematics(scene, balls, ball_nb, nut_offset)
+        return SteadyState(ball_nb, kin, nut_offset, scene.screw_speed)
+
+    def _rolling_kinematics(
+        self, scene: ContactScene, balls: BallSet, ball_nb: FloatArray, nut_offset: FloatArray
+    ) -> FloatArray:
+        """Rates that minimise the slips at the loaded contacts (least squares, per sphere)."""
+        count = len(balls.nut)
+        e_ball = nut_offset[balls.nut]
+        geom = scene.geometry
+        assert isinstance(geom, type(self.config.screw))
+        ratio = (geom.pitch_radius + geom.ball_radius * math.cos(geom.free_contact_angle)) / (
+            2.0 * geom.pitch_radius
+        )
+        w_ball = -scene.screw_speed * ratio
+        kin = np.zeros((count, 4))
+        kin[:, 0] = w_ball
+        # Rolling about the in-plane axis perpendicular to the contact line, no spin on the screw.
+        alpha = geom.free_contact_angle
+        speed = w_ball * geom.pitch_radius / math.cos(geom.helix_angle)
+        for i in range(count):
+            sign_b = 1.0 if e_ball[i] > 0.0 else -1.0
+            d_screw = np.array([0.0, math.cos(alpha), sign_b * math.sin(alpha)])
+            # Pure rolling on the fixed screw: omega x (r_b d) = -v_centre t.
+            kin[i, 1:] = np.cross(np.array([speed / geom.ball_radius, 0.0, 0.0]), d_screw)
+        return kin
+
+    def _residual(
+        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, ContactEvaluation]:
+        """Scaled residuals: (B, 6) sphere balance, (B,) each sphere's axial push on its nut
+        (times the spheres it stands for) and (2,) nut axial balance."""
+        e_ball = state.nut_offset[balls.nut]
+        ev = evaluate_contacts(scene, state.ball_nb, state.kinematics, e_ball, balls.gravity)
+        force_scale, moment_scale = self._scales(scene, loads)
+        # Rows ordered like the unknowns: (F_n, F_b) ~ (n, b) offsets, F_t ~ orbital rate.
+        ball_res = np.concatenate(
+            [ev.force[:, [1, 2, 0]] / force_scale, ev.moment / moment_scale], axis=1
+        )
+        zhat = geometry.axis_direction(scene.geometry.helix_angle)  # type: ignore[attr-defined]
+        on_nut = np.where(geometry.IS_NUT[None, :, None], ev.groove_force, 0.0).sum(axis=1)
+        nut_scale = force_scale * self.config.screw.balls_per_nut
+        axial = np.einsum("bi,i->b", on_nut, zhat) * balls.weight / nut_scale
+        nut_sum = np.array([axial[balls.nut == k].sum() for k in (0, 1)])
+        return ball_res, axial, nut_sum - loads / nut_scale, ev
+
+    def _scales(self, scene: ContactScene, loads: FloatArray) -> tuple[float, float]:
+        per_ball = float(np.max(np.abs(loads))) / self.config.screw.balls_per_nut
+        force = max(per_ball, scene.ball_mass * 9.81, 1e-6)
+        geom = scene.geometry
+        return force, force * geom.ball_radius  # type: ignore[attr-defined]
+
+    def _unknown_mask(self, scene: ContactScene, count: int) -> NDArray[np.bool_]:
+        """Which of the 6 unknowns per sphere are solved: the rates are frozen at zero speed."""
+        mask = np.ones((count, 6), dtype=bool)
+        if scene.screw_speed == 0.0:
+            mask[:, 2:] = False
+        return mask
+
+    def _newton(
+        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        count = len(balls.nut)
+        mask = self._unknown_mask(scene, count)
+        ball_res, axial, nut_res, ev = self._residual(scene, balls, state, loads)
+        speed_scale = max(abs(scene.screw_speed), 1.0)
+        steps = np.array([POSITION_STEP, POSITION_STEP] + [KINEMATIC_STEP_REL * speed_scale] * 4)
+
+        def pack(s: SteadyState) -> FloatArray:
+            return np.concatenate([s.ball_nb, s.kinematics], axis=1)
+
+        def unpack(z: FloatArray, e: FloatArray) -> SteadyState:
+            return SteadyState(z[:, :2].copy(), z[:, 2:].copy(), e.copy(), scene.screw_speed)
+
+        def merit(b: FloatArray, n: FloatArray) -> float:
+            return float(np.sum(np.where(mask, b, 0.0) ** 2) + np.sum(n**2))
+
+        z = pack(state)
+        e = state.nut_offset.copy()
+        for iteration in range(1, NEWTON_MAX_ITER + 1):
+            res_b = np.where(mask, ball_res, 0.0)
+            worst = float(max(np.max(np.abs(res_b)), np.max(np.abs(nut_res))))
+            if worst < self.tolerance:
+                return unpack(z, e), ev, iteration - 1, worst
+            # Finite-difference Jacobian: spheres are independent given their nut's offset.
+            jac = np.zeros((count, 6, 6))
+            jac_nut_z = np.zeros((count, 6))
+            for j in range(6):
+                zp = z.copy()
+                zp[:, j] += steps[j]
+                rb, ax, _, _ = self._residual(scene, balls, unpack(zp, e), loads)
+                jac[:, :, j] = (rb - ball_res) / steps[j]
+                jac_nut_z[:, j] = (ax - axial) / steps[j]  # sphere i's push on its own nut
+            ep = e + POSITION_STEP
+            rb_e, _, rn_e, _ = self._residual(scene, balls, unpack(z, ep), loads)
+            jac_z_e = (rb_e - ball_res) / POSITION_STEP  # (B, 6)
+            jac_e_e = (rn_e - nut_res) / POSITION_STEP  # (2,)
+            # Frozen unknowns: identity rows/columns.
+            frozen = ~mask
+            jac = np.where(frozen[:, :, None] | frozen[:, None, :], 0.0, jac)
+            jac[frozen] = 0.0
+            idx = np.nonzero(frozen)
+            jac[idx[0], idx[1], idx[1]] = 1.0
+            jac_z_e = np.where(frozen, 0.0, jac_z_e)
+            jac_nut_z = np.where(frozen, 0.0, jac_nut_z)
+            reg = 1e-14 * np.maximum(np.abs(np.einsum("bii->bi", jac)).max(axis=1), 1e-30)
+            jac = jac + reg[:, None, None] * np.eye(6)
+            try:
+                inv_r = np.linalg.solve(jac, res_b[..., None])[..., 0]
+                inv_e = np.linalg.solve(jac, jac_z_e[..., None])[..., 0]
+            except np.linalg.LinAlgError as err:
+                raise SolverError(f"steady state: singular sphere Jacobian ({err})") from err
+            de = np.zeros(2)
+            for k in (0, 1):
+                members = balls.nut == k
+                schur = jac_e_e[k] - np.sum(jac_nut_z[members] * inv_e[members])
+                rhs = -nut_res[k] + np.sum(jac_nut_z[members] * inv_r[members])
+                de[k] = rhs / schur if schur != 0.0 else 0.0
+            dz = -(inv_r + inv_e * de[balls.nut][:, None])
+            dz = np.where(mask, dz, 0.0)
+            # Backtracking line search on the squared residual.
+            base = merit(ball_res, nut_res)
+            step = 1.0
+            for _ in range(LINE_SEARCH_STEPS):
+                trial = unpack(z + step * dz, e + step * de)
+                rb, ax, rn, ev_t = self._residual(scene, balls, trial, loads)
+                if merit(rb, rn) < base or step < 1e-3:
+                    break
+                step *= 0.5
+            z, e = z + step * dz, e + step * de
+            ball_res, axial, nut_res, ev = rb, ax, rn, ev_t
+        worst = float(max(np.max(np.abs(np.where(mask, ball_res, 0.0))), np.max(np.abs(nut_res))))
+        raise SolverError(
+            f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
+            f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
+        )
+
+    def solve(self, op: OperatingPoint, warm_start: SteadyState | None = None) -> SteadySolution:
+        """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one)."""
+        op.validate()
+        mode = self.resolved_mode()
+        scene = make_scene(self.config, op.temperature, op.screw_speed)
+        balls = self.ball_set(mode)
+        loads = self.nut_axial_loads(op)
+        start = warm_start if warm_start is not None else self._warm
+        if start is None or start.ball_nb.shape[0] != len(balls.nut):
+            start = self._initial_state(scene, balls, loads)
+        elif start.screw_speed != op.screw_speed:
+            kin = start.kinematics.copy()
+            if start.screw_speed != 0.0 and op.screw_speed != 0.0:
+                kin *= op.screw_speed / start.screw_speed
+            else:
+                kin = self._initial_state(scene, balls, loads).kinematics
+            start = SteadyState(start.ball_nb, kin, start.nut_offset, op.screw_speed)
+        try:
+            state, ev, iterations, residual = self._newton(scene, balls, start, loads)
+        except SolverError:
+            if start is self._warm or warm_start is not None:
+                cold = self._initial_state(scene, balls, loads)
+                state, ev, iterations, residual = self._newton(scene, balls, cold, loads)
+            else:
+                raise
+        self._warm = state
+        return self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+
+    def evaluate(self, op: OperatingPoint) -> TwinOutput:
+        """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
+        return self.solve(op).output
+
+    # ------------------------------------------------------------------ results
+
+    def _assemble(
+        self,
+        op: OperatingPoint,
+        mode: str,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        ev: ContactEvaluation,
+        iterations: int,
+        residual: float,
+    ) -> SteadySolution:
+        weight = balls.weight[:, None]
+        speed = op.screw_speed
+        power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
+        per_nut_power = [
+            float(sum(np.sum(ev.dissipation[m][balls.nut == k] * weight[balls.nut == k])
+                      for m in MECHANISMS))
+            for k in (0, 1)
+        ]
+        notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
+        if speed == 0.0:
+            notes.append("zero speed: nothing slides, drag torque 0 (breakaway not modelled)")
+            breakdown = TorqueBreakdown()
+            nut_torque = (0.0, 0.0)
+            total = 0.0
+        else:
+            breakdown = TorqueBreakdown(**{m: power[m] / speed for m in MECHANISMS})
+            nut_torque = (per_nut_power[0] / speed, per_nut_power[1] / speed)
+            total = breakdown.total
+        screw_side = ~geometry.IS_NUT[None, :]
+        direct = -float(np.sum(np.where(screw_side, ev.groove_moment_z, 0.0) * weight))
+        geom = scene.geometry
+        lead_rate = geom.lead / (2.0 * math.pi)  # type: ignore[attr-defined]
+        g = self.config.environment.gravity if self.config.screw.orientation == "vertical" else 0.0
+        lift_power = g * lead_rate * (
+            -2.0 * self.config.screw.nut_mass * speed
+            + scene.ball_mass * float(np.sum(state.kinematics[:, 0] * balls.weight))
+        )
+        gravity_torque = lift_power / speed if speed != 0.0 else 0.0
+        notes.extend(self._spacing_notes(scene))
+        contacts = _contact_states(balls, ev)
+        output = TwinOutput(
+            drag_torque=total,
+            nut_torque=nut_torque,
+            breakdown=breakdown,
+            fidelity=f"steady-{mode}",
+            operating_point=op,
+            contacts=contacts,
+            notes=tuple(notes),
+        )
+        return SteadySolution(
+            output=output,
+            state=state,
+            balls=balls,
+            contacts=ev,
+            screw_torque_direct=direct,
+            gravity_torque=gravity_torque,
+            iterations=iterations,
+            residual=residual,
+        )
+
+    def _spacing_notes(self, scene: ContactScene) -> list[str]:
+        """Sphere-to-sphere contact is skipped when equally spaced spheres cannot touch."""
+        geom = self.config.screw
+        length = 2.0 * math.pi * geom.pitch_radius * geom.loaded_turns / math.cos(geom.helix_angle)
+        gap = length / geom.balls_per_nut - 2.0 * scene.geometry.ball_radius  # type: ignore[attr-defined]
+        if gap > 0.0:
+            return [f"sphere-to-sphere contacts skipped: equal spacing leaves {gap * 1e3:.3f} mm"]
+        return ["spheres are packed without gap: sphere-to-sphere contact not resolved here"]
+
+
+def _contact_states(balls: BallSet, ev: ContactEvaluation) -> ContactStates:
+    """Flatten (B, 4) contact arrays into one row per sphere and half groove."""
+    count = len(balls.nut)
+    rows = count * 4
+    friction = ev.friction_lubricant + ev.friction_dry
+    safe = np.where(friction > 0.0, friction, 1.0)
+    lub_share = np.where(friction > 0.0, ev.friction_lubricant / safe, 0.0)
+    hc = ev.hertz
+    active = ev.active
+
+    def flat(a: FloatArray) -> FloatArray:
+        return np.asarray(np.where(active, a, 0.0).reshape(rows), dtype=np.float64)
+
+    return ContactStates(
+        sphere=np.repeat(np.arange(count), 4),
+        nut=np.repeat(balls.nut, 4),
+        half_groove=np.tile(np.arange(4), count),
+        in_contact=active.reshape(rows),
+        normal_force=flat(hc.stiffness * np.maximum(ev.approach, 0.0) ** 1.5),
+        friction_force=flat(friction),
+        contact_angle=np.asarray(ev.contact_angle.reshape(rows)),
+        approach=flat(ev.approach),
+        stiffness=np.asarray(hc.stiffness.reshape(rows)),
+        max_pressure=flat(hc.max_pressure),
+        semi_axis_x=flat(hc.semi_axis_x),
+        semi_axis_y=flat(hc.semi_axis_y),
+        film_thickness=flat(ev.film_total),
+        tallian_parameter=flat(ev.tallian),
+        load_share=flat(ev.load_share),
+        shear_stress=flat(ev.shear_stress),
+        lubricant_share=flat(lub_share),
+        dry_share=flat(np.where(friction > 0.0, 1.0 - lub_share, 0.0)),
+        slip_speed=flat(ev.slip),
+    )

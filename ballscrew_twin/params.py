@@ -1,0 +1,332 @@
+"""Frozen, validated parameter sets loaded from YAML.
+
+Every numeric field carries its SI unit and an allowed range in the field metadata; the loader
+rejects unknown or missing keys, non-finite numbers and out-of-range values with a message that
+names the file, the section and the field. The ranges are deliberately tight enough to catch a
+value given in the wrong unit (a radius of 8 is 8 m, not 8 mm, and is rejected).
+
+A parameter set is a :class:`TwinConfig`; :func:`load_config` reads one. Nothing about the paper's
+screw is hard-coded here: it lives in ``config/paper_screw.yaml``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import Any, Literal, TypeVar, get_args
+
+import yaml
+
+from .errors import ConfigError
+
+_T = TypeVar("_T")
+
+ViscosityLaw = Literal["roelands", "exponential", "walther"]
+Orientation = Literal["vertical", "horizontal"]
+
+
+def _num(unit: str, lo: float, hi: float, doc: str, *, default: float | None = None) -> Any:
+    """A float field with unit, closed range [lo, hi] and description kept as metadata."""
+    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc}
+    if default is None:
+        return field(metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+def _int(lo: int, hi: int, doc: str) -> Any:
+    """An integer field with closed range [lo, hi]."""
+    return field(metadata={"unit": "-", "min": lo, "max": hi, "doc": doc})
+
+
+@dataclass(frozen=True, kw_only=True)
+class ScrewGeometry:
+    """Ball-screw geometry (paper Table A.1), all lengths in metres."""
+
+    pitch_radius: float = _num("m", 1e-3, 0.5, "r_m, ball-centre helix radius")
+    lead: float = _num("m", 1e-4, 0.2, "p, axial advance per screw revolution")
+    ball_radius: float = _num("m", 1e-4, 0.05, "r_b, sphere radius")
+    centre_offset: float = _num("m", 0.0, 5e-3, "H, gothic-arch centre radius offset")
+    ogival_offset: float = _num("m", 0.0, 5e-3, "L, gothic-arch ogival (axial) offset")
+    conformity: float = _num("-", 0.5, 0.7, "f = r_s / (2 r_b), groove conformity")
+    balls_per_nut: int = _int(1, 500, "Z_eff, loaded spheres per nut")
+    balls_total_per_nut: int = _int(1, 500, "Z_tot, spheres per nut incl. recirculation")
+    loaded_turns: float = _num("-", 0.1, 20.0, "n_t, loaded turns per nut")
+    nut_mass: float = _num("kg", 1e-3, 100.0, "M_n, mass of one nut")
+    screw_inertia: float = _num("kg m^2", 1e-9, 10.0, "I_s, screw moment of inertia about z")
+    ball_roughness: float = _num("m", 0.0, 5e-6, "sigma_b, RMS roughness of the spheres")
+    groove_roughness: float = _num("m", 0.0, 5e-6, "sigma_g, RMS roughness of the grooves")
+    inner_containment_angle: float = _num("rad", 0.0, 1.5, "DCA_i, inner design containment")
+    outer_containment_angle: float = _num("rad", 0.1, 1.57, "DCA_o, outer design containment")
+    critical_speed: float = _num("rad/s", 1.0, 1e5, "critical screw angular speed")
+    nominal_contact_angle: float = _num(
+        "rad", 0.1, 1.5, "alpha_0, nominal contact angle used by the catalogue formulas (Eq. 52)"
+    )
+    orientation: Orientation = field(
+        default="vertical", metadata={"doc": "screw axis: vertical (master nut above) or horizontal"}
+    )
+
+    @property
+    def groove_radius(self) -> float:
+        """r_s = 2 f r_b, gothic-arch half-groove radius [m]."""
+        return 2.0 * self.conformity * self.ball_radius
+
+    @property
+    def helix_angle(self) -> float:
+        """alpha_e = atan(p / (2 pi r_m)), helix angle at the pitch radius [rad]."""
+        return math.atan(self.lead / (2.0 * math.pi * self.pitch_radius))
+
+    @property
+    def free_contact_angle(self) -> float:
+        """Contact angle at first touch of a radially centred sphere, acos(H/(r_s - r_b)) [rad]."""
+        return math.acos(self.centre_offset / (self.groove_radius - self.ball_radius))
+
+    def validate(self, where: str) -> None:
+        """Cross-field checks; raise ConfigError naming ``where``."""
+        clearance = self.groove_radius - self.ball_radius
+        if math.hypot(self.centre_offset, self.ogival_offset) >= clearance:
+            raise ConfigError(
+                f"{where}: hypot(centre_offset, ogival_offset) = "
+                f"{math.hypot(self.centre_offset, self.ogival_offset):.4g} m must be smaller than "
+                f"r_s - r_b = {clearance:.4g} m, or a centred sphere is already interfering"
+            )
+        if self.centre_offset >= clearance:
+            raise ConfigError(f"{where}: centre_offset must be < r_s - r_b = {clearance:.4g} m")
+        if self.balls_per_nut > self.balls_total_per_nut:
+            raise ConfigError(f"{where}: balls_per_nut exceeds balls_total_per_nut")
+        if self.inner_containment_angle >= self.outer_containment_angle:
+            raise ConfigError(f"{where}: inner_containment_angle must be < outer_containment_angle")
+        # Spheres must fit side by side along the loaded helix.
+        helix_length = 2.0 * math.pi * self.pitch_radius * self.loaded_turns / math.cos(
+            self.helix_angle
+        )
+        if 2.0 * self.ball_radius * self.balls_per_nut > helix_length * 1.0001:
+            raise ConfigError(
+                f"{where}: {self.balls_per_nut} spheres of radius {self.ball_radius} m do not fit "
+                f"on {self.loaded_turns} turns (helix length {helix_length:.4g} m)"
+            )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Material:
+    """Isotropic elastic solid."""
+
+    young_modulus: float = _num("Pa", 1e9, 1e12, "E, Young's modulus")
+    poisson_ratio: float = _num("-", 0.0, 0.5, "nu, Poisson's ratio")
+    density: float = _num("kg/m^3", 500.0, 25000.0, "rho, mass density")
+    thermal_expansion: float = _num("1/K", 0.0, 1e-4, "linear thermal expansion coefficient")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Materials:
+    """Materials of the three bodies."""
+
+    ball: Material
+    screw: Material
+    nut: Material
+
+
+@dataclass(frozen=True, kw_only=True)
+class Lubricant:
+    """Base (or bled) oil of the grease that forms the film (paper Table A.2)."""
+
+    reference_temperature: float = _num("K", 200.0, 500.0, "T_0 of eta_0 and rho_0")
+    viscosity_reference: float = _num("Pa s", 1e-5, 1e3, "eta_0, dynamic viscosity at T_0")
+    second_temperature: float = _num("K", 200.0, 500.0, "T_1 of the second viscosity point")
+    viscosity_second: float = _num("Pa s", 1e-5, 1e3, "eta_1, dynamic viscosity at T_1")
+    density_reference: float = _num("kg/m^3", 500.0, 2000.0, "rho_0, density at T_0")
+    pressure_viscosity_coefficient: float = _num("1/Pa", 1e-9, 1e-7, "alpha_pv")
+    viscosity_temperature_coefficient: float = _num("1/K", 1e-3, 0.2, "beta (Eq. 24, 32)")
+    viscosity_law: ViscosityLaw = field(
+        default="roelands", metadata={"doc": "viscosity-temperature law: roelands|exponential|walther"}
+    )
+    density_temperature_coefficient: float = _num(
+        "kg/(m^3 K)", 0.0, 5.0, "alpha_rho, additive thermal term of Eq. 25"
+    )
+    thermal_conductivity: float = _num("W/(m K)", 0.01, 1.0, "k_h (Eq. 32)")
+    eyring_stress: float = _num("Pa", 1e3, 1e8, "tau_e, Eyring stress (Eq. 35)")
+    limiting_shear_stress: float = _num("Pa", 0.0, 1e9, "tau_L at zero pressure")
+    limiting_shear_pressure_coefficient: float = _num("-", 0.0, 0.5, "xi: tau_lim = tau_L + xi p")
+    residual_layer: float = _num("m", 0.0, 1e-6, "h_R, residual thickener layer (Eq. 33)")
+
+    def validate(self, where: str) -> None:
+        """Cross-field checks; raise ConfigError naming ``where``."""
+        if abs(self.second_temperature - self.reference_temperature) < 1.0:
+            raise ConfigError(f"{where}: the two viscosity temperatures must differ by > 1 K")
+        hot_first = (self.second_temperature - self.reference_temperature) * (
+            self.viscosity_second - self.viscosity_reference
+        )
+        if hot_first >= 0.0:
+            raise ConfigError(f"{where}: viscosity must fall as temperature rises")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ContactLaw:
+    """Contact parameters the paper does not give (see docs/model.md for their sources)."""
+
+    dry_friction_coefficient: float = _num("-", 0.0, 1.0, "mu_dry, boundary friction (Eq. 36)")
+    dry_friction_regularisation_speed: float = _num(
+        "m/s", 1e-9, 1e-1, "v_r: dry friction grows as tanh(v / v_r) from zero slip"
+    )
+    damping_coefficient: float = _num(
+        "N s m^-1 (N m^-1.5)^-0.5", 0.0, 1e3, "b_h of Eq. 19, C_H = b_h sqrt(K_H)"
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class Environment:
+    """Surroundings."""
+
+    gravity: float = _num("m/s^2", 0.0, 100.0, "gravitational acceleration")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TwinConfig:
+    """A complete parameter set of one ball screw with its lubricant."""
+
+    name: str
+    screw: ScrewGeometry
+    materials: Materials
+    lubricant: Lubricant
+    contact: ContactLaw
+    environment: Environment
+    source: str = ""
+
+    @property
+    def ball_mass(self) -> float:
+        """Mass of one sphere [kg]."""
+        return self.materials.ball.density * 4.0 / 3.0 * math.pi * self.screw.ball_radius**3
+
+    @property
+    def composite_roughness(self) -> float:
+        """sqrt(sigma_b^2 + sigma_g^2), denominator of the Tallian parameter, Eq. 38 [m]."""
+        return math.hypot(self.screw.ball_roughness, self.screw.groove_roughness)
+
+
+# ---------------------------------------------------------------------------------------------
+# Loading
+
+
+def _build(cls: type[_T], data: Any, where: str) -> _T:
+    """Build dataclass ``cls`` from a mapping, validating every field against its metadata."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - set(known))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+    values: dict[str, Any] = {}
+    for name, fld in known.items():
+        path = f"{where}.{name}"
+        if name not in data:
+            if fld.default is MISSING:
+                raise ConfigError(f"{path}: missing")
+            continue
+        raw = data[name]
+        meta = fld.metadata
+        if "min" in meta:
+            values[name] = _check_number(raw, meta, fld.type, path)
+        elif isinstance(fld.type, str) and fld.type in _LITERALS:
+            allowed = get_args(_LITERALS[fld.type])
+            if raw not in allowed:
+                raise ConfigError(f"{path}: {raw!r} is not one of {list(allowed)}")
+            values[name] = raw
+        else:
+            values[name] = raw
+    return cls(**values)
+
+
+_LITERALS: dict[str, Any] = {"ViscosityLaw": ViscosityLaw, "Orientation": Orientation}
+
+
+def _check_number(raw: Any, meta: Any, ftype: Any, path: str) -> float | int:
+    """Check type, finiteness and range of one numeric value.
+
+    Strings that read as numbers are accepted: PyYAML (YAML 1.1) parses ``210.0e9`` without an
+    exponent sign as a string, and users write exponents that way.
+    """
+    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
+        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {raw!r}")
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {raw!r}") from None
+    if not math.isfinite(value):
+        raise ConfigError(f"{path}: {raw!r} is not a finite number")
+    lo, hi = meta["min"], meta["max"]
+    if not lo <= value <= hi:
+        hint = ""
+        if value > hi and hi > 0 and lo <= value * 1e-3 <= hi:
+            hint = " (given in milli-units? values are SI)"
+        elif value > hi and hi > 0 and lo <= value * 1e-9 <= hi:
+            hint = " (given in GPa? values are SI, Pa)"
+        raise ConfigError(
+            f"{path} = {raw!r} is outside the allowed range [{lo:g}, {hi:g}] {meta['unit']}{hint}"
+        )
+    if ftype in ("int", int):
+        if value != int(value):
+            raise ConfigError(f"{path}: expected a whole number, got {raw!r}")
+        return int(value)
+    return value
+
+
+def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
+    """Validate a parsed YAML mapping into a :class:`TwinConfig`; errors name ``source``."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: top level must be a mapping")
+    required = {"name", "screw", "materials", "lubricant", "contact", "environment"}
+    missing = sorted(required - set(data))
+    if missing:
+        raise ConfigError(f"{source}: missing section(s) {missing}")
+    unknown = sorted(set(data) - required - {"description"})
+    if unknown:
+        raise ConfigError(f"{source}: unknown section(s) {unknown}")
+    screw = _build(ScrewGeometry, data["screw"], f"{source}: screw")
+    screw.validate(f"{source}: screw")
+    mats = data["materials"]
+    if not isinstance(mats, dict):
+        raise ConfigError(f"{source}: materials must be a mapping of ball/screw/nut")
+    materials = Materials(
+        **{
+            body: _build(Material, mats.get(body), f"{source}: materials.{body}")
+            for body in ("ball", "screw", "nut")
+        }
+    )
+    lubricant = _build(Lubricant, data["lubricant"], f"{source}: lubricant")
+    lubricant.validate(f"{source}: lubricant")
+    return TwinConfig(
+        name=str(data["name"]),
+        screw=screw,
+        materials=materials,
+        lubricant=lubricant,
+        contact=_build(ContactLaw, data["contact"], f"{source}: contact"),
+        environment=_build(Environment, data["environment"], f"{source}: environment"),
+        source=source,
+    )
+
+
+def default_config_path() -> Path:
+    """The shipped parameter set of the paper's screw (``config/paper_screw.yaml``)."""
+    candidates = [
+        Path(__file__).resolve().parent.parent / "config" / "paper_screw.yaml",
+        Path(sys.prefix) / "share" / "ballscrew_twin" / "config" / "paper_screw.yaml",
+    ]
+    for path in candidates:
+        if path.is_file():
+            return path
+    raise ConfigError(f"default parameter file not found in {[str(c) for c in candidates]}")
+
+
+def load_config(path: str | Path | None = None) -> TwinConfig:
+    """Read and validate a YAML parameter file (``None``: the paper's screw)."""
+    file = Path(path) if path is not None else default_config_path()
+    try:
+        text = file.read_text(encoding="utf-8")
+    except OSError as err:
+        raise ConfigError(f"{file}: cannot read parameter file ({err.strerror})") from err
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{file}: not valid YAML ({err})") from err
+    return config_from_mapping(data, str(file))
