@@ -64,7 +64,8 @@ class ScrewGeometry:
         "rad", 0.1, 1.5, "alpha_0, nominal contact angle used by the catalogue formulas (Eq. 52)"
     )
     orientation: Orientation = field(
-        default="vertical", metadata={"doc": "screw axis: vertical (master nut above) or horizontal"}
+        default="vertical",
+        metadata={"doc": "screw axis: vertical (master nut above) or horizontal"},
     )
 
     @property
@@ -98,8 +99,8 @@ class ScrewGeometry:
         if self.inner_containment_angle >= self.outer_containment_angle:
             raise ConfigError(f"{where}: inner_containment_angle must be < outer_containment_angle")
         # Spheres must fit side by side along the loaded helix.
-        helix_length = 2.0 * math.pi * self.pitch_radius * self.loaded_turns / math.cos(
-            self.helix_angle
+        helix_length = (
+            2.0 * math.pi * self.pitch_radius * self.loaded_turns / math.cos(self.helix_angle)
         )
         if 2.0 * self.ball_radius * self.balls_per_nut > helix_length * 1.0001:
             raise ConfigError(
@@ -139,7 +140,8 @@ class Lubricant:
     pressure_viscosity_coefficient: float = _num("1/Pa", 1e-9, 1e-7, "alpha_pv")
     viscosity_temperature_coefficient: float = _num("1/K", 1e-3, 0.2, "beta (Eq. 24, 32)")
     viscosity_law: ViscosityLaw = field(
-        default="roelands", metadata={"doc": "viscosity-temperature law: roelands|exponential|walther"}
+        default="roelands",
+        metadata={"doc": "viscosity-temperature law: roelands|exponential|walther"},
     )
     density_temperature_coefficient: float = _num(
         "kg/(m^3 K)", 0.0, 5.0, "alpha_rho, additive thermal term of Eq. 25"

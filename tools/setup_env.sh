@@ -60,15 +60,22 @@ stamp_ok() { [[ -f "$1" && "$(cat "$1")" == "$2" ]]; }
 check_toolchain() {
     command -v "$PYTHON" >/dev/null 2>&1 \
         || die "Python interpreter '$PYTHON' not found. Install CPython $REQUIRED_PY (e.g. 'pyenv install 3.11.7', or Debian/Ubuntu: apt-get install python3.11 python3.11-venv python3.11-dev) or set PYTHON=/path/to/python3.11."
-    local ver
-    ver="$("$PYTHON" -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null)" \
-        || die "'$PYTHON' does not run as a Python interpreter."
+    # One interpreter start (pyenv shims are slow): version, executable, venv, headers.
+    local info ver exe has_venv has_headers
+    info="$("$PYTHON" -c '
+import importlib.util as u, os, sys, sysconfig
+inc = os.path.join(sysconfig.get_paths()["include"], "Python.h")
+venv = all(u.find_spec(m) is not None for m in ("venv", "ensurepip"))
+print("%d.%d" % sys.version_info[:2], int(venv), int(os.path.isfile(inc)), sys.executable)
+' 2>&1)" || die "'$PYTHON' does not run as a Python interpreter: $(head -n 3 <<<"$info" | tr '\n' ' ')"
+    read -r ver has_venv has_headers exe <<<"$info"
     [[ "$ver" == "$REQUIRED_PY" ]] \
         || die "'$PYTHON' is Python $ver, but the ROS 2 Jazzy wheels on PyPI are built for CPython $REQUIRED_PY (cp311) only. Install Python $REQUIRED_PY (e.g. 'pyenv install 3.11.7', or apt-get install python3.11 python3.11-venv python3.11-dev) and run again with PYTHON=python3.11 if it is not the default python3."
-    "$PYTHON" -c 'import venv, ensurepip' >/dev/null 2>&1 \
-        || die "Python $ver has no working 'venv'/'ensurepip' module: install python3.11-venv (Debian/Ubuntu)."
-    "$PYTHON" -c 'import os, sysconfig, sys; sys.exit(not os.path.isfile(os.path.join(sysconfig.get_paths()["include"], "Python.h")))' \
-        || die "Python $ver development headers (Python.h) not found: install python3.11-dev (Debian/Ubuntu). They are needed to build the message package."
+    [[ "$has_venv" == 1 ]] \
+        || die "Python $ver ($exe) has no 'venv'/'ensurepip' module: install python3.11-venv (Debian/Ubuntu)."
+    [[ "$has_headers" == 1 ]] \
+        || die "Python $ver ($exe) development headers (Python.h) not found: install python3.11-dev (Debian/Ubuntu). They are needed to build the message package."
+    PYTHON="$exe"
     command -v cc >/dev/null 2>&1 \
         || die "No C compiler 'cc' found: install gcc (Debian/Ubuntu: apt-get install build-essential). It is needed to build the message package."
     command -v c++ >/dev/null 2>&1 \
@@ -82,7 +89,7 @@ check_toolchain() {
     if [[ "$(printf '%s\n%s\n' "$MIN_CMAKE" "$cmver" | sort -V | head -n1)" != "$MIN_CMAKE" ]]; then
         die "cmake $cmver is too old: CMake >= $MIN_CMAKE is needed."
     fi
-    log "toolchain: $("$PYTHON" -c 'import sys; print(sys.executable)') (Python $ver), cc, c++, cmake $cmver"
+    log "toolchain: $exe (Python $ver), cc, c++, cmake $cmver"
 }
 
 # ----------------------------------------------------------------------------------------------

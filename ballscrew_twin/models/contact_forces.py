@@ -49,13 +49,18 @@ def make_scene(config: TwinConfig, temperature: float, screw_speed: float) -> Co
     mats = config.materials
     e_star = float(
         hertz.effective_modulus(
-            mats.ball.young_modulus, mats.ball.poisson_ratio,
-            mats.screw.young_modulus, mats.screw.poisson_ratio,
+            mats.ball.young_modulus,
+            mats.ball.poisson_ratio,
+            mats.screw.young_modulus,
+            mats.screw.poisson_ratio,
         )
     )
     d_ball, _ = hertz.deformation_split(
-        1.0, mats.ball.young_modulus, mats.ball.poisson_ratio,
-        mats.screw.young_modulus, mats.screw.poisson_ratio,
+        1.0,
+        mats.ball.young_modulus,
+        mats.ball.poisson_ratio,
+        mats.screw.young_modulus,
+        mats.screw.poisson_ratio,
     )
     mass = mats.ball.density * 4.0 / 3.0 * math.pi * geom.ball_radius**3
     return ContactScene(
@@ -97,8 +102,8 @@ def sliding_friction(
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Friction magnitude at sliding speed ``speed`` [m/s], Eqs. 34-36 regularised (D6, D8).
 
-    F(v) = [ (1 - f) A tau(max(v, v_r)) + f mu_dry F_n ] tanh(v / v_r): the paper's law above
-    the threshold speed v_r, linear in v below it (section 3 of the paper).
+    F(v) = [ (1 - f) A tau(sqrt(v^2 + v_r^2)) + f mu_dry F_n ] tanh(v / v_r): the paper's law
+    above the threshold speed v_r, linear in v below it (section 3 of the paper), smooth.
 
     Returns:
         (lubricant part [N], dry part [N], lubricant shear stress tau [Pa]).
@@ -107,7 +112,7 @@ def sliding_friction(
     law = scene.config.contact
     v_r = law.dry_friction_regularisation_speed
     eta = lubricant.viscosity(lub, mean_pressure, scene.temperature)
-    rate = traction.shear_rate(np.maximum(speed, v_r), np.maximum(film_total, 1e-12))
+    rate = traction.shear_rate(np.hypot(speed, v_r), np.maximum(film_total, 1e-12))
     limit = traction.limiting_shear_stress(
         lub.limiting_shear_stress, lub.limiting_shear_pressure_coefficient, mean_pressure
     )
@@ -229,11 +234,18 @@ def evaluate_contacts(
     # Lubrication (Eqs. 26-33, 37-38).
     lub = cfg.lubricant
     h_iso = film.film_thickness_central_isothermal(
-        f_n, entrain, scene.viscosity_atm, radius_x, radius_y, scene.e_reduced,
+        f_n,
+        entrain,
+        scene.viscosity_atm,
+        radius_x,
+        radius_y,
+        scene.e_reduced,
         lub.pressure_viscosity_coefficient,
     )
     l_th = film.thermal_loading_parameter(
-        scene.viscosity_atm, lub.viscosity_temperature_coefficient, entrain,
+        scene.viscosity_atm,
+        lub.viscosity_temperature_coefficient,
+        entrain,
         lub.thermal_conductivity,
     )
     c_th = film.thermal_reduction_factor(hc.max_pressure, scene.e_reduced, l_th, srr)
@@ -264,9 +276,7 @@ def evaluate_contacts(
     fp = rolling.pressure_rolling_force(fr, radius_x, r_b)
 
     # Forces and moments on the ball (Eqs. 46-47) and their reactions on the grooves (48-49).
-    contact_on_ball = (
-        -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
-    )
+    contact_on_ball = -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
     pressure_on_ball = fp[..., None] * e_dir  # acts at the ball centre
     free_moment = -(mer + mc)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
     moment_contacts = _cross(arm, contact_on_ball) + free_moment
@@ -288,8 +298,10 @@ def evaluate_contacts(
     # Dissipated power of each mechanism (>= 0 by construction of every law). The FP pair acts
     # at two different points (ball centre, groove at P): its power is taken in the inertial
     # frame, where the screw frame's rotation adds screw_speed z x (r_F - r_P).
-    rel_centre = v_centre[:, None, :] - v_groove + scene.screw_speed * _cross(
-        np.broadcast_to(zhat, arm.shape), -arm
+    rel_centre = (
+        v_centre[:, None, :]
+        - v_groove
+        + scene.screw_speed * _cross(np.broadcast_to(zhat, arm.shape), -arm)
     )
     dissipation = {
         "lubricant_shear": lub_c * slip,

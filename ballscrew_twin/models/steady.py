@@ -33,12 +33,19 @@ from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, 
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
 
-NEWTON_MAX_ITER = 60
+NEWTON_MAX_ITER = 80
 LINE_SEARCH_STEPS = 12
+MIN_STEP = 1e-3  # shortest line-search step, taken even without decrease
+DIAGONAL_SHIFT = 1e-12  # relative regularisation of the sphere blocks
 POSITION_STEP = 1e-10  # m, finite-difference step of the ball and nut offsets
 KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to the screw speed
 MECHANISMS = (
-    "lubricant_shear", "dry_contact", "rolling_resistance", "hysteresis", "curvature", "spin"
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
 )
 
 
@@ -144,9 +151,7 @@ class SteadyStateModel:
 
     # ------------------------------------------------------------------ solve
 
-    def _initial_state(
-        self, scene: ContactScene, balls: BallSet, loads: FloatArray
-    ) -> SteadyState:
+    def _initial_state(self, scene: ContactScene, balls: BallSet, loads: FloatArray) -> SteadyState:
         """Hertz estimate of the offsets and the pure-rolling estimate of the rates."""
         geom = scene.geometry
         assert isinstance(geom, type(self.config.screw))
@@ -272,28 +277,19 @@ class SteadyStateModel:
             jac[idx[0], idx[1], idx[1]] = 1.0
             jac_z_e = np.where(frozen, 0.0, jac_z_e)
             jac_nut_z = np.where(frozen, 0.0, jac_nut_z)
-            reg = 1e-14 * np.maximum(np.abs(np.einsum("bii->bi", jac)).max(axis=1), 1e-30)
-            jac = jac + reg[:, None, None] * np.eye(6)
-            try:
-                inv_r = np.linalg.solve(jac, res_b[..., None])[..., 0]
-                inv_e = np.linalg.solve(jac, jac_z_e[..., None])[..., 0]
-            except np.linalg.LinAlgError as err:
-                raise SolverError(f"steady state: singular sphere Jacobian ({err})") from err
-            de = np.zeros(2)
-            for k in (0, 1):
-                members = balls.nut == k
-                schur = jac_e_e[k] - np.sum(jac_nut_z[members] * inv_e[members])
-                rhs = -nut_res[k] + np.sum(jac_nut_z[members] * inv_r[members])
-                de[k] = rhs / schur if schur != 0.0 else 0.0
-            dz = -(inv_r + inv_e * de[balls.nut][:, None])
+            # Newton step with a backtracking line search on the squared residual; a step
+            # that does not decrease it is still taken once it is short (leaves flat spots).
+            diag = np.abs(np.einsum("bii->bi", jac)) + 1e-30
+            dz, de = self._damped_step(
+                jac, jac_z_e, jac_nut_z, jac_e_e, res_b, nut_res, diag, DIAGONAL_SHIFT, balls
+            )
             dz = np.where(mask, dz, 0.0)
-            # Backtracking line search on the squared residual.
             base = merit(ball_res, nut_res)
             step = 1.0
             for _ in range(LINE_SEARCH_STEPS):
                 trial = unpack(z + step * dz, e + step * de)
                 rb, ax, rn, ev_t = self._residual(scene, balls, trial, loads)
-                if merit(rb, rn) < base or step < 1e-3:
+                if np.isfinite(rb).all() and (merit(rb, rn) < base or step < MIN_STEP):
                     break
                 step *= 0.5
             z, e = z + step * dz, e + step * de
@@ -304,6 +300,37 @@ class SteadyStateModel:
             f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
         )
 
+    @staticmethod
+    def _damped_step(
+        jac: FloatArray,
+        jac_z_e: FloatArray,
+        jac_nut_z: FloatArray,
+        jac_e_e: FloatArray,
+        res_b: FloatArray,
+        nut_res: FloatArray,
+        diag: FloatArray,
+        damping: float,
+        balls: BallSet,
+    ) -> tuple[FloatArray, FloatArray]:
+        """Damped Newton step of the bordered system (sphere blocks + one offset per nut).
+
+        Sphere blocks J_i dz_i + J_ie de = -r_i, nut rows sum_i J_ei dz_i + J_ee de = -g; the
+        blocks are eliminated (Schur complement) so the cost is linear in the sphere count.
+        """
+        damped = jac + damping * diag[:, :, None] * np.eye(6)
+        try:
+            inv_r = np.linalg.solve(damped, res_b[..., None])[..., 0]
+            inv_e = np.linalg.solve(damped, jac_z_e[..., None])[..., 0]
+        except np.linalg.LinAlgError as err:
+            raise SolverError(f"steady state: singular sphere Jacobian ({err})") from err
+        de = np.zeros(2)
+        for k in (0, 1):
+            members = balls.nut == k
+            schur = jac_e_e[k] * (1.0 + damping) - np.sum(jac_nut_z[members] * inv_e[members])
+            rhs = -nut_res[k] + np.sum(jac_nut_z[members] * inv_r[members])
+            de[k] = rhs / schur if schur != 0.0 else 0.0
+        return -(inv_r + inv_e * de[balls.nut][:, None]), de
+
     def solve(self, op: OperatingPoint, warm_start: SteadyState | None = None) -> SteadySolution:
         """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one)."""
         op.validate()
@@ -312,25 +339,58 @@ class SteadyStateModel:
         balls = self.ball_set(mode)
         loads = self.nut_axial_loads(op)
         start = warm_start if warm_start is not None else self._warm
-        if start is None or start.ball_nb.shape[0] != len(balls.nut):
-            start = self._initial_state(scene, balls, loads)
-        elif start.screw_speed != op.screw_speed:
-            kin = start.kinematics.copy()
-            if start.screw_speed != 0.0 and op.screw_speed != 0.0:
-                kin *= op.screw_speed / start.screw_speed
-            else:
-                kin = self._initial_state(scene, balls, loads).kinematics
-            start = SteadyState(start.ball_nb, kin, start.nut_offset, op.screw_speed)
-        try:
-            state, ev, iterations, residual = self._newton(scene, balls, start, loads)
-        except SolverError:
-            if start is self._warm or warm_start is not None:
-                cold = self._initial_state(scene, balls, loads)
-                state, ev, iterations, residual = self._newton(scene, balls, cold, loads)
-            else:
-                raise
+        if start is not None and start.ball_nb.shape[0] == len(balls.nut):
+            if start.screw_speed != op.screw_speed:
+                start = self._rescaled(start, scene, balls, op.screw_speed)
+            try:
+                state, ev, iterations, residual = self._newton(scene, balls, start, loads)
+            except SolverError:
+                state, ev, iterations, residual = self._cold_solve(op, balls, loads)
+        else:
+            state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         self._warm = state
         return self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+
+    def _rescaled(
+        self, start: SteadyState, scene: ContactScene, balls: BallSet, speed: float
+    ) -> SteadyState:
+        """Warm start at another speed: rates scale with the speed (same rolling pattern)."""
+        if start.screw_speed != 0.0 and speed != 0.0:
+            kin = start.kinematics * (speed / start.screw_speed)
+        elif speed != 0.0:
+            kin = self._rolling_kinematics(scene, balls, start.ball_nb, start.nut_offset)
+        else:
+            kin = np.zeros_like(start.kinematics)
+        return SteadyState(start.ball_nb.copy(), kin, start.nut_offset.copy(), speed)
+
+    def _cold_solve(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        """Static equilibrium first (robust: smooth Hertz only), then the speed.
+
+        If the direct step to full speed fails, the speed is raised in stages from 5 %
+        (continuation), each stage warm-started from the previous one.
+        """
+        static_scene = make_scene(self.config, op.temperature, 0.0)
+        state = self._initial_state(static_scene, balls, loads)
+        state, ev, total, residual = self._newton(static_scene, balls, state, loads)
+        if op.screw_speed == 0.0:
+            return state, ev, total, residual
+        last_error: SolverError | None = None
+        for attempt in ([1.0], [0.05, 0.2, 0.5, 1.0]):
+            current = state
+            try:
+                for fraction in attempt:
+                    speed = op.screw_speed * fraction
+                    scene = make_scene(self.config, op.temperature, speed)
+                    current = self._rescaled(current, scene, balls, speed)
+                    current, ev, iterations, residual = self._newton(scene, balls, current, loads)
+                    total += iterations
+                return current, ev, total, residual
+            except SolverError as err:
+                last_error = err
+        assert last_error is not None
+        raise last_error
 
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
@@ -353,8 +413,12 @@ class SteadyStateModel:
         speed = op.screw_speed
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
         per_nut_power = [
-            float(sum(np.sum(ev.dissipation[m][balls.nut == k] * weight[balls.nut == k])
-                      for m in MECHANISMS))
+            float(
+                sum(
+                    np.sum(ev.dissipation[m][balls.nut == k] * weight[balls.nut == k])
+                    for m in MECHANISMS
+                )
+            )
             for k in (0, 1)
         ]
         notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
@@ -372,9 +436,13 @@ class SteadyStateModel:
         geom = scene.geometry
         lead_rate = geom.lead / (2.0 * math.pi)  # type: ignore[attr-defined]
         g = self.config.environment.gravity if self.config.screw.orientation == "vertical" else 0.0
-        lift_power = g * lead_rate * (
-            -2.0 * self.config.screw.nut_mass * speed
-            + scene.ball_mass * float(np.sum(state.kinematics[:, 0] * balls.weight))
+        lift_power = (
+            g
+            * lead_rate
+            * (
+                -2.0 * self.config.screw.nut_mass * speed
+                + scene.ball_mass * float(np.sum(state.kinematics[:, 0] * balls.weight))
+            )
         )
         gravity_torque = lift_power / speed if speed != 0.0 else 0.0
         notes.extend(self._spacing_notes(scene))

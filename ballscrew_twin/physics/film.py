@@ -156,9 +156,7 @@ def film_thickness_total(
     thermal_factor: ArrayLike, central_isothermal: ArrayLike, residual_layer: float
 ) -> FloatArray:
     """Total central film h_Tc = C h_c + h_R, Eq. 33 [m]."""
-    return np.asarray(
-        np.asarray(thermal_factor) * np.asarray(central_isothermal) + residual_layer
-    )
+    return np.asarray(np.asarray(thermal_factor) * np.asarray(central_isothermal) + residual_layer)
 
 
 def tallian_parameter(film: ArrayLike, composite_roughness: float) -> FloatArray:

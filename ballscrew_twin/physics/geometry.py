@@ -117,7 +117,9 @@ def contact_exists(
     the angle window, since alpha is measured from the half groove's own n direction.
     """
     alpha = np.asarray(contact_angle)
-    return np.asarray((np.asarray(approach) > 0.0) & (alpha >= inner_angle) & (alpha <= outer_angle))
+    return np.asarray(
+        (np.asarray(approach) > 0.0) & (alpha >= inner_angle) & (alpha <= outer_angle)
+    )
 
 
 def principal_curvatures(

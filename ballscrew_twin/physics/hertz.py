@@ -51,7 +51,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numpy.polynomial import polynomial
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
@@ -106,6 +105,14 @@ def _f64(value: ArrayLike) -> FloatArray:
     return np.asarray(value, dtype=np.float64)
 
 
+def _polyval(x: FloatArray, coefficients: tuple[float, ...]) -> FloatArray:
+    """sum_i c_i x^i for at least two coefficients c_0, c_1, ..., by Horner's rule."""
+    result = coefficients[-1] * x + coefficients[-2]
+    for coefficient in coefficients[-3::-1]:
+        result = result * x + coefficient
+    return _f64(result)
+
+
 def _compliance(young_modulus: ArrayLike, poisson_ratio: ArrayLike) -> FloatArray:
     """(1 - nu^2) / E of one body [1/Pa] (Johnson 1985 section 4.2; paper Eq. 21)."""
     return _f64((1.0 - np.square(poisson_ratio)) / _f64(young_modulus))
@@ -142,8 +149,8 @@ def complete_elliptic_integrals(m: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """
     m1 = 1.0 - _f64(m)
     log_term = -np.log(m1)
-    ell_k = polynomial.polyval(m1, _K_POLY) + log_term * polynomial.polyval(m1, _K_LOG_POLY)
-    ell_e = polynomial.polyval(m1, _E_POLY) + log_term * polynomial.polyval(m1, _E_LOG_POLY)
+    ell_k = _polyval(m1, _K_POLY) + log_term * _polyval(m1, _K_LOG_POLY)
+    ell_e = _polyval(m1, _E_POLY) + log_term * _polyval(m1, _E_LOG_POLY)
     return _f64(ell_k), _f64(ell_e)
 
 
@@ -164,9 +171,7 @@ def ellipticity_antoine(R_x: ArrayLike, R_y: ArrayLike) -> FloatArray:  # noqa: 
     r_y = _f64(R_y)
     curvature_ratio = np.maximum(r_x, r_y) / np.minimum(r_x, r_y)
     q = np.square(np.log10(curvature_ratio))
-    exponent = (2.0 / 3.0) * (
-        polynomial.polyval(q, _ANTOINE_NUMERATOR) / polynomial.polyval(q, _ANTOINE_DENOMINATOR)
-    )
+    exponent = (2.0 / 3.0) * (_polyval(q, _ANTOINE_NUMERATOR) / _polyval(q, _ANTOINE_DENOMINATOR))
     return _f64(curvature_ratio**exponent)
 
 
@@ -214,8 +219,7 @@ def hertz_stiffness(R_x: ArrayLike, R_y: ArrayLike, E_star: ArrayLike) -> FloatA
     R_x, R_y: effective radii of curvature [m], > 0; E_star: contact modulus E* [Pa].
     Explicit; cheap enough to evaluate every step.
     """
-    r_x, r_y, e_star = np.broadcast_arrays(_f64(R_x), _f64(R_y), _f64(E_star))
-    return _stiffness(_ellipse_shape(r_x, r_y), e_star)
+    return _stiffness(_ellipse_shape(_f64(R_x), _f64(R_y)), _f64(E_star))
 
 
 def hertz_contact(

@@ -89,7 +89,9 @@ def viscosity(lub: Lubricant, pressure: ArrayLike, temperature: ArrayLike) -> Fl
     eta_t = viscosity_atmospheric(lub, temperature)
     p = np.maximum(np.asarray(pressure, dtype=np.float64), 0.0)
     z = roelands_pressure_index(lub)
-    exponent = (np.log(eta_t) + ROELANDS_LN_ETA_INF) * ((1.0 + ROELANDS_PRESSURE_SCALE * p) ** z - 1.0)
+    exponent = (np.log(eta_t) + ROELANDS_LN_ETA_INF) * (
+        (1.0 + ROELANDS_PRESSURE_SCALE * p) ** z - 1.0
+    )
     return np.asarray(eta_t * np.exp(exponent))
 
 

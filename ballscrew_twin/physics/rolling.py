@@ -94,7 +94,7 @@ def hysteresis_moment(
 
 
 def deformed_surface_radius(ball_radius: float, groove_radius: float) -> float:
-    """Radius of the deformed contact surface across the rolling direction, 2 r_b r_s/(r_b + r_s) [m].
+    """Deformed contact-surface radius across the rolling direction, 2 r_b r_s/(r_b + r_s) [m].
 
     Used in MC instead of the printed 2 R_y (docs/model.md, D10).
     """

@@ -18,9 +18,9 @@ LOAD_SHARE_B = 0.37
 LOAD_SHARE_EXP_DEN = 1.26
 # g(Lambda) = 1.2 L^0.64/(1 + 0.37 L^1.26) peaks where 0.64 (1 + B L^1.26) = 1.26 B L^1.26,
 # i.e. L^1.26 = 0.64 / (0.62 B); beyond it the printed law would return load to the asperities.
-LOAD_SHARE_PEAK = (LOAD_SHARE_EXP_NUM / ((LOAD_SHARE_EXP_DEN - LOAD_SHARE_EXP_NUM) * LOAD_SHARE_B)) ** (
-    1.0 / LOAD_SHARE_EXP_DEN
-)
+LOAD_SHARE_PEAK = (
+    LOAD_SHARE_EXP_NUM / ((LOAD_SHARE_EXP_DEN - LOAD_SHARE_EXP_NUM) * LOAD_SHARE_B)
+) ** (1.0 / LOAD_SHARE_EXP_DEN)
 
 
 def shear_rate(slip_speed: ArrayLike, film: ArrayLike) -> FloatArray:

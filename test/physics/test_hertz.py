@@ -166,15 +166,12 @@ BALL_LOAD = 170.2  # N, Q at 3000 N preload
 
 def _paper_radii(side: str) -> tuple[float, float]:
     """(R_x, R_y) [m] of the sphere on the screw or nut groove (Meusnier, MODEL_NOTES 3)."""
+    convex = 1.0 if side == "screw" else -1.0  # screw groove convex along x, nut groove concave
+    cos_a = math.cos(CONTACT_ANGLE)
     groove_x = (
-        math.cos(CONTACT_ANGLE)
-        * math.cos(HELIX_ANGLE) ** 2
-        / (
-            PITCH_RADIUS
-            + (-1.0 if side == "screw" else 1.0) * BALL_RADIUS * math.cos(CONTACT_ANGLE)
-        )
+        convex * cos_a * math.cos(HELIX_ANGLE) ** 2 / (PITCH_RADIUS - convex * BALL_RADIUS * cos_a)
     )
-    curvature_x = 1.0 / BALL_RADIUS + (groove_x if side == "screw" else -groove_x)
+    curvature_x = 1.0 / BALL_RADIUS + groove_x
     curvature_y = 1.0 / BALL_RADIUS - 1.0 / GROOVE_RADIUS
     return 1.0 / curvature_x, 1.0 / curvature_y
 
@@ -257,8 +254,11 @@ def test_vectorised_calls_broadcast_inputs() -> None:
             assert np.all(np.isfinite(value)), name
     assert hertz.hertz_stiffness(r_x, 3e-2, E_STAR).shape == (4,)
     assert hertz.ellipticity_antoine(r_x[:, None], r_x).shape == (4, 4)
-    assert hertz.normal_force(force * 1e-6, r_x, 1e10, 1e-3).shape == (3, 4)
-    ball, groove = hertz.deformation_split(force * 1e-6, r_x * 1e14, 0.3, 210e9, 0.29)
+    delta = np.array([[-1e-6], [0.0], [5e-6]])  # (3, 1) m
+    rate = np.array([-1.0, 0.0, 0.01, 1.0])  # (4,) m/s
+    assert hertz.normal_force(delta, rate, 1.461e10, 1e-3).shape == (3, 4)
+    ball_moduli = np.array([200e9, 210e9, 310e9, 400e9])  # (4,) Pa
+    ball, groove = hertz.deformation_split(delta, ball_moduli, 0.3, STEEL_E, STEEL_NU)
     assert ball.shape == groove.shape == (3, 4)
 
 

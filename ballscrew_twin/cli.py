@@ -1,0 +1,188 @@
+"""Command line: ``ballscrew-twin <command> ...``.
+
+SI units in and out, except that speeds are given in rpm and temperatures in degrees Celsius on
+the command line, as the paper and the catalogues state them; both are converted here, at the
+edge. Each command lives in its own module with ``add_arguments(parser)`` and ``run(args)``;
+this file only wires them (imported lazily, so ``--help`` stays fast).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from .errors import BallscrewTwinError
+from .models.base import OperatingPoint, TwinOutput
+from .params import TwinConfig, load_config
+
+RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
+CELSIUS_ZERO = 273.15  # K
+
+#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
+COMMANDS: dict[str, tuple[str, str]] = {
+    "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
+}
+
+HALF_GROOVES = ("S1", "S2", "N1", "N2")
+NUTS = ("master", "slave")
+
+
+def build_model(name: str, config: TwinConfig, mode: str = "auto") -> Any:
+    """A model by its command-line name: catalog (Eq. 51), zhou (Eq. 52) or steady."""
+    if name == "catalog":
+        from .models.catalog import CatalogModel
+
+        return CatalogModel(config, formula="literature")
+    if name == "zhou":
+        from .models.catalog import CatalogModel
+
+        return CatalogModel(config, formula="zhou")
+    if name == "steady":
+        from .models.steady import SteadyStateModel
+
+        return SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
+    raise BallscrewTwinError(f"unknown model {name!r}: use catalog, zhou or steady")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``drag``."""
+    parser.add_argument("--preload", type=float, required=True, help="preload force [N]")
+    parser.add_argument("--speed", type=float, required=True, help="screw speed [rpm]")
+    parser.add_argument("--temperature", type=float, required=True, help="temperature [deg C]")
+    parser.add_argument("--axial-load", type=float, default=0.0, help="external load [N]")
+    parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
+    parser.add_argument("--model", default="steady", choices=("catalog", "zhou", "steady"))
+    parser.add_argument("--mode", default="auto", choices=("auto", "symmetric", "full"))
+    parser.add_argument("--json", action="store_true", help="machine-readable output (SI)")
+
+
+def output_to_dict(out: TwinOutput) -> dict[str, Any]:
+    """JSON-ready dictionary of a model output, SI units, loaded contacts only."""
+    op = out.operating_point
+    result: dict[str, Any] = {
+        "operating_point": {
+            "screw_speed_rad_s": op.screw_speed,
+            "temperature_K": op.temperature,
+            "preload_N": op.preload,
+            "axial_load_N": op.axial_load,
+        },
+        "fidelity": out.fidelity,
+        "drag_torque_Nm": out.drag_torque,
+        "nut_torque_Nm": {"master": out.nut_torque[0], "slave": out.nut_torque[1]},
+        "breakdown_Nm": {
+            "lubricant_shear": out.breakdown.lubricant_shear,
+            "dry_contact": out.breakdown.dry_contact,
+            "rolling_resistance": out.breakdown.rolling_resistance,
+            "hysteresis": out.breakdown.hysteresis,
+            "curvature": out.breakdown.curvature,
+            "spin": out.breakdown.spin,
+        },
+        "notes": list(out.notes),
+        "contacts": [],
+    }
+    cs = out.contacts
+    if cs is not None:
+        seen: set[tuple[int, int]] = set()
+        for i in range(len(cs.sphere)):
+            key = (int(cs.nut[i]), int(cs.half_groove[i]))
+            if not cs.in_contact[i] or key in seen:
+                continue
+            seen.add(key)
+            result["contacts"].append(
+                {
+                    "nut": NUTS[key[0]],
+                    "half_groove": HALF_GROOVES[key[1]],
+                    "sphere": int(cs.sphere[i]),
+                    "normal_force_N": float(cs.normal_force[i]),
+                    "contact_angle_rad": float(cs.contact_angle[i]),
+                    "semi_axis_x_m": float(cs.semi_axis_x[i]),
+                    "semi_axis_y_m": float(cs.semi_axis_y[i]),
+                    "max_pressure_Pa": float(cs.max_pressure[i]),
+                    "stiffness_N_m1_5": float(cs.stiffness[i]),
+                    "film_thickness_m": float(cs.film_thickness[i]),
+                    "tallian_parameter": float(cs.tallian_parameter[i]),
+                    "load_share": float(cs.load_share[i]),
+                    "shear_stress_Pa": float(cs.shear_stress[i]),
+                    "friction_force_N": float(cs.friction_force[i]),
+                    "slip_speed_m_s": float(cs.slip_speed[i]),
+                }
+            )
+    return result
+
+
+def format_output(data: dict[str, Any]) -> str:
+    """Human-readable report of :func:`output_to_dict`'s result."""
+    op = data["operating_point"]
+    lines = [
+        f"model {data['fidelity']}: speed {op['screw_speed_rad_s']:.4g} rad/s "
+        f"({op['screw_speed_rad_s'] / RPM:.4g} rpm), T {op['temperature_K']:.2f} K "
+        f"({op['temperature_K'] - CELSIUS_ZERO:.2f} C), preload {op['preload_N']:.4g} N",
+        f"drag torque      {data['drag_torque_Nm']:.6g} N m",
+        f"  master nut     {data['nut_torque_Nm']['master']:.6g} N m",
+        f"  slave nut      {data['nut_torque_Nm']['slave']:.6g} N m",
+    ]
+    for name, value in data["breakdown_Nm"].items():
+        lines.append(f"  {name:<16} {value:.6g} N m")
+    if data["contacts"]:
+        header = (
+            f"{'nut':<7}{'hg':<4}{'Fn[N]':>9}{'alpha[deg]':>11}{'ax[um]':>8}{'ay[um]':>8}"
+            f"{'pmax[GPa]':>10}{'K[N/m^1.5]':>12}{'h[nm]':>8}{'Lambda':>8}{'f':>7}"
+            f"{'tau[MPa]':>9}{'Ft[N]':>9}"
+        )
+        lines += ["", header]
+        for c in data["contacts"]:
+            lines.append(
+                f"{c['nut']:<7}{c['half_groove']:<4}{c['normal_force_N']:9.3f}"
+                f"{math.degrees(c['contact_angle_rad']):11.3f}{c['semi_axis_x_m'] * 1e6:8.2f}"
+                f"{c['semi_axis_y_m'] * 1e6:8.1f}{c['max_pressure_Pa'] * 1e-9:10.3f}"
+                f"{c['stiffness_N_m1_5']:12.4e}{c['film_thickness_m'] * 1e9:8.2f}"
+                f"{c['tallian_parameter']:8.3f}{c['load_share']:7.3f}"
+                f"{c['shear_stress_Pa'] * 1e-6:9.3f}{c['friction_force_N']:9.4f}"
+            )
+    lines += [f"note: {n}" for n in data["notes"]]
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    """``drag``: one operating point through the chosen model."""
+    config = load_config(args.config)
+    op = OperatingPoint(
+        screw_speed=args.speed * RPM,
+        temperature=args.temperature + CELSIUS_ZERO,
+        preload=args.preload,
+        axial_load=args.axial_load,
+    )
+    model = build_model(args.model, config, args.mode)
+    data = output_to_dict(model.evaluate(op))
+    print(json.dumps(data, indent=2) if args.json else format_output(data))
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``ballscrew-twin`` console script."""
+    parser = argparse.ArgumentParser(prog="ballscrew-twin", description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    wanted = argv[0] if argv and not argv[0].startswith("-") else None
+    modules: dict[str, Any] = {}
+    for name, (module_name, help_text) in COMMANDS.items():
+        sub_parser = sub.add_parser(name, help=help_text)
+        if wanted == name:  # import only the module of the command being run
+            module = importlib.import_module(module_name)
+            module.add_arguments(sub_parser)
+            modules[name] = module
+    args = parser.parse_args(argv)
+    try:
+        return int(modules[args.command].run(args))
+    except BallscrewTwinError as err:
+        print(f"ballscrew-twin {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

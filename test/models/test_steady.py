@@ -1,0 +1,122 @@
+"""Steady-state model: equilibrium, power balance and limiting cases.
+
+Oracles: Hertz load sharing of a statically preloaded nut (axial force / (Z sin a cos l)), the
+work-energy theorem (the moment the spheres put on the screw, less the torque of lifting the
+nuts, equals the dissipated power over the speed), and the equivalence of the symmetric and the
+full (every sphere) solutions on a vertical screw.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.models.base import OperatingPoint
+from ballscrew_twin.models.catalog import CatalogModel
+from ballscrew_twin.models.steady import SteadyStateModel
+from ballscrew_twin.params import load_config
+
+RPM = 2 * math.pi / 60
+
+
+@pytest.fixture(scope="module")
+def config():  # type: ignore[no-untyped-def]
+    return load_config()
+
+
+def op(rpm: float, celsius: float, preload: float) -> OperatingPoint:
+    return OperatingPoint(screw_speed=rpm * RPM, temperature=celsius + 273.15, preload=preload)
+
+
+def test_static_preload_is_shared_by_hertz_contacts(config) -> None:  # type: ignore[no-untyped-def]
+    sol = SteadyStateModel(config).solve(op(0.0, 20.0, 1500.0))
+    cs = sol.output.contacts
+    assert cs is not None
+    loaded = cs.in_contact
+    assert loaded.sum() == 4  # one screw and one nut contact per nut
+    weight = config.screw.nut_mass * config.environment.gravity
+    for nut, axial in ((0, 1500.0 - weight), (1, 1500.0 + weight)):
+        rows = loaded & (cs.nut == nut)
+        alpha = cs.contact_angle[rows]
+        expected = axial / (
+            config.screw.balls_per_nut * np.sin(alpha) * math.cos(config.screw.helix_angle)
+        )
+        # Sphere weight and the helix-normal tilt make the last 0.3 %.
+        np.testing.assert_allclose(cs.normal_force[rows], expected, rtol=3e-3)
+    # Preload pushes the contact angle above its free value (paper Fig. 10b).
+    assert np.all(cs.contact_angle[loaded] > config.screw.free_contact_angle)
+    assert sol.output.drag_torque == 0.0
+
+
+@pytest.mark.parametrize(
+    ("rpm", "celsius", "preload"), [(100, 20, 500), (100, 60, 3000), (1000, 20, 1500)]
+)
+def test_power_balance_closes(config, rpm: float, celsius: float, preload: float) -> None:  # type: ignore[no-untyped-def]
+    sol = SteadyStateModel(config).solve(op(rpm, celsius, preload))
+    drag = sol.output.drag_torque
+    assert drag > 0.0
+    assert sol.screw_torque_direct - sol.gravity_torque == pytest.approx(drag, rel=1e-3)
+    # Every mechanism dissipates, none generates.
+    for name in (
+        "lubricant_shear",
+        "dry_contact",
+        "rolling_resistance",
+        "hysteresis",
+        "curvature",
+        "spin",
+    ):
+        assert getattr(sol.output.breakdown, name) >= 0.0, name
+    assert sum(sol.output.nut_torque) == pytest.approx(drag, rel=1e-9)
+
+
+def test_symmetric_and_full_modes_agree_on_a_vertical_screw(config) -> None:  # type: ignore[no-untyped-def]
+    point = op(100, 20, 1500)
+    sym = SteadyStateModel(config, mode="symmetric").solve(point)
+    full = SteadyStateModel(config, mode="full").solve(point)
+    assert len(full.balls.nut) == 2 * config.screw.balls_per_nut
+    assert full.output.drag_torque == pytest.approx(sym.output.drag_torque, rel=1e-6)
+    assert "symmetric" in sym.output.notes[0]
+
+
+def test_reversed_speed_reverses_torque(config) -> None:  # type: ignore[no-untyped-def]
+    fwd = SteadyStateModel(config).evaluate(op(100, 20, 1000))
+    rev = SteadyStateModel(config).evaluate(op(-100, 20, 1000))
+    assert rev.drag_torque == pytest.approx(-fwd.drag_torque, rel=0.05)
+
+
+def test_drag_rises_with_preload_and_regimes_follow_temperature(config) -> None:  # type: ignore[no-untyped-def]
+    model = SteadyStateModel(config)
+    drags = [model.evaluate(op(100, 20, f)).drag_torque for f in (500, 1500, 3000)]
+    assert drags[0] < drags[1] < drags[2]
+    tallian = {}
+    for celsius in (-20, 20, 60):
+        cs = model.evaluate(op(100, celsius, 1500)).contacts
+        assert cs is not None
+        tallian[celsius] = cs.tallian_parameter[cs.in_contact].mean()
+    # Paper section 3: -20 C full film (Lambda > 3), 20 C mixed, 60 C near boundary.
+    assert tallian[-20] > 3.0
+    assert 0.5 < tallian[20] < 3.0
+    assert tallian[60] < tallian[20]
+
+
+def test_zero_preload_has_a_defined_answer(config) -> None:  # type: ignore[no-untyped-def]
+    out = SteadyStateModel(config).evaluate(op(100, 20, 0.0))
+    assert math.isfinite(out.drag_torque) and out.drag_torque >= 0.0
+    cs = out.contacts
+    assert cs is not None
+    # Only the nut weights load the spheres: both nuts bear on the S1/N2 flanks.
+    assert set(cs.half_groove[cs.in_contact].tolist()) == {0, 3}
+
+
+def test_warm_start_is_cheaper_than_cold(config) -> None:  # type: ignore[no-untyped-def]
+    model = SteadyStateModel(config)
+    cold = model.solve(op(100, 20, 1500))
+    warm = model.solve(op(100, 20, 1520))
+    assert warm.iterations < cold.iterations
+
+
+def test_catalogue_is_an_order_of_magnitude_reference(config) -> None:  # type: ignore[no-untyped-def]
+    """Uncalibrated defaults: the steady drag is within a factor 10 of Eq. 52 (see docs)."""
+    steady = SteadyStateModel(config).evaluate(op(100, 20, 3000)).drag_torque
+    zhou = CatalogModel(config).torque_at_preload(3000)
+    assert zhou / 10 < steady < zhou * 10
