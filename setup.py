@@ -10,6 +10,9 @@ setup(
     name=PACKAGE_NAME,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*"]),
+    # Installed by `setup.py install` / colcon and by a regular `pip install .`. A PEP 660
+    # editable install (`pip install -e .`, what tools/setup_env.sh runs) does not copy them;
+    # the package then reads config/ from the source tree (ballscrew_twin.params).
     data_files=[
         # ament index marker: makes the package discoverable by ament_index / ros2 tools.
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE_NAME}"]),

@@ -26,6 +26,9 @@ CELSIUS_ZERO = 273.15  # K
 #: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
 COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
+    "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
+    "bench": ("ballscrew_twin.bench", "benchmarks that print their numbers"),
+    "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
 }
 
 HALF_GROOVES = ("S1", "S2", "N1", "N2")

@@ -85,6 +85,11 @@ class ScrewGeometry:
 
     def validate(self, where: str) -> None:
         """Cross-field checks; raise ConfigError naming ``where``."""
+        if self.conformity <= 0.5:
+            raise ConfigError(
+                f"{where}.conformity = {self.conformity} must be > 0.5: a groove radius of "
+                "2 f r_b <= r_b leaves the sphere no room"
+            )
         clearance = self.groove_radius - self.ball_radius
         if math.hypot(self.centre_offset, self.ogival_offset) >= clearance:
             raise ConfigError(
@@ -308,11 +313,19 @@ def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
     )
 
 
+DEFAULT_CONFIG_NAME = "paper_screw_calibrated.yaml"
+
+
 def default_config_path() -> Path:
-    """The shipped parameter set of the paper's screw (``config/paper_screw.yaml``)."""
+    """The shipped default parameter set: the paper's screw, calibrated to the paper's statement.
+
+    ``config/paper_screw.yaml`` holds the tables with literature values for what the paper
+    omits; ``config/paper_screw_calibrated.yaml`` is what ``ballscrew-twin calibrate`` fitted
+    from it (docs/model.md, section 9).
+    """
     candidates = [
-        Path(__file__).resolve().parent.parent / "config" / "paper_screw.yaml",
-        Path(sys.prefix) / "share" / "ballscrew_twin" / "config" / "paper_screw.yaml",
+        Path(__file__).resolve().parent.parent / "config" / DEFAULT_CONFIG_NAME,
+        Path(sys.prefix) / "share" / "ballscrew_twin" / "config" / DEFAULT_CONFIG_NAME,
     ]
     for path in candidates:
         if path.is_file():

@@ -392,6 +392,10 @@ class SteadyStateModel:
         assert last_error is not None
         raise last_error
 
+    def forget_warm_start(self) -> None:
+        """Make the next solve start cold (used by benchmarks and after a scene change)."""
+        self._warm = None
+
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
         return self.solve(op).output

@@ -7,11 +7,14 @@ tau_lim = tau_L + xi p, and the dry part made speed dependent (docs/model.md, D6
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
 
+EYRING_LOG_SWITCH = math.log(1e8)  # beyond, asinh(x) = ln(2x) to double precision
 LOAD_SHARE_A = 1.2  # Eq. 37 numerator coefficient
 LOAD_SHARE_EXP_NUM = 0.64
 LOAD_SHARE_B = 0.37
@@ -39,17 +42,26 @@ def eyring_shear_stress(
     """Lubricant shear stress tau = min(tau_e asinh(eta gamma_dot / tau_e), tau_lim), Eq. 35 [Pa].
 
     The printed arcsin is the inverse hyperbolic sine of the Eyring law (an arcsin would be
-    undefined beyond tau_e). The product eta gamma_dot is formed in log space so that the
-    astronomically large piezoviscous viscosity does not overflow.
+    undefined beyond tau_e). The argument x = eta gamma_dot / tau_e is formed in log space and
+    asinh(x) = ln(2x) used beyond x = 1e8 (relative error < 1e-16), so that the astronomically
+    large piezoviscous viscosity cannot overflow; zero shear rate gives zero stress.
 
     Args:
-        viscosity: eta(p, T) [Pa s].
-        rate: gamma_dot [1/s].
+        viscosity: eta(p, T) [Pa s], > 0 (may be inf).
+        rate: gamma_dot [1/s], >= 0.
         eyring_stress: tau_e [Pa].
         limit: tau_lim [Pa].
     """
-    x = np.asarray(viscosity, dtype=np.float64) * np.asarray(rate, dtype=np.float64) / eyring_stress
-    tau = eyring_stress * np.arcsinh(x)
+    eta = np.asarray(viscosity, dtype=np.float64)
+    gamma = np.abs(np.asarray(rate, dtype=np.float64))
+    eta, gamma = np.broadcast_arrays(eta, gamma)
+    sliding = gamma > 0.0
+    with np.errstate(divide="ignore"):
+        log_x = np.log(eta) + np.log(np.where(sliding, gamma, 1.0)) - np.log(eyring_stress)
+    large = log_x > EYRING_LOG_SWITCH
+    small_x = np.exp(np.minimum(log_x, EYRING_LOG_SWITCH))
+    asinh = np.where(large, log_x + np.log(2.0), np.arcsinh(small_x))
+    tau = np.where(sliding, eyring_stress * asinh, 0.0)
     return np.asarray(np.minimum(tau, np.asarray(limit)))
 
 

@@ -19,16 +19,17 @@ def g_printed(lam: float) -> float:
 
 
 # Peak of g found numerically (independent of the closed form used by the module).
-_PEAK = minimize_scalar(lambda x: -g_printed(x), bounds=(0.5, 10.0), method="bounded",
-                        options={"xatol": 1e-10})
+_PEAK = minimize_scalar(
+    lambda x: -g_printed(x), bounds=(0.5, 10.0), method="bounded", options={"xatol": 1e-10}
+)
 LAMBDA_PEAK = float(_PEAK.x)
 G_PEAK = g_printed(LAMBDA_PEAK)
 
 
 def test_peak_of_printed_law() -> None:
     """MODEL_NOTES: g peaks at Lambda = 2.26, with g(L*) = 0.9943 < 1."""
-    assert LAMBDA_PEAK == pytest.approx(2.26, abs=0.01)
-    assert G_PEAK == pytest.approx(0.9943, abs=1e-4)
+    assert pytest.approx(2.26, abs=0.01) == LAMBDA_PEAK
+    assert pytest.approx(0.9943, abs=1e-4) == G_PEAK
 
 
 def test_load_share_end_points() -> None:
@@ -97,16 +98,16 @@ def test_eyring_capped_by_limiting_stress() -> None:
     assert float(traction.limiting_shear_stress(2.5e6, 0.06, -1e9)) == 2.5e6
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="docstring says eta*gamma is formed in log space to avoid overflow; the code "
-    "multiplies directly (overflow RuntimeWarning; result is still the cap here)",
-)
 def test_eyring_huge_viscosity_does_not_overflow() -> None:
     """Docstring: astronomically large piezoviscous viscosity must not overflow."""
     with np.errstate(all="raise"):
         tau = float(traction.eyring_shear_stress(1e300, 1e10, 5e6, 1e8))
+        uncapped = float(traction.eyring_shear_stress(1e300, 1e10, 5e6, np.inf))
+        still = float(traction.eyring_shear_stress(np.inf, 0.0, 5e6, 1e8))
     assert tau == 1e8
+    # Far beyond the switch asinh(x) = ln(2x): x = 1e310 / 5e6.
+    assert uncapped == pytest.approx(5e6 * (310 * np.log(10) + np.log(2.0) - np.log(5e6)))
+    assert still == 0.0
 
 
 @settings(max_examples=60, deadline=None)

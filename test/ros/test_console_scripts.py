@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import select
 import shutil
 import signal
 import subprocess
@@ -49,7 +50,11 @@ def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
         assert proc.stdout is not None
         deadline = time.monotonic() + TIMEOUT
         started = ""
-        while time.monotonic() < deadline:
+        while (remaining := deadline - time.monotonic()) > 0:
+            # Wait for output with a deadline, so a silent, hung process cannot block the test.
+            ready, _, _ = select.select([proc.stdout], [], [], remaining)
+            if not ready:
+                break
             line = proc.stdout.readline()
             if not line:
                 break

@@ -1,0 +1,93 @@
+"""``ballscrew-twin bench steady``: cost of the steady-state model, printed, never asserted.
+
+Times, on this machine and in one run so that the numbers compare: one evaluation of all
+contact laws for 2 and 50 spheres, and one steady solve cold, warm-started at a nearby operating
+point, in symmetric and in full mode.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from collections.abc import Callable
+from functools import partial
+from typing import Literal
+
+import numpy as np
+
+from .cli import CELSIUS_ZERO, RPM
+from .models.base import OperatingPoint
+from .models.contact_forces import evaluate_contacts, make_scene
+from .models.steady import SteadyStateModel
+from .params import TwinConfig, load_config
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``bench``."""
+    parser.add_argument("what", choices=("steady",), help="which benchmark")
+    parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
+    parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
+
+
+def _median_time(func: Callable[[], object], repeat: int) -> float:
+    """Median wall time of ``func`` over ``repeat`` calls [s]."""
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def _bench_mode(
+    config: TwinConfig,
+    mode: Literal["symmetric", "full"],
+    point: OperatingPoint,
+    nearby: OperatingPoint,
+    repeat: int,
+) -> str:
+    """One line of timings for one mode."""
+    model = SteadyStateModel(config, mode=mode)
+    solution = model.solve(point)
+    state, balls = solution.state, solution.balls
+    scene = make_scene(config, point.temperature, point.screw_speed)
+    contact_laws = partial(
+        evaluate_contacts,
+        scene,
+        state.ball_nb,
+        state.kinematics,
+        state.nut_offset[balls.nut],
+        balls.gravity,
+    )
+    contacts = _median_time(contact_laws, repeat)
+
+    def cold() -> None:
+        model.forget_warm_start()
+        model.solve(point)
+
+    def warm() -> None:
+        model.solve(point)
+        model.solve(nearby)
+
+    cold_time = _median_time(cold, max(repeat // 4, 3))
+    model.solve(point)
+    warm_time = _median_time(warm, max(repeat // 4, 3)) / 2.0
+    count = len(balls.nut)
+    return (
+        f"  {mode:<9} {count:3d} spheres: contact evaluation {contacts * 1e6:9.1f} us "
+        f"({contacts * 1e6 / (4 * count):.2f} us per contact), cold solve "
+        f"{cold_time * 1e3:8.1f} ms, warm solve {warm_time * 1e3:8.1f} ms"
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the timings (median of ``--repeat`` runs)."""
+    config = load_config(args.config)
+    point = OperatingPoint(screw_speed=100 * RPM, temperature=20 + CELSIUS_ZERO, preload=1500.0)
+    nearby = OperatingPoint(screw_speed=110 * RPM, temperature=21 + CELSIUS_ZERO, preload=1550.0)
+    print(f"steady-state model cost, median of {args.repeat} runs, 20 C / 100 rpm / 1500 N")
+    print(_bench_mode(config, "symmetric", point, nearby, args.repeat))
+    print(_bench_mode(config, "full", point, nearby, args.repeat))
+    print(f"  numpy {np.__version__}; targets of issue 3: warm full <= 100 us, symmetric <= 10 us")
+    return 0

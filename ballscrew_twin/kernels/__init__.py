@@ -1,0 +1,7 @@
+"""Compiled (numba) kernels of the model's hot loops.
+
+Each kernel mirrors a readable numpy reference elsewhere in the package and is tested against it:
+
+- :mod:`ballscrew_twin.kernels.contacts`: every ball-groove contact law, the compiled twin of
+  :func:`ballscrew_twin.models.contact_forces.evaluate_contacts`.
+"""

@@ -1,0 +1,919 @@
+"""Compiled contact laws: scalar loops over spheres and half grooves (numba).
+
+This is the compiled twin of :func:`ballscrew_twin.models.contact_forces.evaluate_contacts`: same
+inputs, same :class:`~ballscrew_twin.models.contact_forces.ContactEvaluation`, same laws and the
+same order of floating-point operations wherever it matters, so the two agree to rounding
+(test/kernels/test_contacts_kernel.py checks <= 1e-9 relative). The readable numpy reference stays
+the definition of the model; read it and docs/model.md first. Equation numbers are the paper's
+(Bertolino et al. 2021), deviations D1-D13 those of docs/model.md. Everything is SI: m, N, Pa, s,
+rad, K.
+
+Structure:
+
+- one scalar ``@njit(inline="always")`` helper per law (Hertz, viscosity, film, Gupta factor,
+  load share, Eyring friction, FR/FP, MER, MC, MP), each mirroring its numpy counterpart in
+  :mod:`ballscrew_twin.physics`;
+- :func:`contacts_kernel`, the ``@njit(cache=True)`` loop over B spheres x 4 half grooves. The
+  scene enters as plain floats and one int (:func:`scene_arrays` flattens a ``ContactScene``).
+  Laws are evaluated only for active contacts: an inactive contact has delta = 0, F_n = 0 and a
+  zero contact area, so every force, moment and dissipation of the reference is exactly zero
+  there, and the state arrays the reference masks with ``active`` are zero too;
+- :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``.
+
+The kernel returns five arrays: force (B, 3), moment (B, 3), groove force (B, 4, 3), active
+(B, 4) and one stacked (N_FIELDS, B, 4) array of every per-contact quantity, row
+``CONTACT_FIELDS.index(name)`` (module constants ``F_APPROACH`` ... name the rows).
+
+The law constants below are copies of those of the physics modules (numba freezes globals into
+the cached machine code, so they are kept here, in the file whose change invalidates the cache);
+the test checks that they equal the reference's.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+import time
+from collections.abc import Callable
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from ..models.contact_forces import ContactEvaluation, ContactScene
+from ..params import ScrewGeometry
+from ..physics.hertz import HertzContact
+
+FloatArray = NDArray[np.float64]
+
+# ----------------------------------------------------------------------------- law constants
+# physics/lubricant.py (Eqs. 24-25)
+ROELANDS_PRESSURE_SCALE = 5.1e-9  # 1/Pa
+ROELANDS_LN_ETA_INF = 9.67  # -ln(eta_inf / Pa s)
+ROELANDS_T_INF = 138.0  # K
+WALTHER_SHIFT = 0.7  # cSt
+DOWSON_HIGGINSON_A = 0.59e9  # Pa
+DOWSON_HIGGINSON_B = 1.34  # -
+VISCOSITY_LAWS = ("roelands", "exponential", "walther")  # law code = index
+LAW_ROELANDS, LAW_EXPONENTIAL, LAW_WALTHER = 0, 1, 2
+
+# physics/hertz.py (Antoine et al. 2006; Abramowitz & Stegun 17.3.34, 17.3.36)
+ANTOINE_NUMERATOR = (1.0, 0.40227436, 3.7491752e-2, 7.4855761e-4, 2.1667028e-6)
+ANTOINE_DENOMINATOR = (1.0, 0.42678878, 4.2605401e-2, 9.0786922e-4, 2.7868927e-6)
+K_POLY = (1.38629436112, 0.09666344259, 0.03590092383, 0.03742563713, 0.01451196212)
+K_LOG_POLY = (0.5, 0.12498593597, 0.06880248576, 0.03328355346, 0.00441787012)
+E_POLY = (1.0, 0.44325141463, 0.06260601220, 0.04757383546, 0.01736506451)
+E_LOG_POLY = (0.0, 0.24998368310, 0.09200180037, 0.04069697526, 0.00526449639)
+
+# physics/film.py has no module constant used here (Eq. 30's 0.75 is not needed).
+
+# physics/traction.py (Eq. 37, D7)
+LOAD_SHARE_A = 1.2
+LOAD_SHARE_EXP_NUM = 0.64
+LOAD_SHARE_B = 0.37
+LOAD_SHARE_EXP_DEN = 1.26
+LOAD_SHARE_PEAK = (
+    LOAD_SHARE_EXP_NUM / ((LOAD_SHARE_EXP_DEN - LOAD_SHARE_EXP_NUM) * LOAD_SHARE_B)
+) ** (1.0 / LOAD_SHARE_EXP_DEN)
+LOAD_SHARE_PEAK_VALUE = (
+    LOAD_SHARE_A
+    * LOAD_SHARE_PEAK**LOAD_SHARE_EXP_NUM
+    / (1.0 + LOAD_SHARE_B * LOAD_SHARE_PEAK**LOAD_SHARE_EXP_DEN)
+)
+
+# physics/rolling.py (Eqs. 43-44, D9)
+MER_CONSTANT = 7.48e-7
+MER_RADIUS_EXPONENT = 0.33
+MER_LOAD_EXPONENT = 1.33
+MC_CONSTANT = 0.0806
+
+# models/contact_forces.py (D11)
+SPIN_SLIDING_FACTOR = 4.0 / (3.0 * math.pi)
+
+# ----------------------------------------------------------------------------- output layout
+CONTACT_FIELDS = (
+    "approach",  # m, raw rigid-body approach (negative when apart)
+    "contact_angle",  # rad
+    "normal_force",  # N, K_H delta^1.5 (0 when inactive)
+    "semi_axis_x",  # m
+    "semi_axis_y",  # m
+    "hertz_approach",  # m, HertzContact.approach (delta recomputed from b)
+    "max_pressure",  # Pa
+    "mean_pressure",  # Pa
+    "area",  # m^2
+    "stiffness",  # N m^-1.5
+    "film_total",  # m
+    "tallian",  # -
+    "load_share",  # -
+    "slip",  # m/s
+    "spin",  # rad/s
+    "roll",  # rad/s
+    "entrainment",  # m/s
+    "friction_lubricant",  # N
+    "friction_dry",  # N
+    "shear_stress",  # Pa
+    "sliding_coefficient",  # -
+    "groove_moment_z",  # N m
+    "lubricant_shear",  # W, dissipation rows in MECHANISMS order from here
+    "dry_contact",  # W
+    "rolling_resistance",  # W
+    "hysteresis",  # W
+    "curvature",  # W
+    "spin_dissipation",  # W (key "spin" of ContactEvaluation.dissipation)
+)
+N_FIELDS = len(CONTACT_FIELDS)
+(
+    F_APPROACH,
+    F_ANGLE,
+    F_NORMAL_FORCE,
+    F_SEMI_X,
+    F_SEMI_Y,
+    F_HERTZ_APPROACH,
+    F_MAX_PRESSURE,
+    F_MEAN_PRESSURE,
+    F_AREA,
+    F_STIFFNESS,
+    F_FILM,
+    F_TALLIAN,
+    F_LOAD_SHARE,
+    F_SLIP,
+    F_SPIN,
+    F_ROLL,
+    F_ENTRAINMENT,
+    F_FRICTION_LUB,
+    F_FRICTION_DRY,
+    F_SHEAR_STRESS,
+    F_MU_S,
+    F_GROOVE_MZ,
+    F_DISS_LUBRICANT,
+    F_DISS_DRY,
+    F_DISS_ROLLING,
+    F_DISS_HYSTERESIS,
+    F_DISS_CURVATURE,
+    F_DISS_SPIN,
+) = range(N_FIELDS)
+MECHANISMS = (
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
+)
+
+# Half grooves S1, S2, N1, N2 (physics/geometry.py).
+SIDE_N = (1.0, 1.0, -1.0, -1.0)
+SIDE_B = (-1.0, 1.0, -1.0, 1.0)
+IS_NUT = (False, False, True, True)
+
+
+# ----------------------------------------------------------------------------- 3-vectors
+@njit(inline="always")
+def _cross(a, b):  # type: ignore[no-untyped-def]
+    """a x b of two 3-tuples, term order of numpy.cross."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@njit(inline="always")
+def _dot(a, b):  # type: ignore[no-untyped-def]
+    """a . b of two 3-tuples."""
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@njit(inline="always")
+def _add(a, b):  # type: ignore[no-untyped-def]
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@njit(inline="always")
+def _sub(a, b):  # type: ignore[no-untyped-def]
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@njit(inline="always")
+def _scale(s, a):  # type: ignore[no-untyped-def]
+    """s a, scalar times 3-tuple."""
+    return (s * a[0], s * a[1], s * a[2])
+
+
+@njit(inline="always")
+def _unit(v):  # type: ignore[no-untyped-def]
+    """(v / max(|v|, 1e-300), |v|): the zero vector maps to itself with norm 0."""
+    norm = math.sqrt(_dot(v, v))
+    safe = max(norm, 1e-300)
+    return (v[0] / safe, v[1] / safe, v[2] / safe), norm
+
+
+@njit(inline="always")
+def _helical(rate, zhat, lead_rate, r):  # type: ignore[no-untyped-def]
+    """Velocity of point r [m] in a helical motion of rate ``rate`` [rad/s] about z, lead
+    2 pi ``lead_rate`` [m]: rate (z x r + p/(2 pi) z) [m/s] (module docstring of the reference).
+    """
+    return _scale(rate, _add(_cross(zhat, r), _scale(lead_rate, zhat)))
+
+
+# ----------------------------------------------------------------------------- Hertz (2.2)
+@njit(inline="always")
+def _horner(x, c):  # type: ignore[no-untyped-def]
+    """c0 + c1 x + ... + c4 x^4 of a 5-tuple by Horner's rule (hertz._polyval's order)."""
+    return (((c[4] * x + c[3]) * x + c[2]) * x + c[1]) * x + c[0]
+
+
+@njit(inline="always")
+def ellipse_shape(r_x, r_y):  # type: ignore[no-untyped-def]
+    """Load-independent ellipse of a contact with reduced radii r_x, r_y [m] (hertz.py).
+
+    k = r^p, p = (2/3) N(q)/D(q), q = (log10 r)^2, r = max/min radius (Antoine et al. 2006);
+    K(m), E(m), m = 1 - 1/k^2 (Abramowitz & Stegun 17.3.34, 17.3.36); A + B = (1/R_x + 1/R_y)/2.
+
+    Returns:
+        (k [-], K(m) [-], E(m) [-], A + B [1/m]).
+    """
+    curvature_ratio = max(r_x, r_y) / min(r_x, r_y)
+    lg = math.log10(curvature_ratio)
+    q = lg * lg
+    exponent = (2.0 / 3.0) * (_horner(q, ANTOINE_NUMERATOR) / _horner(q, ANTOINE_DENOMINATOR))
+    ratio = curvature_ratio**exponent
+    m1 = 1.0 - (1.0 - ratio**-2.0)
+    log_term = -math.log(m1)
+    ell_k = _horner(m1, K_POLY) + log_term * _horner(m1, K_LOG_POLY)
+    ell_e = _horner(m1, E_POLY) + log_term * _horner(m1, E_LOG_POLY)
+    curvature_sum = 0.5 * (1.0 / r_x + 1.0 / r_y)
+    return ratio, ell_k, ell_e, curvature_sum
+
+
+@njit(inline="always")
+def hertz_stiffness(ratio, ell_k, ell_e, curvature_sum, e_star):  # type: ignore[no-untyped-def]
+    """K_H = eps(k) (4/3) E* sqrt(R_e), eps = pi k sqrt(E) / (2 K^1.5) [N m^-1.5] (Eq. 18)."""
+    eccentricity = math.pi * ratio * math.sqrt(ell_e) / (2.0 * ell_k**1.5)
+    return eccentricity * (4.0 / 3.0) * e_star / math.sqrt(curvature_sum)
+
+
+@njit(inline="always")
+def hertz_from_approach(delta, ratio, ell_k, ell_e, curvature_sum, e_star):  # type: ignore[no-untyped-def]
+    """Hertz contact at approach delta [m] (Johnson 1985 Eqs. 4.36-4.38, hertz.py).
+
+    b = sqrt(delta E / ((A + B) K)), a = k b, p0 = E* (A + B) b / E.
+
+    Returns:
+        (minor b [m], major a [m], approach [m], p0 [Pa], mean pressure [Pa], area [m^2]).
+    """
+    minor = math.sqrt(max(delta, 0.0) * ell_e / (curvature_sum * ell_k))
+    major = ratio * minor
+    max_pressure = e_star * curvature_sum * minor / ell_e
+    approach = curvature_sum * (minor * minor) * ell_k / ell_e
+    return (
+        minor,
+        major,
+        approach,
+        max_pressure,
+        (2.0 / 3.0) * max_pressure,
+        math.pi * major * minor,
+    )
+
+
+# ----------------------------------------------------------------------------- lubricant
+@njit(inline="always")
+def density_atmospheric(temperature, rho0, t0, alpha_rho):  # type: ignore[no-untyped-def]
+    """rho(0, T) = rho0 + alpha_rho (T0 - T) [kg/m^3] (Eq. 25 at p = 0, D3)."""
+    compress = (DOWSON_HIGGINSON_A + DOWSON_HIGGINSON_B * 0.0) / (DOWSON_HIGGINSON_A + 0.0)
+    return rho0 * compress + alpha_rho * (t0 - temperature)
+
+
+@njit(inline="always")
+def _walther_loglog(eta, temperature, rho0, t0, alpha_rho):  # type: ignore[no-untyped-def]
+    """log10 log10(nu + 0.7), nu [cSt] of viscosity eta [Pa s] at T [K] (ASTM D341)."""
+    nu_cst = eta / density_atmospheric(temperature, rho0, t0, alpha_rho) * 1e6
+    return math.log10(math.log10(nu_cst + WALTHER_SHIFT))
+
+
+@njit(inline="always")
+def viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta):  # type: ignore[no-untyped-def]
+    """eta_T(T) [Pa s] at atmospheric pressure; law code 0/1/2 (lubricant.py, D2).
+
+    0 Roelands: eta0 exp{(ln eta0 + 9.67)[((T-138)/(T0-138))^-S0 - 1]} (Eq. 24 at p = 0),
+    S0 = beta (T0 - 138) / (ln eta0 + 9.67); 1 exponential: eta0 exp(-beta (T - T0));
+    2 Walther (ASTM D341) through (T0, eta0) and (T1, eta1) with the density of Eq. 25.
+    """
+    if law == LAW_ROELANDS:
+        a = math.log(eta0) + ROELANDS_LN_ETA_INF
+        theta = (temperature - ROELANDS_T_INF) / (t0 - ROELANDS_T_INF)
+        s0 = beta * (t0 - ROELANDS_T_INF) / (math.log(eta0) + ROELANDS_LN_ETA_INF)
+        return eta0 * math.exp(a * (theta ** (-s0) - 1.0))
+    if law == LAW_EXPONENTIAL:
+        return eta0 * math.exp(-beta * (temperature - t0))
+    y0 = _walther_loglog(eta0, t0, rho0, t0, alpha_rho)
+    y1 = _walther_loglog(eta1, t1, rho0, t0, alpha_rho)
+    slope = (y1 - y0) / (math.log10(t1) - math.log10(t0))
+    y = y0 + slope * (math.log10(temperature) - math.log10(t0))
+    nu = (10.0 ** (10.0**y) - WALTHER_SHIFT) * 1e-6
+    return nu * density_atmospheric(temperature, rho0, t0, alpha_rho)
+
+
+@njit(inline="always")
+def viscosity_pressure(eta_t, pressure, z):  # type: ignore[no-untyped-def]
+    """eta(p, T) = eta_T exp{(ln eta_T + 9.67)[(1 + 5.1e-9 p)^Z - 1]} [Pa s] (Eq. 24, D1).
+
+    eta_t: eta_T(T) [Pa s]; pressure: p [Pa] (negative -> 0); z: Roelands index Z [-].
+    """
+    p = max(pressure, 0.0)
+    exponent = (math.log(eta_t) + ROELANDS_LN_ETA_INF) * (
+        (1.0 + ROELANDS_PRESSURE_SCALE * p) ** z - 1.0
+    )
+    return eta_t * math.exp(exponent)
+
+
+# ----------------------------------------------------------------------------- film (2.3)
+@njit(inline="always")
+def central_film_nondimensional(m, ell, lam):  # type: ignore[no-untyped-def]
+    """Nijenbanning-Venner-Moes central film H_c(M, L, lambda) [-] (Eq. 26a-g, film.py)."""
+    h00 = 1.8 / lam
+    h_ri = 145.0 * (1.0 + 0.796 * lam ** (14.0 / 15.0)) ** (-15.0 / 7.0) / lam / (m * m)
+    h_rp = 1.29 * (1.0 + 0.691 * lam) ** (-2.0 / 3.0) * ell ** (2.0 / 3.0)
+    shape = 1.0 + 0.006 * math.log(lam) + 0.63 * lam ** (4.0 / 7.0)
+    h_ei = 3.18 * shape ** (-14.0 / 25.0) * lam ** (-1.0 / 15.0) * m ** (-2.0 / 15.0)
+    h_ep = 1.48 * shape ** (-7.0 / 20.0) * lam ** (-1.0 / 24.0) * m ** (-1.0 / 12.0) * ell**0.75
+    s = 1.5 * (1.0 + math.exp(-1.2 * h_ei / h_ri))
+    isoviscous = (h_ri**1.5 + (h_ei**-4.0 + h00**-4.0) ** -0.375) ** (2.0 * s / 3.0)
+    piezoviscous = (h_rp**-8.0 + h_ep**-8.0) ** (-s / 8.0)
+    return (isoviscous + piezoviscous) ** (1.0 / s)
+
+
+@njit(inline="always")
+def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alpha_pv):  # type: ignore[no-untyped-def]
+    """Isothermal central film h_c = R_x sqrt(eta0 u_s / (E' R_x)) H_c [m] (Eq. 26a, D4).
+
+    Moes groups on the sum velocity u_s = 2|u| (Eqs. 27-29): M = F/(E' R_x^2) (E' R_x /
+    (eta0 u_s))^(3/4), L = alpha E' (E' R_x / (eta0 u_s))^(-1/4), lambda = R_x / R_y.
+    Zero when F_n or u is zero.
+    """
+    u_sum = 2.0 * abs(entrainment)
+    if not (u_sum > 0.0 and f_n > 0.0):
+        return 0.0
+    speed_group = e_reduced * r_x / (eta_atm * u_sum)
+    m = f_n / (e_reduced * (r_x * r_x)) * speed_group**0.75
+    ell = alpha_pv * e_reduced * speed_group**-0.25
+    lam = r_x / r_y
+    h_nd = central_film_nondimensional(m, ell, lam)
+    return r_x * math.sqrt(eta_atm * u_sum / (e_reduced * r_x)) * h_nd
+
+
+@njit(inline="always")
+def thermal_reduction_factor(max_pressure, e_reduced, eta_atm, beta, entrainment, k_h, srr):  # type: ignore[no-untyped-def]
+    """Gupta inlet-heating factor C in [0, 1] (Eqs. 31-32, D5).
+
+    L_th = eta0 beta u^2 / k_h; C = (1 - 13.2 (p_h/E') L_th^0.42) /
+    (1 + 0.213 (1 + 2.23 SRR^0.83) L_th^0.64), clamped to [0, 1].
+    """
+    lth = max(eta_atm * beta * (entrainment * entrainment) / k_h, 0.0)
+    srr_abs = abs(srr)
+    num = 1.0 - 13.2 * max_pressure / e_reduced * lth**0.42
+    den = 1.0 + 0.213 * (1.0 + 2.23 * srr_abs**0.83) * lth**0.64
+    return min(max(num / den, 0.0), 1.0)
+
+
+@njit(inline="always")
+def load_share_asperities(tallian):  # type: ignore[no-untyped-def]
+    """Asperity share f(Lambda) of the normal load, Eq. 37 made monotone (D7) [-]."""
+    lam = min(max(tallian, 0.0), LOAD_SHARE_PEAK)
+    g = LOAD_SHARE_A * lam**LOAD_SHARE_EXP_NUM / (1.0 + LOAD_SHARE_B * lam**LOAD_SHARE_EXP_DEN)
+    if LOAD_SHARE_PEAK_VALUE < 1.0:
+        g = g / LOAD_SHARE_PEAK_VALUE
+    return min(max(1.0 - g, 0.0), 1.0)
+
+
+# ----------------------------------------------------------------------------- friction (3)
+@njit(inline="always")
+def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r):  # type: ignore[no-untyped-def]
+    """Friction at sliding speed v [m/s], Eqs. 34-36 regularised (D6, D8).
+
+    F(v) = [(1 - f) A tau(sqrt(v^2 + v_r^2)) + f mu_dry F_n] tanh(|v| / v_r), with the Eyring
+    stress tau = min(tau_e asinh(eta gamma / tau_e), tau_lim), gamma = sqrt(v^2 + v_r^2) / h.
+
+    Args:
+        eta: eta(p_mean, T) [Pa s]; limit: tau_lim [Pa]; film_safe: max(h_Tc, 1e-12) [m];
+        area [m^2]; share: f(Lambda) [-]; f_n [N]; tau_e [Pa]; mu_dry [-]; v_r [m/s].
+
+    Returns:
+        (lubricant part [N], dry part [N], shear stress times tanh [Pa]).
+    """
+    rate = math.hypot(speed, v_r) / film_safe
+    tau = min(tau_e * math.asinh(eta * rate / tau_e), limit)
+    ramp = math.tanh(abs(speed) / v_r)
+    lubricant = tau * area * (1.0 - share)
+    dry = share * mu_dry * 1.0 * f_n
+    return lubricant * ramp, dry * ramp, tau * ramp
+
+
+@njit(inline="always")
+def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):  # type: ignore[no-untyped-def]
+    """Hydrodynamic rolling resistance FR [N] (Eqs. 39-41), W = F/(E' R_x^2), U = eta0 u/(E' R_x).
+
+    FR = (FR_IVR - FR_EHL) / (1 + 0.0841 lam^0.6029 W U^-0.75) + FR_EHL, zero without load or
+    entrainment.
+    """
+    f = max(f_n, 0.0)
+    u = abs(entrainment)
+    if not (f > 0.0 and u > 0.0):
+        return 0.0
+    lam = r_x / r_y
+    load = f / (e_reduced * (r_x * r_x))
+    speed = eta_atm * u / (e_reduced * r_x)
+    scale = e_reduced * (r_x * r_x) * load ** (1.0 / 3.0)
+    fr_ivr = 2.9766 * scale * lam**-0.3316 * speed ** (2.0 / 3.0)
+    fr_ehl = 7.5826 * scale * lam**-0.4055 * speed**0.75
+    blend = 1.0 + 0.0841 * lam**0.6029 * load * speed**-0.75
+    return (fr_ivr - fr_ehl) / blend + fr_ehl
+
+
+@njit(inline="always")
+def hysteresis_moment(f_n, ball_radius, radius_ratio, mu_s, dry_coefficient):  # type: ignore[no-untyped-def]
+    """MER = 7.48e-7 r_b^0.33 F^1.33 [1 - 3.519e-3 (R_y/R_x - 1)^0.8063]_+ mu_s / mu_dry [N m]
+    (Eq. 43, D9)."""
+    f = max(f_n, 0.0)
+    shape = 1.0 - 3.519e-3 * max(radius_ratio - 1.0, 0.0) ** 0.8063
+    base = MER_CONSTANT * ball_radius**MER_RADIUS_EXPONENT * f**MER_LOAD_EXPONENT
+    return base * max(shape, 0.0) * mu_s / dry_coefficient
+
+
+@njit(inline="always")
+def curvature_moment(f_n, semi_axis_y, surface_radius, mu_s):  # type: ignore[no-untyped-def]
+    """MC = 0.0806 mu_s F a_y^2 / R_c [N m] (Eq. 44, D10)."""
+    return MC_CONSTANT * mu_s * max(f_n, 0.0) * (semi_axis_y * semi_axis_y) / surface_radius
+
+
+@njit(inline="always")
+def spin_moment_factor(ellipticity):  # type: ignore[no-untyped-def]
+    """3/8 + (3 pi/16 - 3/8) k^(-0.945 - 0.016 ln k), k = max(ellipticity, 1) (Eq. 45)."""
+    k = max(ellipticity, 1.0)
+    return 0.375 + (3.0 * math.pi / 16.0 - 0.375) * k ** (-0.945 - 0.016 * math.log(k))
+
+
+# ----------------------------------------------------------------------------- the kernel
+@njit(cache=True, error_model="numpy")
+def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
+    ball_nb,
+    kinematics,
+    nut_offset,
+    gravity_frenet,
+    ball_radius,
+    groove_radius,
+    pitch_radius,
+    lead_rate,
+    sin_helix,
+    cos_helix,
+    cos2_helix,
+    centre_offset,
+    ogival_offset,
+    inner_angle,
+    outer_angle,
+    temperature,
+    screw_speed,
+    e_star,
+    e_reduced,
+    viscosity_atm,
+    ball_mass,
+    ball_inertia,
+    ball_share,
+    surface_radius,
+    law,
+    eta0,
+    t0,
+    t1,
+    eta1,
+    rho0,
+    alpha_rho,
+    alpha_pv,
+    beta,
+    k_h,
+    tau_e,
+    tau_l,
+    xi,
+    h_r,
+    mu_dry,
+    v_r,
+    roughness,
+):
+    """Forces, moments, states and dissipation of B spheres x 4 half grooves.
+
+    Arrays (C-contiguous float64): ball_nb (B, 2) [m], kinematics (B, 4) [rad/s], nut_offset
+    (B,) [m], gravity_frenet (B, 3) [m/s^2], as ``evaluate_contacts``. Scalars: see
+    :func:`scene_arrays` (SI units; ``law`` 0 Roelands, 1 exponential, 2 Walther).
+
+    Returns:
+        force (B, 3) [N], moment (B, 3) [N m], groove_force (B, 4, 3) [N], active (B, 4) bool,
+        contact (N_FIELDS, B, 4) per-contact quantities (rows named by CONTACT_FIELDS).
+    """
+    count = ball_nb.shape[0]
+    force = np.zeros((count, 3))
+    moment = np.zeros((count, 3))
+    groove_force = np.zeros((count, 4, 3))
+    active_out = np.zeros((count, 4), dtype=np.bool_)
+    out = np.zeros((N_FIELDS, count, 4))
+
+    zhat = (sin_helix, 0.0, cos_helix)
+    that = (1.0, 0.0, 0.0)
+    w_nut = -screw_speed
+    # Per-call lubricant constants (lubricant.py): eta_T(T) for the Eyring law, Roelands Z.
+    eta_t = viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta)
+    z_index = alpha_pv / (ROELANDS_PRESSURE_SCALE * (math.log(eta0) + ROELANDS_LN_ETA_INF))
+    mu_dry_mer = max(mu_dry, 1e-6)
+    mer_base_radius = MER_CONSTANT * ball_radius**MER_RADIUS_EXPONENT
+    transverse = -1.0 / groove_radius
+    centre_n = (-centre_offset, -centre_offset, centre_offset, centre_offset)
+
+    for i in range(count):
+        e = nut_offset[i]
+        centre_b = (ogival_offset, -ogival_offset, ogival_offset + e, -ogival_offset + e)
+        n_i = ball_nb[i, 0]
+        b_i = ball_nb[i, 1]
+        w_ball = kinematics[i, 0]
+        omega = (kinematics[i, 1], kinematics[i, 2], kinematics[i, 3])
+        r_ball = (0.0, n_i - pitch_radius, b_i)
+        v_centre = _helical(w_ball, zhat, lead_rate, r_ball)
+        f_sum = (0.0, 0.0, 0.0)
+        m_sum = (0.0, 0.0, 0.0)
+        for j in range(4):
+            # Geometry (Eqs. 5-8, 17, 22).
+            rel_n = n_i - centre_n[j]
+            rel_b = b_i - centre_b[j]
+            dist = math.hypot(rel_n, rel_b)
+            safe_dist = max(dist, 1e-30)
+            d_n = rel_n / safe_dist
+            d_b = rel_b / safe_dist
+            approach = dist + ball_radius - groove_radius
+            angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
+            active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
+            delta = approach if active else 0.0
+            # Curvatures (Meusnier) and reduced radii.
+            cos_a = math.cos(angle)
+            if IS_NUT[j]:
+                k_roll = -1.0 * cos_a * cos2_helix / (pitch_radius + ball_radius * cos_a)
+            else:
+                k_roll = 1.0 * cos_a * cos2_helix / (pitch_radius + -ball_radius * cos_a)
+            r_x = 1.0 / (1.0 / ball_radius + k_roll)
+            r_y = 1.0 / (1.0 / ball_radius + transverse)
+            ratio, ell_k, ell_e, curv_sum = ellipse_shape(r_x, r_y)
+            stiffness = hertz_stiffness(ratio, ell_k, ell_e, curv_sum, e_star)
+            minor, major, h_approach, p_max, p_mean, area = hertz_from_approach(
+                delta, ratio, ell_k, ell_e, curv_sum, e_star
+            )
+            if r_x > r_y:
+                semi_x, semi_y = major, minor
+            else:
+                semi_x, semi_y = minor, major
+            f_n = stiffness * delta**1.5  # Eq. 18, static part
+
+            # Kinematics: helicoid normal (D12), contact point, velocities.
+            d_plane = (0.0, d_n, d_b)
+            arm_length = ball_radius - ball_share * delta
+            field = _helical(1.0, zhat, lead_rate, _add(r_ball, _scale(arm_length, d_plane)))
+            d, _ = _unit(_sub(d_plane, _scale(_dot(d_plane, field) / _dot(field, field), field)))
+            arm = _scale(arm_length, d)
+            r_point = _add(r_ball, arm)
+            v_ball_point = _add(v_centre, _cross(omega, arm))
+            if IS_NUT[j]:
+                v_groove = _helical(w_nut, zhat, lead_rate, r_point)
+                omega_groove = _scale(w_nut, zhat)
+            else:
+                v_groove = (0.0, 0.0, 0.0)
+                omega_groove = (0.0, 0.0, 0.0)
+            v_contact = _helical(w_ball, zhat, lead_rate, r_point)
+            rel = _sub(v_ball_point, v_groove)
+            slip_vec = _sub(rel, _scale(_dot(rel, d), d))
+            slip_dir, slip = _unit(slip_vec)
+            u1 = v_ball_point[0] - v_contact[0]
+            u2 = v_groove[0] - v_contact[0]
+            entrain = 0.5 * (u1 + u2)
+            e_sign = 1.0 if entrain >= 0.0 else -1.0
+            omega_rel = _sub(omega, omega_groove)
+            spin = _dot(omega_rel, d)
+            roll_dir, roll = _unit(_sub(omega_rel, _scale(spin, d)))
+
+            lub_c = 0.0
+            dry_c = 0.0
+            tau = 0.0
+            mu_s = 0.0
+            h_tot = 0.0
+            tallian = 0.0
+            share = 0.0
+            mer = 0.0
+            mc = 0.0
+            mp = 0.0
+            fr = 0.0
+            fp = 0.0
+            if active:
+                # Lubrication (Eqs. 26-33, 37-38).
+                srr = abs(u1 - u2) / max(abs(entrain), 1e-12)
+                h_iso = film_central_isothermal(
+                    f_n, entrain, viscosity_atm, r_x, r_y, e_reduced, alpha_pv
+                )
+                c_th = thermal_reduction_factor(
+                    p_max, e_reduced, viscosity_atm, beta, entrain, k_h, srr
+                )
+                h_tot = c_th * h_iso + h_r
+                tallian = h_tot / roughness if roughness > 0.0 else np.inf
+                share = load_share_asperities(tallian)
+                # Sliding friction at the centre slip and the spin sliding (Eqs. 34-36, 45).
+                eta = viscosity_pressure(eta_t, p_mean, z_index)
+                limit = tau_l + xi * max(p_mean, 0.0)
+                film_safe = max(h_tot, 1e-12)
+                lub_c, dry_c, _ = sliding_friction(
+                    slip, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+                )
+                semi_major = max(semi_x, semi_y)
+                semi_minor = min(semi_x, semi_y)
+                v_spin = SPIN_SLIDING_FACTOR * semi_major * abs(spin)
+                lub_s, dry_s, _ = sliding_friction(
+                    v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+                )
+                ellipticity = semi_major / max(semi_minor, 1e-300)
+                mp = spin_moment_factor(ellipticity) * semi_major * (lub_s + dry_s)
+                lub_m, dry_m, tau = sliding_friction(
+                    slip + v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+                )
+                if f_n > 0.0:
+                    mu_s = (lub_m + dry_m) / max(f_n, 1e-300)
+                mer = hysteresis_moment(f_n, ball_radius, r_y / r_x, mu_s, mu_dry_mer)
+                mc = curvature_moment(f_n, semi_y, surface_radius, mu_s)
+                fr = rolling_resistance_force(
+                    f_n, entrain, viscosity_atm, r_x, r_y, e_reduced
+                )
+                fp = 2.0 * fr * r_x / (r_x + ball_radius)  # Eq. 42
+            f_centre = lub_c + dry_c
+
+            # Forces and moments on the ball (Eqs. 46-47) and on the groove (48-49, D13).
+            e_dir = (e_sign, 0.0, 0.0)
+            contact_on_ball = _sub(
+                _sub(_scale(-f_n, d), _scale(f_centre, slip_dir)), _scale(fr, e_dir)
+            )
+            pressure_on_ball = _scale(fp, e_dir)
+            spin_sign = 1.0 if spin > 0.0 else (-1.0 if spin < 0.0 else 0.0)
+            free_moment = _sub(_scale(-(mer + mc), roll_dir), _scale(mp * spin_sign, d))
+            on_ball = _add(contact_on_ball, pressure_on_ball)
+            f_sum = _add(f_sum, on_ball)
+            m_sum = _add(m_sum, _add(_cross(arm, contact_on_ball), free_moment))
+            on_groove = _scale(-1.0, on_ball)
+            groove_moment = _sub(_cross(r_point, on_groove), free_moment)
+            for k in range(3):
+                groove_force[i, j, k] = on_groove[k]
+
+            # Power of each mechanism; FP's pair in the inertial frame (reference docstring).
+            rel_centre = _add(
+                _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
+            )
+            active_out[i, j] = active
+            out[F_APPROACH, i, j] = approach
+            out[F_ANGLE, i, j] = angle
+            out[F_NORMAL_FORCE, i, j] = f_n
+            out[F_SEMI_X, i, j] = semi_x
+            out[F_SEMI_Y, i, j] = semi_y
+            out[F_HERTZ_APPROACH, i, j] = h_approach
+            out[F_MAX_PRESSURE, i, j] = p_max
+            out[F_MEAN_PRESSURE, i, j] = p_mean
+            out[F_AREA, i, j] = area
+            out[F_STIFFNESS, i, j] = stiffness
+            out[F_FILM, i, j] = h_tot
+            out[F_TALLIAN, i, j] = tallian
+            out[F_LOAD_SHARE, i, j] = share
+            out[F_SLIP, i, j] = slip if active else 0.0
+            out[F_SPIN, i, j] = spin
+            out[F_ROLL, i, j] = roll
+            out[F_ENTRAINMENT, i, j] = entrain
+            out[F_FRICTION_LUB, i, j] = lub_c
+            out[F_FRICTION_DRY, i, j] = dry_c
+            out[F_SHEAR_STRESS, i, j] = tau
+            out[F_MU_S, i, j] = mu_s
+            out[F_GROOVE_MZ, i, j] = _dot(groove_moment, zhat)
+            out[F_DISS_LUBRICANT, i, j] = lub_c * slip
+            out[F_DISS_DRY, i, j] = dry_c * slip
+            out[F_DISS_ROLLING, i, j] = -fp * (e_sign * rel_centre[0]) + fr * (
+                e_sign * slip_vec[0]
+            )
+            out[F_DISS_HYSTERESIS, i, j] = mer * roll
+            out[F_DISS_CURVATURE, i, j] = mc * roll
+            out[F_DISS_SPIN, i, j] = mp * abs(spin)
+
+        # Sphere balance: gravity, centrifugal force, gyroscopic moment (section 7).
+        orbit_rate = screw_speed + w_ball
+        radius_centre = pitch_radius - n_i
+        inertial_n = -(ball_mass * (orbit_rate * orbit_rate) * radius_centre)
+        force[i, 0] = f_sum[0] + ball_mass * gravity_frenet[i, 0]
+        force[i, 1] = f_sum[1] + ball_mass * gravity_frenet[i, 1] + inertial_n
+        force[i, 2] = f_sum[2] + ball_mass * gravity_frenet[i, 2]
+        omega_abs = _add(omega, _scale(screw_speed, zhat))
+        gyro = _scale(orbit_rate, _cross(zhat, _scale(ball_inertia, omega_abs)))
+        for k in range(3):
+            moment[i, k] = m_sum[k] - gyro[k]
+    return force, moment, groove_force, active_out, out
+
+
+# ----------------------------------------------------------------------------- Python side
+def scene_arrays(scene: ContactScene) -> tuple[float | int, ...]:
+    """Flatten ``scene`` into the scalar parameters of :func:`contacts_kernel`, in its order.
+
+    Geometry at the scene's temperature: r_b, r_s, r_m [m], p/(2 pi) [m], sin l, cos l, cos^2 l,
+    H, L [m], DCA_i, DCA_o [rad]; scene: T [K], screw speed [rad/s], E*, E' [Pa], eta_0T [Pa s],
+    ball mass [kg], inertia [kg m^2], delta_ball/delta [-], R_c [m]; lubricant: law code (int),
+    eta0 [Pa s], T0, T1 [K], eta1 [Pa s], rho0 [kg/m^3], alpha_rho [kg m^-3 K^-1], alpha_pv
+    [1/Pa], beta [1/K], k_h [W/(m K)], tau_e, tau_L [Pa], xi [-], h_R [m]; contact: mu_dry [-],
+    v_r [m/s]; composite roughness [m].
+    """
+    geom = scene.geometry
+    if not isinstance(geom, ScrewGeometry):
+        raise TypeError(f"scene.geometry must be a ScrewGeometry, got {type(geom).__name__}")
+    cfg = scene.config
+    lub = cfg.lubricant
+    helix = geom.helix_angle
+    return (
+        float(geom.ball_radius),
+        float(geom.groove_radius),
+        float(geom.pitch_radius),
+        float(geom.lead / (2.0 * math.pi)),
+        math.sin(helix),
+        math.cos(helix),
+        math.cos(helix) ** 2,
+        float(geom.centre_offset),
+        float(geom.ogival_offset),
+        float(geom.inner_containment_angle),
+        float(geom.outer_containment_angle),
+        float(scene.temperature),
+        float(scene.screw_speed),
+        float(scene.e_star),
+        float(scene.e_reduced),
+        float(scene.viscosity_atm),
+        float(scene.ball_mass),
+        float(scene.ball_inertia),
+        float(scene.deformation_ball_share),
+        float(scene.surface_radius),
+        VISCOSITY_LAWS.index(lub.viscosity_law),
+        float(lub.viscosity_reference),
+        float(lub.reference_temperature),
+        float(lub.second_temperature),
+        float(lub.viscosity_second),
+        float(lub.density_reference),
+        float(lub.density_temperature_coefficient),
+        float(lub.pressure_viscosity_coefficient),
+        float(lub.viscosity_temperature_coefficient),
+        float(lub.thermal_conductivity),
+        float(lub.eyring_stress),
+        float(lub.limiting_shear_stress),
+        float(lub.limiting_shear_pressure_coefficient),
+        float(lub.residual_layer),
+        float(cfg.contact.dry_friction_coefficient),
+        float(cfg.contact.dry_friction_regularisation_speed),
+        float(cfg.composite_roughness),
+    )
+
+
+# One-entry cache: the solver evaluates one scene many times in a row. The scene is frozen, so
+# identity is enough; keeping a reference to it keeps its id from being reused.
+_last_scene: tuple[ContactScene, tuple[float | int, ...]] | None = None
+
+
+def _scene_params(scene: ContactScene) -> tuple[float | int, ...]:
+    global _last_scene
+    cached = _last_scene
+    if cached is not None and cached[0] is scene:
+        return cached[1]
+    params = scene_arrays(scene)
+    _last_scene = (scene, params)
+    return params
+
+
+def _as_input(array: FloatArray) -> FloatArray:
+    return np.ascontiguousarray(array, dtype=np.float64)
+
+
+def evaluate_contacts_compiled(
+    scene: ContactScene,
+    ball_nb: FloatArray,
+    kinematics: FloatArray,
+    nut_offset: FloatArray,
+    gravity_frenet: FloatArray,
+) -> ContactEvaluation:
+    """Drop-in, compiled replacement of ``evaluate_contacts`` (same arguments and result).
+
+    Args:
+        scene: constants of the operating point.
+        ball_nb: (B, 2) ball-centre offsets (n, b) from the ideal helix point [m].
+        kinematics: (B, 4) orbital rate w_B and ball angular velocity (t, n, b) relative to the
+            screw [rad/s].
+        nut_offset: (B,) b-offset e of each ball's nut groove [m].
+        gravity_frenet: (B, 3) gravitational acceleration in Frenet components [m/s^2].
+    """
+    force, moment, groove_force, active, c = contacts_kernel(
+        _as_input(ball_nb),
+        _as_input(kinematics),
+        _as_input(nut_offset),
+        _as_input(gravity_frenet),
+        *_scene_params(scene),
+    )
+    return ContactEvaluation(
+        force=force,
+        moment=moment,
+        groove_force=groove_force,
+        groove_moment_z=c[F_GROOVE_MZ],
+        active=active,
+        approach=c[F_APPROACH],
+        contact_angle=c[F_ANGLE],
+        hertz=HertzContact(
+            semi_axis_x=c[F_SEMI_X],
+            semi_axis_y=c[F_SEMI_Y],
+            approach=c[F_HERTZ_APPROACH],
+            max_pressure=c[F_MAX_PRESSURE],
+            mean_pressure=c[F_MEAN_PRESSURE],
+            area=c[F_AREA],
+            stiffness=c[F_STIFFNESS],
+        ),
+        film_total=c[F_FILM],
+        tallian=c[F_TALLIAN],
+        load_share=c[F_LOAD_SHARE],
+        slip=c[F_SLIP],
+        spin=c[F_SPIN],
+        roll=c[F_ROLL],
+        entrainment=c[F_ENTRAINMENT],
+        friction_lubricant=c[F_FRICTION_LUB],
+        friction_dry=c[F_FRICTION_DRY],
+        shear_stress=c[F_SHEAR_STRESS],
+        sliding_coefficient=c[F_MU_S],
+        dissipation={
+            "lubricant_shear": c[F_DISS_LUBRICANT],
+            "dry_contact": c[F_DISS_DRY],
+            "rolling_resistance": c[F_DISS_ROLLING],
+            "hysteresis": c[F_DISS_HYSTERESIS],
+            "curvature": c[F_DISS_CURVATURE],
+            "spin": c[F_DISS_SPIN],
+        },
+    )
+
+
+# ----------------------------------------------------------------------------- benchmark
+def _median_time(func: Callable[[], object], repeat: int) -> float:
+    """Median wall time of ``func`` over ``repeat`` calls [s]."""
+    times = []
+    for _ in range(repeat):
+        start = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def benchmark(repeat: int = 200) -> str:
+    """Median time per call of the reference and the compiled contact laws (printed, not asserted).
+
+    States: the steady state at 20 C / 100 rpm / 1500 N of the paper's screw (symmetric, B = 2),
+    and the same sphere states on the full set of azimuths of both nuts (B = 50). Compilation
+    and warm-up happen before timing.
+    """
+    from ..models.base import OperatingPoint
+    from ..models.contact_forces import evaluate_contacts, make_scene
+    from ..models.steady import SteadyStateModel
+    from ..params import load_config
+
+    config = load_config()
+    point = OperatingPoint(
+        screw_speed=100 * 2 * math.pi / 60, temperature=293.15, preload=1500.0
+    )
+    model = SteadyStateModel(config, mode="symmetric")
+    solution = model.solve(point)
+    state = solution.state
+    scene = make_scene(config, point.temperature, point.screw_speed)
+    full = model.ball_set("full")
+    lines = [f"contact laws, median of {repeat} calls per case (numba {_numba_version()})"]
+    for label, index, gravity in (
+        ("B=2 ", np.array([0, 1]), solution.balls.gravity),
+        ("B=50", full.nut, full.gravity),
+    ):
+        args = (
+            scene,
+            np.ascontiguousarray(state.ball_nb[index]),
+            np.ascontiguousarray(state.kinematics[index]),
+            np.ascontiguousarray(state.nut_offset[index]),
+            np.ascontiguousarray(gravity),
+        )
+        params = scene_arrays(scene)
+        raw_args = tuple(_as_input(a) for a in args[1:])
+        cases: tuple[tuple[str, Callable[[], object]], ...] = (
+            ("reference evaluate_contacts  ", lambda args=args: evaluate_contacts(*args)),
+            (
+                "evaluate_contacts_compiled   ",
+                lambda args=args: evaluate_contacts_compiled(*args),
+            ),
+            (
+                "contacts_kernel (raw)        ",
+                lambda raw_args=raw_args: contacts_kernel(*raw_args, *params),
+            ),
+        )
+        for name, func in cases:
+            for _ in range(3):  # compile (first call) and warm up
+                func()
+            seconds = _median_time(func, repeat)
+            lines.append(f"  {label} {name} {seconds * 1e6:10.2f} us")
+    return "\n".join(lines)
+
+
+def _numba_version() -> str:
+    import numba
+
+    return str(numba.__version__)

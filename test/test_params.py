@@ -1,0 +1,174 @@
+"""Tests of :mod:`ballscrew_twin.params`: the paper YAML loads; bad files are rejected with a
+:class:`ConfigError` naming the field and the file."""
+
+from __future__ import annotations
+
+import copy
+import math
+from collections.abc import Callable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.params import default_config_path, load_config
+
+PAPER = Path(__file__).resolve().parent.parent / "config" / "paper_screw.yaml"
+RAW: dict[str, Any] = yaml.safe_load(PAPER.read_text(encoding="utf-8"))
+
+
+def write(tmp_path: Path, edit: Callable[[dict[str, Any]], None]) -> Path:
+    data = copy.deepcopy(RAW)
+    edit(data)
+    path = tmp_path / "bad_screw.yaml"
+    path.write_text(yaml.safe_dump(data), encoding="utf-8")
+    return path
+
+
+def rejected(tmp_path: Path, edit: Callable[[dict[str, Any]], None]) -> str:
+    """Message, with the file name cut out (tmp_path holds the test name, hence field names).
+
+    Asserts the file is named; the field checks then run on the rest of the message.
+    """
+    path = write(tmp_path, edit)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    full = str(info.value)
+    assert str(path) in full
+    return full.replace(str(path), "<file>")
+
+
+def test_paper_yaml_loads_with_table_values() -> None:
+    cfg = load_config(PAPER)
+    assert default_config_path().resolve() == PAPER
+    assert cfg.screw.pitch_radius == 8.0e-3
+    assert cfg.screw.ball_radius == 1.5875e-3
+    assert cfg.screw.balls_per_nut == 25 and isinstance(cfg.screw.balls_per_nut, int)
+    assert cfg.materials.ball.young_modulus == 210e9
+    assert cfg.lubricant.viscosity_law == "roelands"
+    # Derived quantities against hand computation (MODEL_NOTES: ball mass 0.1316 g).
+    assert cfg.ball_mass == pytest.approx(0.1316e-3, abs=0.0001e-3)
+    assert cfg.composite_roughness == pytest.approx(math.hypot(41.56e-9, 11.56e-9))
+
+
+def test_unmodified_copy_loads(tmp_path: Path) -> None:
+    """The write/read round trip itself is not what makes the other tests fail."""
+    cfg = load_config(write(tmp_path, lambda d: None))
+    paper = load_config(PAPER)
+    assert cfg != paper  # differs in source only
+    assert replace(cfg, source=paper.source) == paper
+
+
+def _set(section: str, key: str, value: Any) -> Callable[[dict[str, Any]], None]:
+    def edit(d: dict[str, Any]) -> None:
+        d[section][key] = value
+
+    return edit
+
+
+def test_nan_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "lead", float("nan")))
+    assert "lead" in msg
+
+
+def test_negative_radius_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "ball_radius", -1.5875e-3))
+    assert "ball_radius" in msg
+
+
+def test_conformity_half_rejected_naming_field(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "conformity", 0.5))
+    assert "conformity" in msg
+
+
+def test_conformity_half_rejected(tmp_path: Path) -> None:
+    """f = 0.5 means r_s = r_b: no clearance, a centred ball already interferes."""
+    msg = rejected(tmp_path, _set("screw", "conformity", 0.5))
+    assert "screw" in msg
+
+
+def test_pitch_radius_in_mm_rejected_with_hint(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "pitch_radius", 8))
+    assert "pitch_radius" in msg
+    assert "milli" in msg and "SI" in msg
+
+
+def test_modulus_in_gpa_hint(tmp_path: Path) -> None:
+    def edit(d: dict[str, Any]) -> None:
+        d["materials"]["ball"]["young_modulus"] = 210e18
+
+    msg = rejected(tmp_path, edit)
+    assert "young_modulus" in msg
+
+
+def test_unknown_key_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("lubricant", "viscosity_at_40C", 0.03))
+    assert "viscosity_at_40C" in msg
+
+
+def test_unknown_section_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, lambda d: d.update(thermal={"x": 1}))
+    assert "thermal" in msg
+
+
+def test_missing_section_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, lambda d: d.pop("contact"))
+    assert "contact" in msg
+
+
+def test_missing_field_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, lambda d: d["screw"].pop("lead"))
+    assert "lead" in msg
+
+
+def test_string_exponent_without_sign_accepted(tmp_path: Path) -> None:
+    """YAML 1.1 reads 210.0e9 as a string; the loader must accept it as 210e9."""
+    assert isinstance(yaml.safe_load("x: 210.0e9")["x"], str)
+    path = tmp_path / "s.yaml"
+    text = PAPER.read_text(encoding="utf-8").replace(
+        "ball:  {young_modulus: 210.0e9", "ball:  {young_modulus: '210.0e9'"
+    )
+    assert "'210.0e9'" in text
+    path.write_text(text, encoding="utf-8")
+    assert load_config(path).materials.ball.young_modulus == 210e9
+
+
+def test_non_numeric_string_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "lead", "five mm"))
+    assert "lead" in msg
+
+
+def test_bool_rejected_as_number(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "lead", True))
+    assert "lead" in msg
+
+
+def test_bad_viscosity_law_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("lubricant", "viscosity_law", "vogel"))
+    assert "viscosity_law" in msg and "vogel" in msg
+
+
+@pytest.mark.parametrize("law", ["roelands", "exponential", "walther"])
+def test_every_viscosity_law_accepted(tmp_path: Path, law: str) -> None:
+    cfg = load_config(write(tmp_path, _set("lubricant", "viscosity_law", law)))
+    assert cfg.lubricant.viscosity_law == law
+
+
+def test_non_integer_ball_count_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("screw", "balls_per_nut", 25.5))
+    assert "balls_per_nut" in msg
+
+
+def test_viscosity_rising_with_temperature_rejected(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, _set("lubricant", "viscosity_second", 0.2))
+    assert "lubricant" in msg
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    path = tmp_path / "nope.yaml"
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    assert str(path) in str(info.value)
