@@ -12,12 +12,12 @@
 #      it into .venv when msg_defs/ or the requirements changed;
 #   6. `pip install --no-deps -e .` when the packaging files changed.
 #
-# Environment: PYTHON (interpreter to use, default python3), VENV (default <repo>/.venv),
+# Environment: PYTHON (interpreter to use, default python3),
 # JOBS (parallel build jobs, default nproc). Works with no stdin (CI=true) and without root.
 set -euo pipefail
 
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
-VENV="${VENV:-$ROOT/.venv}"
+VENV="$ROOT/.venv"
 PYTHON="${PYTHON:-python3}"
 JOBS="${JOBS:-$(nproc 2>/dev/null || echo 2)}"
 MSG_SRC="$ROOT/msg_defs"
@@ -95,14 +95,22 @@ print("%d.%d" % sys.version_info[:2], int(venv), int(os.path.isfile(inc)), sys.e
 # ----------------------------------------------------------------------------------------------
 # 2. Virtual environment
 # ----------------------------------------------------------------------------------------------
+# True when the venv's scripts point at its current location (a moved or copied venv's
+# scripts keep the old absolute path in their first line). Paths with spaces: not checked.
+venv_in_place() {
+    [[ "$VENV" == *" "* ]] && return 0
+    [[ "$(head -n 1 "$VENV/bin/pip" 2>/dev/null)" == "#!$VENV/bin/python"* ]]
+}
+
 ensure_venv() {
     if [[ -x "$VENV/bin/python" ]]; then
         local vver
-        if vver="$("$VENV/bin/python" -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null)" \
+        if venv_in_place \
+            && vver="$("$VENV/bin/python" -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null)" \
             && [[ "$vver" == "$REQUIRED_PY" ]]; then
             return 0
         fi
-        log "existing $VENV is broken or not Python $REQUIRED_PY: recreating it"
+        log "existing $VENV is broken, was moved, or is not Python $REQUIRED_PY: recreating it"
         rm -rf "$VENV"
     fi
     log "creating virtual environment $VENV"

@@ -20,9 +20,9 @@ Structure:
   there, and the state arrays the reference masks with ``active`` are zero too;
 - :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``.
 
-The kernel returns five arrays: force (B, 3), moment (B, 3), groove force (B, 4, 3), active
-(B, 4) and one stacked (N_FIELDS, B, 4) array of every per-contact quantity, row
-``CONTACT_FIELDS.index(name)`` (module constants ``F_APPROACH`` ... name the rows).
+The kernel returns two arrays: active (B, 4) and one stacked (N_ROWS, B, 4) buffer holding every
+per-contact quantity (row ``CONTACT_FIELDS.index(name)``, constants ``F_APPROACH`` ... name the
+rows), the groove forces and the balls' forces and moments; the wrapper hands out views of it.
 
 The law constants below are copies of those of the physics modules (numba freezes globals into
 the cached machine code, so they are kept here, in the file whose change invalidates the cache);
@@ -35,6 +35,7 @@ import math
 import statistics
 import time
 from collections.abc import Callable
+from functools import partial
 
 import numpy as np
 from numba import njit
@@ -86,6 +87,8 @@ MER_CONSTANT = 7.48e-7
 MER_RADIUS_EXPONENT = 0.33
 MER_LOAD_EXPONENT = 1.33
 MC_CONSTANT = 0.0806
+
+LN_10 = math.log(10.0)
 
 # models/contact_forces.py (D11)
 SPIN_SLIDING_FACTOR = 4.0 / (3.0 * math.pi)
@@ -152,6 +155,12 @@ N_FIELDS = len(CONTACT_FIELDS)
     F_DISS_CURVATURE,
     F_DISS_SPIN,
 ) = range(N_FIELDS)
+# Rows after the per-contact fields: groove force (t, n, b) per contact, then the sphere's force
+# and moment (t, n, b) stored in column 0 of the contact axis (the other columns stay 0).
+R_GROOVE_FORCE = N_FIELDS
+R_FORCE = N_FIELDS + 3
+R_MOMENT = N_FIELDS + 6
+N_ROWS = N_FIELDS + 9
 MECHANISMS = (
     "lubricant_shear",
     "dry_contact",
@@ -169,35 +178,35 @@ IS_NUT = (False, False, True, True)
 
 # ----------------------------------------------------------------------------- 3-vectors
 @njit(inline="always")
-def _cross(a, b):  # type: ignore[no-untyped-def]
+def _cross(a, b):
     """a x b of two 3-tuples, term order of numpy.cross."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
 @njit(inline="always")
-def _dot(a, b):  # type: ignore[no-untyped-def]
+def _dot(a, b):
     """a . b of two 3-tuples."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
 @njit(inline="always")
-def _add(a, b):  # type: ignore[no-untyped-def]
+def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
 @njit(inline="always")
-def _sub(a, b):  # type: ignore[no-untyped-def]
+def _sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
 @njit(inline="always")
-def _scale(s, a):  # type: ignore[no-untyped-def]
+def _scale(s, a):
     """s a, scalar times 3-tuple."""
     return (s * a[0], s * a[1], s * a[2])
 
 
 @njit(inline="always")
-def _unit(v):  # type: ignore[no-untyped-def]
+def _unit(v):
     """(v / max(|v|, 1e-300), |v|): the zero vector maps to itself with norm 0."""
     norm = math.sqrt(_dot(v, v))
     safe = max(norm, 1e-300)
@@ -205,7 +214,7 @@ def _unit(v):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def _helical(rate, zhat, lead_rate, r):  # type: ignore[no-untyped-def]
+def _helical(rate, zhat, lead_rate, r):
     """Velocity of point r [m] in a helical motion of rate ``rate`` [rad/s] about z, lead
     2 pi ``lead_rate`` [m]: rate (z x r + p/(2 pi) z) [m/s] (module docstring of the reference).
     """
@@ -214,13 +223,13 @@ def _helical(rate, zhat, lead_rate, r):  # type: ignore[no-untyped-def]
 
 # ----------------------------------------------------------------------------- Hertz (2.2)
 @njit(inline="always")
-def _horner(x, c):  # type: ignore[no-untyped-def]
+def _horner(x, c):
     """c0 + c1 x + ... + c4 x^4 of a 5-tuple by Horner's rule (hertz._polyval's order)."""
     return (((c[4] * x + c[3]) * x + c[2]) * x + c[1]) * x + c[0]
 
 
 @njit(inline="always")
-def ellipse_shape(r_x, r_y):  # type: ignore[no-untyped-def]
+def ellipse_shape(r_x, r_y):
     """Load-independent ellipse of a contact with reduced radii r_x, r_y [m] (hertz.py).
 
     k = r^p, p = (2/3) N(q)/D(q), q = (log10 r)^2, r = max/min radius (Antoine et al. 2006);
@@ -230,11 +239,12 @@ def ellipse_shape(r_x, r_y):  # type: ignore[no-untyped-def]
         (k [-], K(m) [-], E(m) [-], A + B [1/m]).
     """
     curvature_ratio = max(r_x, r_y) / min(r_x, r_y)
-    lg = math.log10(curvature_ratio)
+    ln_ratio = math.log(curvature_ratio)
+    lg = ln_ratio / LN_10
     q = lg * lg
     exponent = (2.0 / 3.0) * (_horner(q, ANTOINE_NUMERATOR) / _horner(q, ANTOINE_DENOMINATOR))
-    ratio = curvature_ratio**exponent
-    m1 = 1.0 - (1.0 - ratio**-2.0)
+    ratio = math.exp(exponent * ln_ratio)  # r^p
+    m1 = 1.0 - (1.0 - 1.0 / (ratio * ratio))
     log_term = -math.log(m1)
     ell_k = _horner(m1, K_POLY) + log_term * _horner(m1, K_LOG_POLY)
     ell_e = _horner(m1, E_POLY) + log_term * _horner(m1, E_LOG_POLY)
@@ -243,14 +253,14 @@ def ellipse_shape(r_x, r_y):  # type: ignore[no-untyped-def]
 
 
 @njit(inline="always")
-def hertz_stiffness(ratio, ell_k, ell_e, curvature_sum, e_star):  # type: ignore[no-untyped-def]
+def hertz_stiffness(ratio, ell_k, ell_e, curvature_sum, e_star):
     """K_H = eps(k) (4/3) E* sqrt(R_e), eps = pi k sqrt(E) / (2 K^1.5) [N m^-1.5] (Eq. 18)."""
-    eccentricity = math.pi * ratio * math.sqrt(ell_e) / (2.0 * ell_k**1.5)
+    eccentricity = math.pi * ratio * math.sqrt(ell_e) / (2.0 * (ell_k * math.sqrt(ell_k)))
     return eccentricity * (4.0 / 3.0) * e_star / math.sqrt(curvature_sum)
 
 
 @njit(inline="always")
-def hertz_from_approach(delta, ratio, ell_k, ell_e, curvature_sum, e_star):  # type: ignore[no-untyped-def]
+def hertz_from_approach(delta, ratio, ell_k, ell_e, curvature_sum, e_star):
     """Hertz contact at approach delta [m] (Johnson 1985 Eqs. 4.36-4.38, hertz.py).
 
     b = sqrt(delta E / ((A + B) K)), a = k b, p0 = E* (A + B) b / E.
@@ -274,21 +284,21 @@ def hertz_from_approach(delta, ratio, ell_k, ell_e, curvature_sum, e_star):  # t
 
 # ----------------------------------------------------------------------------- lubricant
 @njit(inline="always")
-def density_atmospheric(temperature, rho0, t0, alpha_rho):  # type: ignore[no-untyped-def]
+def density_atmospheric(temperature, rho0, t0, alpha_rho):
     """rho(0, T) = rho0 + alpha_rho (T0 - T) [kg/m^3] (Eq. 25 at p = 0, D3)."""
     compress = (DOWSON_HIGGINSON_A + DOWSON_HIGGINSON_B * 0.0) / (DOWSON_HIGGINSON_A + 0.0)
     return rho0 * compress + alpha_rho * (t0 - temperature)
 
 
 @njit(inline="always")
-def _walther_loglog(eta, temperature, rho0, t0, alpha_rho):  # type: ignore[no-untyped-def]
+def _walther_loglog(eta, temperature, rho0, t0, alpha_rho):
     """log10 log10(nu + 0.7), nu [cSt] of viscosity eta [Pa s] at T [K] (ASTM D341)."""
     nu_cst = eta / density_atmospheric(temperature, rho0, t0, alpha_rho) * 1e6
     return math.log10(math.log10(nu_cst + WALTHER_SHIFT))
 
 
 @njit(inline="always")
-def viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta):  # type: ignore[no-untyped-def]
+def viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta):
     """eta_T(T) [Pa s] at atmospheric pressure; law code 0/1/2 (lubricant.py, D2).
 
     0 Roelands: eta0 exp{(ln eta0 + 9.67)[((T-138)/(T0-138))^-S0 - 1]} (Eq. 24 at p = 0),
@@ -311,7 +321,7 @@ def viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho,
 
 
 @njit(inline="always")
-def viscosity_pressure(eta_t, pressure, z):  # type: ignore[no-untyped-def]
+def viscosity_pressure(eta_t, pressure, z):
     """eta(p, T) = eta_T exp{(ln eta_T + 9.67)[(1 + 5.1e-9 p)^Z - 1]} [Pa s] (Eq. 24, D1).
 
     eta_t: eta_T(T) [Pa s]; pressure: p [Pa] (negative -> 0); z: Roelands index Z [-].
@@ -325,22 +335,41 @@ def viscosity_pressure(eta_t, pressure, z):  # type: ignore[no-untyped-def]
 
 # ----------------------------------------------------------------------------- film (2.3)
 @njit(inline="always")
-def central_film_nondimensional(m, ell, lam):  # type: ignore[no-untyped-def]
-    """Nijenbanning-Venner-Moes central film H_c(M, L, lambda) [-] (Eq. 26a-g, film.py)."""
+def central_film_nondimensional(m, ell, lam):
+    """Nijenbanning-Venner-Moes central film H_c(M, L, lambda) [-] (Eq. 26a-g, film.py).
+
+    H_c = {[H_RI^(3/2) + (H_EI^-4 + h00^-4)^(-3/8)]^(2s/3) + (H_RP^-8 + H_EP^-8)^(-s/8)}^(1/s),
+    h00 = 1.8/lambda, s = 1.5 (1 + exp(-1.2 H_EI/H_RI)). Fractional powers of M, L, lambda and
+    the shape factor share one logarithm each (x^a = exp(a ln x)), integer ones are products.
+    """
+    ln_lam = math.log(lam)
+    ln_m = math.log(m)
+    ln_ell = math.log(ell)
     h00 = 1.8 / lam
-    h_ri = 145.0 * (1.0 + 0.796 * lam ** (14.0 / 15.0)) ** (-15.0 / 7.0) / lam / (m * m)
-    h_rp = 1.29 * (1.0 + 0.691 * lam) ** (-2.0 / 3.0) * ell ** (2.0 / 3.0)
-    shape = 1.0 + 0.006 * math.log(lam) + 0.63 * lam ** (4.0 / 7.0)
-    h_ei = 3.18 * shape ** (-14.0 / 25.0) * lam ** (-1.0 / 15.0) * m ** (-2.0 / 15.0)
-    h_ep = 1.48 * shape ** (-7.0 / 20.0) * lam ** (-1.0 / 24.0) * m ** (-1.0 / 12.0) * ell**0.75
+    h_ri = 145.0 * (1.0 + 0.796 * math.exp((14.0 / 15.0) * ln_lam)) ** (-15.0 / 7.0) / lam / (m * m)
+    h_rp = 1.29 * (1.0 + 0.691 * lam) ** (-2.0 / 3.0) * math.exp((2.0 / 3.0) * ln_ell)
+    shape = 1.0 + 0.006 * ln_lam + 0.63 * math.exp((4.0 / 7.0) * ln_lam)
+    ln_shape = math.log(shape)
+    h_ei = 3.18 * math.exp(
+        (-14.0 / 25.0) * ln_shape + (-1.0 / 15.0) * ln_lam + (-2.0 / 15.0) * ln_m
+    )
+    h_ep = 1.48 * math.exp(
+        (-7.0 / 20.0) * ln_shape + (-1.0 / 24.0) * ln_lam + (-1.0 / 12.0) * ln_m + 0.75 * ln_ell
+    )
     s = 1.5 * (1.0 + math.exp(-1.2 * h_ei / h_ri))
-    isoviscous = (h_ri**1.5 + (h_ei**-4.0 + h00**-4.0) ** -0.375) ** (2.0 * s / 3.0)
-    piezoviscous = (h_rp**-8.0 + h_ep**-8.0) ** (-s / 8.0)
+    inv_ei2 = 1.0 / (h_ei * h_ei)
+    inv_002 = 1.0 / (h00 * h00)
+    inv_rp4 = 1.0 / ((h_rp * h_rp) * (h_rp * h_rp))
+    inv_ep4 = 1.0 / ((h_ep * h_ep) * (h_ep * h_ep))
+    isoviscous = (h_ri * math.sqrt(h_ri) + (inv_ei2 * inv_ei2 + inv_002 * inv_002) ** -0.375) ** (
+        2.0 * s / 3.0
+    )
+    piezoviscous = (inv_rp4 * inv_rp4 + inv_ep4 * inv_ep4) ** (-s / 8.0)
     return (isoviscous + piezoviscous) ** (1.0 / s)
 
 
 @njit(inline="always")
-def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alpha_pv):  # type: ignore[no-untyped-def]
+def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alpha_pv):
     """Isothermal central film h_c = R_x sqrt(eta0 u_s / (E' R_x)) H_c [m] (Eq. 26a, D4).
 
     Moes groups on the sum velocity u_s = 2|u| (Eqs. 27-29): M = F/(E' R_x^2) (E' R_x /
@@ -351,15 +380,16 @@ def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alph
     if not (u_sum > 0.0 and f_n > 0.0):
         return 0.0
     speed_group = e_reduced * r_x / (eta_atm * u_sum)
-    m = f_n / (e_reduced * (r_x * r_x)) * speed_group**0.75
-    ell = alpha_pv * e_reduced * speed_group**-0.25
+    ln_group = math.log(speed_group)
+    m = f_n / (e_reduced * (r_x * r_x)) * math.exp(0.75 * ln_group)
+    ell = alpha_pv * e_reduced * math.exp(-0.25 * ln_group)
     lam = r_x / r_y
     h_nd = central_film_nondimensional(m, ell, lam)
     return r_x * math.sqrt(eta_atm * u_sum / (e_reduced * r_x)) * h_nd
 
 
 @njit(inline="always")
-def thermal_reduction_factor(max_pressure, e_reduced, eta_atm, beta, entrainment, k_h, srr):  # type: ignore[no-untyped-def]
+def thermal_reduction_factor(max_pressure, e_reduced, eta_atm, beta, entrainment, k_h, srr):
     """Gupta inlet-heating factor C in [0, 1] (Eqs. 31-32, D5).
 
     L_th = eta0 beta u^2 / k_h; C = (1 - 13.2 (p_h/E') L_th^0.42) /
@@ -367,16 +397,23 @@ def thermal_reduction_factor(max_pressure, e_reduced, eta_atm, beta, entrainment
     """
     lth = max(eta_atm * beta * (entrainment * entrainment) / k_h, 0.0)
     srr_abs = abs(srr)
-    num = 1.0 - 13.2 * max_pressure / e_reduced * lth**0.42
-    den = 1.0 + 0.213 * (1.0 + 2.23 * srr_abs**0.83) * lth**0.64
+    ln_lth = math.log(lth) if lth > 0.0 else -np.inf
+    srr_pow = math.exp(0.83 * math.log(srr_abs)) if srr_abs > 0.0 else 0.0
+    num = 1.0 - 13.2 * max_pressure / e_reduced * math.exp(0.42 * ln_lth)
+    den = 1.0 + 0.213 * (1.0 + 2.23 * srr_pow) * math.exp(0.64 * ln_lth)
     return min(max(num / den, 0.0), 1.0)
 
 
 @njit(inline="always")
-def load_share_asperities(tallian):  # type: ignore[no-untyped-def]
+def load_share_asperities(tallian):
     """Asperity share f(Lambda) of the normal load, Eq. 37 made monotone (D7) [-]."""
     lam = min(max(tallian, 0.0), LOAD_SHARE_PEAK)
-    g = LOAD_SHARE_A * lam**LOAD_SHARE_EXP_NUM / (1.0 + LOAD_SHARE_B * lam**LOAD_SHARE_EXP_DEN)
+    ln_lam = math.log(lam) if lam > 0.0 else -np.inf
+    g = (
+        LOAD_SHARE_A
+        * math.exp(LOAD_SHARE_EXP_NUM * ln_lam)
+        / (1.0 + LOAD_SHARE_B * math.exp(LOAD_SHARE_EXP_DEN * ln_lam))
+    )
     if LOAD_SHARE_PEAK_VALUE < 1.0:
         g = g / LOAD_SHARE_PEAK_VALUE
     return min(max(1.0 - g, 0.0), 1.0)
@@ -384,7 +421,7 @@ def load_share_asperities(tallian):  # type: ignore[no-untyped-def]
 
 # ----------------------------------------------------------------------------- friction (3)
 @njit(inline="always")
-def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r):  # type: ignore[no-untyped-def]
+def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r):
     """Friction at sliding speed v [m/s], Eqs. 34-36 regularised (D6, D8).
 
     F(v) = [(1 - f) A tau(sqrt(v^2 + v_r^2)) + f mu_dry F_n] tanh(|v| / v_r), with the Eyring
@@ -406,7 +443,7 @@ def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_d
 
 
 @njit(inline="always")
-def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):  # type: ignore[no-untyped-def]
+def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):
     """Hydrodynamic rolling resistance FR [N] (Eqs. 39-41), W = F/(E' R_x^2), U = eta0 u/(E' R_x).
 
     FR = (FR_IVR - FR_EHL) / (1 + 0.0841 lam^0.6029 W U^-0.75) + FR_EHL, zero without load or
@@ -416,42 +453,45 @@ def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):  #
     u = abs(entrainment)
     if not (f > 0.0 and u > 0.0):
         return 0.0
-    lam = r_x / r_y
+    ln_lam = math.log(r_x / r_y)
     load = f / (e_reduced * (r_x * r_x))
-    speed = eta_atm * u / (e_reduced * r_x)
-    scale = e_reduced * (r_x * r_x) * load ** (1.0 / 3.0)
-    fr_ivr = 2.9766 * scale * lam**-0.3316 * speed ** (2.0 / 3.0)
-    fr_ehl = 7.5826 * scale * lam**-0.4055 * speed**0.75
-    blend = 1.0 + 0.0841 * lam**0.6029 * load * speed**-0.75
+    ln_speed = math.log(eta_atm * u / (e_reduced * r_x))
+    scale = e_reduced * (r_x * r_x) * math.exp(math.log(load) / 3.0)
+    fr_ivr = 2.9766 * scale * math.exp(-0.3316 * ln_lam + (2.0 / 3.0) * ln_speed)
+    fr_ehl = 7.5826 * scale * math.exp(-0.4055 * ln_lam + 0.75 * ln_speed)
+    blend = 1.0 + 0.0841 * load * math.exp(0.6029 * ln_lam - 0.75 * ln_speed)
     return (fr_ivr - fr_ehl) / blend + fr_ehl
 
 
 @njit(inline="always")
-def hysteresis_moment(f_n, ball_radius, radius_ratio, mu_s, dry_coefficient):  # type: ignore[no-untyped-def]
+def hysteresis_moment(f_n, ball_radius, radius_ratio, mu_s, dry_coefficient):
     """MER = 7.48e-7 r_b^0.33 F^1.33 [1 - 3.519e-3 (R_y/R_x - 1)^0.8063]_+ mu_s / mu_dry [N m]
     (Eq. 43, D9)."""
     f = max(f_n, 0.0)
-    shape = 1.0 - 3.519e-3 * max(radius_ratio - 1.0, 0.0) ** 0.8063
-    base = MER_CONSTANT * ball_radius**MER_RADIUS_EXPONENT * f**MER_LOAD_EXPONENT
+    excess = max(radius_ratio - 1.0, 0.0)
+    shape = 1.0 - 3.519e-3 * (math.exp(0.8063 * math.log(excess)) if excess > 0.0 else 0.0)
+    load_power = math.exp(MER_LOAD_EXPONENT * math.log(f)) if f > 0.0 else 0.0
+    base = MER_CONSTANT * ball_radius**MER_RADIUS_EXPONENT * load_power
     return base * max(shape, 0.0) * mu_s / dry_coefficient
 
 
 @njit(inline="always")
-def curvature_moment(f_n, semi_axis_y, surface_radius, mu_s):  # type: ignore[no-untyped-def]
+def curvature_moment(f_n, semi_axis_y, surface_radius, mu_s):
     """MC = 0.0806 mu_s F a_y^2 / R_c [N m] (Eq. 44, D10)."""
     return MC_CONSTANT * mu_s * max(f_n, 0.0) * (semi_axis_y * semi_axis_y) / surface_radius
 
 
 @njit(inline="always")
-def spin_moment_factor(ellipticity):  # type: ignore[no-untyped-def]
+def spin_moment_factor(ellipticity):
     """3/8 + (3 pi/16 - 3/8) k^(-0.945 - 0.016 ln k), k = max(ellipticity, 1) (Eq. 45)."""
     k = max(ellipticity, 1.0)
-    return 0.375 + (3.0 * math.pi / 16.0 - 0.375) * k ** (-0.945 - 0.016 * math.log(k))
+    ln_k = math.log(k)
+    return 0.375 + (3.0 * math.pi / 16.0 - 0.375) * math.exp((-0.945 - 0.016 * ln_k) * ln_k)
 
 
 # ----------------------------------------------------------------------------- the kernel
 @njit(cache=True, error_model="numpy")
-def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
+def contacts_kernel(
     ball_nb,
     kinematics,
     nut_offset,
@@ -501,24 +541,22 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
     :func:`scene_arrays` (SI units; ``law`` 0 Roelands, 1 exponential, 2 Walther).
 
     Returns:
-        force (B, 3) [N], moment (B, 3) [N m], groove_force (B, 4, 3) [N], active (B, 4) bool,
-        contact (N_FIELDS, B, 4) per-contact quantities (rows named by CONTACT_FIELDS).
+        active (B, 4) bool, and out (N_ROWS, B, 4) float64: rows 0..N_FIELDS-1 the per-contact
+        quantities named by CONTACT_FIELDS, rows R_GROOVE_FORCE + (0, 1, 2) the force of the ball
+        on each half groove (t, n, b) [N], rows R_FORCE + k and R_MOMENT + k, column 0, the
+        total force [N] and moment [N m] on each ball (one buffer: one allocation and one boxed
+        array instead of four, which is most of the call overhead for small B).
     """
     count = ball_nb.shape[0]
-    force = np.zeros((count, 3))
-    moment = np.zeros((count, 3))
-    groove_force = np.zeros((count, 4, 3))
     active_out = np.zeros((count, 4), dtype=np.bool_)
-    out = np.zeros((N_FIELDS, count, 4))
+    out = np.zeros((N_ROWS, count, 4))
 
     zhat = (sin_helix, 0.0, cos_helix)
-    that = (1.0, 0.0, 0.0)
     w_nut = -screw_speed
     # Per-call lubricant constants (lubricant.py): eta_T(T) for the Eyring law, Roelands Z.
     eta_t = viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta)
     z_index = alpha_pv / (ROELANDS_PRESSURE_SCALE * (math.log(eta0) + ROELANDS_LN_ETA_INF))
     mu_dry_mer = max(mu_dry, 1e-6)
-    mer_base_radius = MER_CONSTANT * ball_radius**MER_RADIUS_EXPONENT
     transverse = -1.0 / groove_radius
     centre_n = (-centre_offset, -centre_offset, centre_offset, centre_offset)
 
@@ -562,12 +600,12 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
                 semi_x, semi_y = major, minor
             else:
                 semi_x, semi_y = minor, major
-            f_n = stiffness * delta**1.5  # Eq. 18, static part
+            f_n = stiffness * (delta * math.sqrt(delta))  # Eq. 18, static part
 
             # Kinematics: helicoid normal (D12), contact point, velocities.
             d_plane = (0.0, d_n, d_b)
             arm_length = ball_radius - ball_share * delta
-            field = _helical(1.0, zhat, lead_rate, _add(r_ball, _scale(arm_length, d_plane)))
+            field = _helical(1.0, zhat, lead_rate, r_ball)  # d . V(F + a d) = d . V(F)
             d, _ = _unit(_sub(d_plane, _scale(_dot(d_plane, field) / _dot(field, field), field)))
             arm = _scale(arm_length, d)
             r_point = _add(r_ball, arm)
@@ -636,9 +674,7 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
                     mu_s = (lub_m + dry_m) / max(f_n, 1e-300)
                 mer = hysteresis_moment(f_n, ball_radius, r_y / r_x, mu_s, mu_dry_mer)
                 mc = curvature_moment(f_n, semi_y, surface_radius, mu_s)
-                fr = rolling_resistance_force(
-                    f_n, entrain, viscosity_atm, r_x, r_y, e_reduced
-                )
+                fr = rolling_resistance_force(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced)
                 fp = 2.0 * fr * r_x / (r_x + ball_radius)  # Eq. 42
             f_centre = lub_c + dry_c
 
@@ -647,7 +683,13 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
             contact_on_ball = _sub(
                 _sub(_scale(-f_n, d), _scale(f_centre, slip_dir)), _scale(fr, e_dir)
             )
-            pressure_on_ball = _scale(fp, e_dir)
+            # FP opposes the centre's translation relative to the groove, taken in the inertial
+            # frame (reference: rel_centre, D13).
+            rel_centre = _add(
+                _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
+            )
+            fp_sign = -1.0 if rel_centre[0] > 0.0 else 1.0
+            pressure_on_ball = (fp * fp_sign, 0.0, 0.0)
             spin_sign = 1.0 if spin > 0.0 else (-1.0 if spin < 0.0 else 0.0)
             free_moment = _sub(_scale(-(mer + mc), roll_dir), _scale(mp * spin_sign, d))
             on_ball = _add(contact_on_ball, pressure_on_ball)
@@ -656,12 +698,8 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
             on_groove = _scale(-1.0, on_ball)
             groove_moment = _sub(_cross(r_point, on_groove), free_moment)
             for k in range(3):
-                groove_force[i, j, k] = on_groove[k]
+                out[R_GROOVE_FORCE + k, i, j] = on_groove[k]
 
-            # Power of each mechanism; FP's pair in the inertial frame (reference docstring).
-            rel_centre = _add(
-                _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
-            )
             active_out[i, j] = active
             out[F_APPROACH, i, j] = approach
             out[F_ANGLE, i, j] = angle
@@ -687,7 +725,7 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
             out[F_GROOVE_MZ, i, j] = _dot(groove_moment, zhat)
             out[F_DISS_LUBRICANT, i, j] = lub_c * slip
             out[F_DISS_DRY, i, j] = dry_c * slip
-            out[F_DISS_ROLLING, i, j] = -fp * (e_sign * rel_centre[0]) + fr * (
+            out[F_DISS_ROLLING, i, j] = -fp * (fp_sign * rel_centre[0]) + fr * (
                 e_sign * slip_vec[0]
             )
             out[F_DISS_HYSTERESIS, i, j] = mer * roll
@@ -695,17 +733,17 @@ def contacts_kernel(  # type: ignore[no-untyped-def]  # noqa: PLR0913
             out[F_DISS_SPIN, i, j] = mp * abs(spin)
 
         # Sphere balance: gravity, centrifugal force, gyroscopic moment (section 7).
+        # Centrifugal force: m Omega^2 times the centre's distance vector from the axis.
         orbit_rate = screw_speed + w_ball
-        radius_centre = pitch_radius - n_i
-        inertial_n = -(ball_mass * (orbit_rate * orbit_rate) * radius_centre)
-        force[i, 0] = f_sum[0] + ball_mass * gravity_frenet[i, 0]
-        force[i, 1] = f_sum[1] + ball_mass * gravity_frenet[i, 1] + inertial_n
-        force[i, 2] = f_sum[2] + ball_mass * gravity_frenet[i, 2]
+        r_perp = _sub(r_ball, _scale(_dot(r_ball, zhat), zhat))
+        inertial = _scale(ball_mass * orbit_rate * orbit_rate, r_perp)
+        for k in range(3):
+            out[R_FORCE + k, i, 0] = f_sum[k] + ball_mass * gravity_frenet[i, k] + inertial[k]
         omega_abs = _add(omega, _scale(screw_speed, zhat))
         gyro = _scale(orbit_rate, _cross(zhat, _scale(ball_inertia, omega_abs)))
         for k in range(3):
-            moment[i, k] = m_sum[k] - gyro[k]
-    return force, moment, groove_force, active_out, out
+            out[R_MOMENT + k, i, 0] = m_sum[k] - gyro[k]
+    return active_out, out
 
 
 # ----------------------------------------------------------------------------- Python side
@@ -802,7 +840,7 @@ def evaluate_contacts_compiled(
         nut_offset: (B,) b-offset e of each ball's nut groove [m].
         gravity_frenet: (B, 3) gravitational acceleration in Frenet components [m/s^2].
     """
-    force, moment, groove_force, active, c = contacts_kernel(
+    active, c = contacts_kernel(
         _as_input(ball_nb),
         _as_input(kinematics),
         _as_input(nut_offset),
@@ -810,9 +848,9 @@ def evaluate_contacts_compiled(
         *_scene_params(scene),
     )
     return ContactEvaluation(
-        force=force,
-        moment=moment,
-        groove_force=groove_force,
+        force=c[R_FORCE:R_MOMENT, :, 0].T,
+        moment=c[R_MOMENT:N_ROWS, :, 0].T,
+        groove_force=c[R_GROOVE_FORCE:R_FORCE].transpose(1, 2, 0),
         groove_moment_z=c[F_GROOVE_MZ],
         active=active,
         approach=c[F_APPROACH],
@@ -872,9 +910,7 @@ def benchmark(repeat: int = 200) -> str:
     from ..params import load_config
 
     config = load_config()
-    point = OperatingPoint(
-        screw_speed=100 * 2 * math.pi / 60, temperature=293.15, preload=1500.0
-    )
+    point = OperatingPoint(screw_speed=100 * 2 * math.pi / 60, temperature=293.15, preload=1500.0)
     model = SteadyStateModel(config, mode="symmetric")
     solution = model.solve(point)
     state = solution.state
@@ -895,15 +931,9 @@ def benchmark(repeat: int = 200) -> str:
         params = scene_arrays(scene)
         raw_args = tuple(_as_input(a) for a in args[1:])
         cases: tuple[tuple[str, Callable[[], object]], ...] = (
-            ("reference evaluate_contacts  ", lambda args=args: evaluate_contacts(*args)),
-            (
-                "evaluate_contacts_compiled   ",
-                lambda args=args: evaluate_contacts_compiled(*args),
-            ),
-            (
-                "contacts_kernel (raw)        ",
-                lambda raw_args=raw_args: contacts_kernel(*raw_args, *params),
-            ),
+            ("reference evaluate_contacts  ", partial(evaluate_contacts, *args)),
+            ("evaluate_contacts_compiled   ", partial(evaluate_contacts_compiled, *args)),
+            ("contacts_kernel (raw)        ", partial(contacts_kernel, *raw_args, *params)),
         )
         for name, func in cases:
             for _ in range(3):  # compile (first call) and warm up

@@ -177,7 +177,6 @@ def evaluate_contacts(
     lead_rate = geom.lead / (2.0 * math.pi)
     zhat = geometry.axis_direction(geom.helix_angle)
     that = np.array([1.0, 0.0, 0.0])
-    nhat = np.array([0.0, 1.0, 0.0])
 
     centres = geometry.half_groove_centres(geom, nut_offset)
     approach, normal_nb, angle = geometry.contact_geometry(ball_nb, centres, r_b, r_s)
@@ -200,10 +199,11 @@ def evaluate_contacts(
     )  # ball centre from the axis, (B, 3)
     arm_length = r_b - scene.deformation_ball_share * delta
     # Both grooves are helicoids of the same lead, tangent to the helical field V(r) at every
-    # point: the true normal at the contact point is the normal-plane one with V projected out
-    # (a t-component of order (offset / r_m) sin l). Without it the normal force would do
+    # point: the true normal d at the contact point F + a d must satisfy d . V(F + a d) = 0.
+    # Since d . (z x d) = 0, that is d . V(F) = 0: the normal-plane normal with V(F) projected
+    # out (a t-component of order (offset / r_m) sin l). Without it the normal force would do
     # spurious work and the power balance would not close (docs/model.md, D12).
-    field = helical(np.ones(zeros.shape), r_ball[:, None, :] + arm_length[..., None] * d_plane)
+    field = helical(np.ones(zeros.shape), np.broadcast_to(r_ball[:, None, :], d_plane.shape))
     d = d_plane - (_dot(d_plane, field) / _dot(field, field))[..., None] * field
     d, _ = _unit(d)
     arm = arm_length[..., None] * d  # F -> contact point
@@ -276,8 +276,17 @@ def evaluate_contacts(
     fp = rolling.pressure_rolling_force(fr, radius_x, r_b)
 
     # Forces and moments on the ball (Eqs. 46-47) and their reactions on the grooves (48-49).
+    # FP opposes the translation of the ball centre relative to the groove (paper 2.4). That
+    # relative velocity couples two points (centre, groove at P), so it is taken in the inertial
+    # frame, where the screw frame's rotation adds screw_speed z x (r_F - r_P) (D13).
+    rel_centre = (
+        v_centre[:, None, :]
+        - v_groove
+        + scene.screw_speed * _cross(np.broadcast_to(zhat, arm.shape), -arm)
+    )
+    fp_dir = np.where(_dot(rel_centre, that) > 0.0, -1.0, 1.0)[..., None] * that
     contact_on_ball = -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
-    pressure_on_ball = fp[..., None] * e_dir  # acts at the ball centre
+    pressure_on_ball = fp[..., None] * fp_dir  # acts at the ball centre
     free_moment = -(mer + mc)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
     moment_contacts = _cross(arm, contact_on_ball) + free_moment
     groove_force = -(contact_on_ball + pressure_on_ball)
@@ -285,8 +294,9 @@ def evaluate_contacts(
     groove_moment_z = _dot(groove_moment, zhat)
 
     orbit_rate = scene.screw_speed + w_ball  # absolute rate of the ball's Frenet frame
-    radius_centre = r_m - ball_nb[:, 0]
-    inertial = (scene.ball_mass * orbit_rate**2 * radius_centre)[:, None] * (-nhat)
+    # Centrifugal force on the orbiting centre: m Omega^2 times its distance from the axis.
+    r_perp = r_ball - _dot(r_ball, zhat)[:, None] * zhat
+    inertial = (scene.ball_mass * orbit_rate**2)[:, None] * r_perp
     force = (contact_on_ball + pressure_on_ball).sum(axis=1) + scene.ball_mass * gravity_frenet
     force = force + inertial
     omega_abs = omega + scene.screw_speed * zhat
@@ -295,18 +305,13 @@ def evaluate_contacts(
     )
     moment = moment_contacts.sum(axis=1) - gyro
 
-    # Dissipated power of each mechanism (>= 0 by construction of every law). The FP pair acts
-    # at two different points (ball centre, groove at P): its power is taken in the inertial
-    # frame, where the screw frame's rotation adds screw_speed z x (r_F - r_P).
-    rel_centre = (
-        v_centre[:, None, :]
-        - v_groove
-        + scene.screw_speed * _cross(np.broadcast_to(zhat, arm.shape), -arm)
-    )
+    # Dissipated power of each mechanism. Friction, MER, MC and MP dissipate by construction;
+    # FP opposes the centre's motion relative to the groove, so it does too. The FR pair (on
+    # ball and groove at the same point) returns power only when the ball overruns the groove.
     dissipation = {
         "lubricant_shear": lub_c * slip,
         "dry_contact": dry_c * slip,
-        "rolling_resistance": -fp * _dot(e_dir, rel_centre) + fr * _dot(e_dir, slip_vec),
+        "rolling_resistance": -fp * _dot(fp_dir, rel_centre) + fr * _dot(e_dir, slip_vec),
         "hysteresis": mer * roll,
         "curvature": mc * roll,
         "spin": mp * np.abs(spin),

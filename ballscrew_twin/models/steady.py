@@ -32,11 +32,18 @@ from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, 
 
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
+Backend = Literal["compiled", "reference"]
 
 NEWTON_MAX_ITER = 80
 LINE_SEARCH_STEPS = 12
 MIN_STEP = 1e-3  # shortest line-search step, taken even without decrease
 DIAGONAL_SHIFT = 1e-12  # relative regularisation of the sphere blocks
+#: speed fractions of a cold start: straight to the speed, then ever finer continuation
+CONTINUATION_SCHEDULES = (
+    (1.0,),
+    (0.05, 0.2, 0.5, 1.0),
+    (0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0),
+)
 POSITION_STEP = 1e-10  # m, finite-difference step of the ball and nut offsets
 KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to the screw speed
 MECHANISMS = (
@@ -91,11 +98,27 @@ class SteadyStateModel:
         mode: ``"symmetric"`` (one sphere per nut), ``"full"`` (every sphere) or ``"auto"``
             (symmetric whenever the spheres of a nut are equivalent: vertical screw).
         tolerance: convergence limit of the scaled residual (force / load scale) [-].
+        backend: ``"compiled"`` (numba kernel, default) or ``"reference"`` (the readable numpy
+            implementation it is tested against); both give the same solution.
     """
 
-    def __init__(self, config: TwinConfig, mode: Mode = "auto", tolerance: float = 1e-10) -> None:
+    def __init__(
+        self,
+        config: TwinConfig,
+        mode: Mode = "auto",
+        tolerance: float = 1e-10,
+        backend: Backend = "compiled",
+    ) -> None:
         if mode not in ("auto", "symmetric", "full"):
             raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
+        if backend not in ("compiled", "reference"):
+            raise ValueError(f"backend = {backend!r} must be compiled or reference")
+        self.backend = backend
+        self._evaluate = evaluate_contacts
+        if backend == "compiled":
+            from ..kernels.contacts import evaluate_contacts_compiled
+
+            self._evaluate = evaluate_contacts_compiled
         if not 0.0 < tolerance < 1e-2:
             raise ValueError(f"tolerance = {tolerance!r} must be in (0, 1e-2)")
         self.config = config
@@ -205,7 +228,10 @@ class SteadyStateModel:
         """Scaled residuals: (B, 6) sphere balance, (B,) each sphere's axial push on its nut
         (times the spheres it stands for) and (2,) nut axial balance."""
         e_ball = state.nut_offset[balls.nut]
-        ev = evaluate_contacts(scene, state.ball_nb, state.kinematics, e_ball, balls.gravity)
+        # Trial states of the line search may be absurd (huge pressure): their non-finite
+        # residuals are rejected by the solver, so numpy's overflow warnings are not news.
+        with np.errstate(over="ignore", invalid="ignore"):
+            ev = self._evaluate(scene, state.ball_nb, state.kinematics, e_ball, balls.gravity)
         force_scale, moment_scale = self._scales(scene, loads)
         # Rows ordered like the unknowns: (F_n, F_b) ~ (n, b) offsets, F_t ~ orbital rate.
         ball_res = np.concatenate(
@@ -259,16 +285,19 @@ class SteadyStateModel:
             # Finite-difference Jacobian: spheres are independent given their nut's offset.
             jac = np.zeros((count, 6, 6))
             jac_nut_z = np.zeros((count, 6))
+            # Central differences: contact switching makes one-sided slopes unreliable.
             for j in range(6):
-                zp = z.copy()
+                zp, zm = z.copy(), z.copy()
                 zp[:, j] += steps[j]
-                rb, ax, _, _ = self._residual(scene, balls, unpack(zp, e), loads)
-                jac[:, :, j] = (rb - ball_res) / steps[j]
-                jac_nut_z[:, j] = (ax - axial) / steps[j]  # sphere i's push on its own nut
-            ep = e + POSITION_STEP
-            rb_e, _, rn_e, _ = self._residual(scene, balls, unpack(z, ep), loads)
-            jac_z_e = (rb_e - ball_res) / POSITION_STEP  # (B, 6)
-            jac_e_e = (rn_e - nut_res) / POSITION_STEP  # (2,)
+                zm[:, j] -= steps[j]
+                rb_p, ax_p, _, _ = self._residual(scene, balls, unpack(zp, e), loads)
+                rb_m, ax_m, _, _ = self._residual(scene, balls, unpack(zm, e), loads)
+                jac[:, :, j] = (rb_p - rb_m) / (2.0 * steps[j])
+                jac_nut_z[:, j] = (ax_p - ax_m) / (2.0 * steps[j])  # sphere i on its own nut
+            rb_p, _, rn_p, _ = self._residual(scene, balls, unpack(z, e + POSITION_STEP), loads)
+            rb_m, _, rn_m, _ = self._residual(scene, balls, unpack(z, e - POSITION_STEP), loads)
+            jac_z_e = (rb_p - rb_m) / (2.0 * POSITION_STEP)  # (B, 6)
+            jac_e_e = (rn_p - rn_m) / (2.0 * POSITION_STEP)  # (2,)
             # Frozen unknowns: identity rows/columns.
             frozen = ~mask
             jac = np.where(frozen[:, :, None] | frozen[:, None, :], 0.0, jac)
@@ -368,8 +397,8 @@ class SteadyStateModel:
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         """Static equilibrium first (robust: smooth Hertz only), then the speed.
 
-        If the direct step to full speed fails, the speed is raised in stages from 5 %
-        (continuation), each stage warm-started from the previous one.
+        If the direct step to full speed fails, the speed is raised in stages (continuation,
+        :data:`CONTINUATION_SCHEDULES`), each stage warm-started from the previous one.
         """
         static_scene = make_scene(self.config, op.temperature, 0.0)
         state = self._initial_state(static_scene, balls, loads)
@@ -377,7 +406,7 @@ class SteadyStateModel:
         if op.screw_speed == 0.0:
             return state, ev, total, residual
         last_error: SolverError | None = None
-        for attempt in ([1.0], [0.05, 0.2, 0.5, 1.0]):
+        for attempt in CONTINUATION_SCHEDULES:
             current = state
             try:
                 for fraction in attempt:

@@ -25,7 +25,7 @@ import argparse
 import csv
 import math
 import time
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -194,20 +194,92 @@ def _solve(
     raise error
 
 
-def _point_values(
-    solution: SteadySolution | None, error: SolverError | None
-) -> dict[str, float | str]:
-    """Status, drag torque [N m] and master-nut contact quantities of one point (NaN if failed)."""
-    if solution is None or solution.output.contacts is None:
-        values: dict[str, float | str] = {"status": str(error), "drag_torque_Nm": math.nan}
-        for side in SIDES:
-            values[f"{side}_half_groove"] = ""
-            values.update({f"{side}_{q}": math.nan for q in CONTACT_QUANTITIES})
-        return values
-    values = {"status": "ok", "drag_torque_Nm": solution.output.drag_torque}
+def _failed_values(error: SolverError) -> dict[str, float | str]:
+    """Status (the solver's message) and NaN for every quantity of a point that failed."""
+    values: dict[str, float | str] = {"status": str(error), "drag_torque_Nm": math.nan}
     for side in SIDES:
-        values.update(contact_side(solution.output.contacts, MASTER_NUT, side))
+        values[f"{side}_half_groove"] = ""
+        values.update({f"{side}_{q}": math.nan for q in CONTACT_QUANTITIES})
     return values
+
+
+def _solved_values(solution: SteadySolution) -> dict[str, float | str]:
+    """Status, drag torque [N m] and the master nut's contact quantities (SI) of a point."""
+    contacts = solution.output.contacts
+    assert contacts is not None, "the steady model resolves every contact"
+    values: dict[str, float | str] = {"status": "ok", "drag_torque_Nm": solution.output.drag_torque}
+    for side in SIDES:
+        values.update(contact_side(contacts, MASTER_NUT, side))
+    return values
+
+
+#: (temperature [deg C], speed [rpm], preload [N]) of one operating point.
+PointKey = tuple[float, float, float]
+
+
+def _warm_starts(
+    states: dict[PointKey, SteadyState],
+    curve: tuple[float, float],
+    previous_preload: float | None,
+    preload: float,
+) -> list[SteadyState]:
+    """Solved states to start ``preload`` [N] of ``curve`` (temperature [deg C], speed [rpm])
+    from: the previous preload of the curve, then the same preload at the nearest lower speed."""
+    temperature, speed = curve
+    starts = []
+    if previous_preload is not None and (temperature, speed, previous_preload) in states:
+        starts.append(states[(temperature, speed, previous_preload)])
+    lower = [s for t, s, p in states if t == temperature and s < speed and p == preload]
+    if lower:
+        starts.append(states[(temperature, max(lower), preload)])
+    return starts
+
+
+def solve_curves(
+    config: TwinConfig,
+    curves: Mapping[tuple[float, float], Sequence[float]],
+    progress: bool = False,
+) -> dict[PointKey, SteadySolution | SolverError]:
+    """Solve the steady state (symmetric mode) along preload curves.
+
+    Args:
+        config: parameter set of the screw.
+        curves: (temperature [deg C], speed [rpm]) -> preloads [N], increasing; solved in this
+            order, so put the lower speeds of a temperature first.
+        progress: show a tqdm progress bar over all points (stderr).
+
+    Returns:
+        (temperature [deg C], speed [rpm], preload [N]) -> the solution, or the
+        :class:`SolverError` of a point that did not converge.
+    """
+    model = SteadyStateModel(config, mode="symmetric")
+    states: dict[PointKey, SteadyState] = {}
+    result: dict[PointKey, SteadySolution | SolverError] = {}
+    total = sum(len(preloads) for preloads in curves.values())
+    bar = tqdm(total=total, desc="steady sweep", unit="point", disable=not progress)
+    # Newton trial steps that overshoot overflow inside the contact laws before the line search
+    # rejects them; such warnings say nothing about the converged points.
+    with bar, np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for (temperature, speed), preloads in curves.items():
+            previous: float | None = None
+            for preload in preloads:
+                key = (temperature, speed, preload)
+                starts = _warm_starts(states, (temperature, speed), previous, preload)
+                op = OperatingPoint(
+                    screw_speed=speed * RPM,
+                    temperature=temperature + CELSIUS_ZERO,
+                    preload=preload,
+                )
+                try:
+                    solution = _solve(model, op, starts)
+                except SolverError as err:
+                    result[key] = err
+                else:
+                    result[key] = solution
+                    states[key] = solution.state
+                previous = preload
+                bar.update()
+    return result
 
 
 def paper_sweep(config: TwinConfig, quick: bool) -> list[Row]:
@@ -222,41 +294,10 @@ def paper_sweep(config: TwinConfig, quick: bool) -> list[Row]:
         ``status`` is ``"ok"`` or the :class:`SolverError` message; failed points hold NaN.
     """
     grid = paper_grid(quick)
-    model = SteadyStateModel(config, mode="symmetric")
     eq51 = CatalogModel(config, mu_lit=MU_LIT, formula="literature")
     eq52 = CatalogModel(config, mu_lit=MU_LIT, formula="zhou")
     curves = grid.curves()
-    states: dict[tuple[float, float, float], SteadyState] = {}
-    points: dict[tuple[float, float, float], dict[str, float | str]] = {}
-    bar = tqdm(total=len(curves) * len(grid.preloads), desc="paper sweep", unit="point")
-    # Newton trial steps that overshoot overflow inside the contact laws before the line search
-    # rejects them; such warnings say nothing about the converged points.
-    with bar, np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        for temperature, speed in curves:
-            lower_speeds = [s for t, s in curves if t == temperature and s < speed]
-            for k, preload in enumerate(grid.preloads):
-                starts = [
-                    states[key]
-                    for key in [
-                        (temperature, speed, grid.preloads[k - 1]) if k > 0 else None,
-                        *((temperature, s, preload) for s in reversed(lower_speeds)),
-                    ]
-                    if key in states
-                ][:2]
-                op = OperatingPoint(
-                    screw_speed=speed * RPM,
-                    temperature=temperature + CELSIUS_ZERO,
-                    preload=preload,
-                )
-                key = (temperature, speed, preload)
-                try:
-                    solution = _solve(model, op, starts)
-                except SolverError as err:
-                    points[key] = _point_values(None, err)
-                else:
-                    states[key] = solution.state
-                    points[key] = _point_values(solution, None)
-                bar.update()
+    solved = solve_curves(config, {curve: grid.preloads for curve in curves}, progress=True)
     rows: list[Row] = []
     for figure in FIGURES:
         for temperature, speed in curves:
@@ -273,7 +314,11 @@ def paper_sweep(config: TwinConfig, quick: bool) -> list[Row]:
                     "eq51_drag_torque_Nm": eq51.torque_at_preload(preload),
                     "eq52_drag_torque_Nm": eq52.torque_at_preload(preload),
                 }
-                row.update(points[(temperature, speed, preload)])
+                point = solved[(temperature, speed, preload)]
+                if isinstance(point, SolverError):
+                    row.update(_failed_values(point))
+                else:
+                    row.update(_solved_values(point))
                 rows.append({name: row[name] for name in COLUMNS})
     return rows
 
@@ -290,7 +335,7 @@ def write_csv(rows: Iterable[Row], path: Path) -> Path:
 # ---------------------------------------------------------------------------------- plotting
 
 TEMPERATURE_COLOURS = {-20.0: "tab:blue", 20.0: "tab:green", 60.0: "tab:red"}
-SIDE_STYLES: dict[Side, str] = {"screw": "-", "nut": "--"}
+SIDE_STYLES: dict[Side, Literal["-", "--"]] = {"screw": "-", "nut": "--"}
 
 
 def _curve(
@@ -333,28 +378,16 @@ def _plot_fig09(rows: Sequence[Row], path: Path) -> Path:
             color=TEMPERATURE_COLOURS.get(temperature),
             label=f"steady model, {temperature:g} °C",
         )
+    # The catalogue formulas know neither temperature nor speed: one curve's rows carry them.
     first = _distinct(rows, "fig09", "temperature_C")[0]
-    for column, style, label in (
-        ("eq51_drag_torque_Nm", "k-", "Eq. 51 (catalogue)"),
-        ("eq52_drag_torque_Nm", "k--", "Eq. 52 (Zhou et al.)"),
+    catalogue = [r for r in rows if r["figure"] == "fig09" and r["temperature_C"] == first]
+    preloads = [float(r["preload_N"]) for r in catalogue]
+    for column, style, width, label in (
+        ("eq51_drag_torque_Nm", "k-", 2.5, "Eq. 51 (catalogue)"),
+        ("eq52_drag_torque_Nm", "k--", 1.8, "Eq. 52 (Zhou et al.)"),
     ):
-        x = [
-            float(r["preload_N"])
-            for r in rows
-            if r["figure"] == "fig09" and r["temperature_C"] == first
-        ]
-        y = [
-            float(r[column]) * 1e3
-            for r in rows
-            if r["figure"] == "fig09" and r["temperature_C"] == first
-        ]
-        ax.plot(
-            x,
-            y,
-            style,
-            linewidth=2.5 if style == "k-" else 1.8,
-            label=f"{label}, μ_lit = {MU_LIT:g}",
-        )
+        torque = [float(r[column]) * 1e3 for r in catalogue]
+        ax.plot(preloads, torque, style, linewidth=width, label=f"{label}, μ_lit = {MU_LIT:g}")
     ax.set_title(f"Fig. 9: no-load drag torque at {speed:g} rpm")
     ax.set_xlabel("preload F_pr [N]")
     ax.set_ylabel("drag torque [N mm]")
@@ -401,6 +434,7 @@ def _plot_fig10(rows: Sequence[Row], path: Path) -> Path:
                     color=colour,
                 )
     force_ax.set_yscale("log")
+    axes[4].set_yscale("log")  # zero preload leaves the -20 C film far thicker
     force_ax.set_title("(a) normal (○) and friction (□) force")
     force_ax.set_ylabel("force [N]")
     for ax, (title, _, _, label) in zip(axes[1:], FIG10_PANELS, strict=True):
@@ -467,7 +501,6 @@ def _plot_fig11(rows: Sequence[Row], path: Path) -> Path:
         drag_ax.set_ylabel("drag torque [N mm]")
         mu_ax.set_title(f"(b) friction coefficient F_t/F_n, master nut, {temperature:g} °C")
         mu_ax.set_ylabel("F_t / F_n [-]")
-        mu_ax.set_yscale("log")
         angle_ax.set_title(f"(c) contact angle, master nut, {temperature:g} °C")
         angle_ax.set_ylabel("contact angle [deg]")
     for ax in grid.flat:

@@ -55,7 +55,7 @@ def test_power_balance_closes(config, rpm: float, celsius: float, preload: float
     sol = SteadyStateModel(config).solve(op(rpm, celsius, preload))
     drag = sol.output.drag_torque
     assert drag > 0.0
-    assert sol.screw_torque_direct - sol.gravity_torque == pytest.approx(drag, rel=1e-3)
+    assert sol.screw_torque_direct - sol.gravity_torque == pytest.approx(drag, rel=1e-7)
     # Every mechanism dissipates, none generates.
     for name in (
         "lubricant_shear",
@@ -120,3 +120,12 @@ def test_catalogue_is_an_order_of_magnitude_reference(config) -> None:  # type: 
     steady = SteadyStateModel(config).evaluate(op(100, 20, 3000)).drag_torque
     zhou = CatalogModel(config).torque_at_preload(3000)
     assert zhou / 10 < steady < zhou * 10
+
+
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+def test_compiled_and_reference_backends_agree(config, mode: str) -> None:  # type: ignore[no-untyped-def]
+    point = op(1000, -20, 800)
+    ref = SteadyStateModel(config, mode=mode, backend="reference").solve(point)  # type: ignore[arg-type]
+    fast = SteadyStateModel(config, mode=mode, backend="compiled").solve(point)  # type: ignore[arg-type]
+    assert fast.output.drag_torque == pytest.approx(ref.output.drag_torque, rel=1e-8)
+    np.testing.assert_allclose(fast.state.kinematics, ref.state.kinematics, rtol=1e-7)

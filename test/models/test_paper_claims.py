@@ -1,0 +1,453 @@
+"""The paper's qualitative claims (MODEL_NOTES section 5) checked on the steady-state model.
+
+One test per claim the steady model can address (the time protocol of the paper's simulations
+is not one). Each operating point is solved once per module, in symmetric mode, every curve in
+increasing preload so that each solve warm-starts from the previous one. Quantities of one
+contact come from :func:`ballscrew_twin.report.paper.contact_side` (the loaded half groove of one
+sphere of the given nut). Claims the model does not reproduce are marked ``xfail(strict=True)``
+with the measured numbers; their checks are the claim as stated, not weakened to pass.
+"""
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.errors import SolverError
+from ballscrew_twin.models.base import FloatArray, TwinOutput
+from ballscrew_twin.models.catalog import CatalogModel
+from ballscrew_twin.params import TwinConfig, load_config
+from ballscrew_twin.report.paper import MU_LIT, Side, contact_side, solve_curves
+
+MASTER, SLAVE = 0, 1
+PRELOADS = (100.0, 500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3000.0)  # N, Figs. 9-10 at 100 rpm
+LINEAR_RANGE = (500.0, 3000.0)  # N, where linearity and the Eq. 52 match are judged
+#: (temperature [deg C], speed [rpm]) -> preloads [N], solved in this order. Zero preload (the
+#: spheres carry only the nut weights) serves the centrifugal claim of Fig. 11c only.
+CURVES: dict[tuple[float, float], tuple[float, ...]] = {
+    **{(t, 100.0): (0.0, *PRELOADS) for t in (-20.0, 20.0, 60.0)},
+    **{(t, 2000.0): (500.0, 1500.0) for t in (-20.0, 20.0, 60.0)},
+    **{(t, 4000.0): (0.0, 100.0, 3000.0) for t in (-20.0, 20.0)},
+}
+Solved = dict[tuple[float, float, float], TwinOutput]
+#: drag(celsius, rpm, preload) -> drag torque [N m]
+Drag = Callable[[float, float, float], float]
+#: contact(celsius, rpm, preload, side, quantity) -> quantity of one nut's contact (SI)
+Contact = Callable[[float, float, float, Side, str], float]
+
+
+@pytest.fixture(scope="module")
+def config() -> TwinConfig:
+    return load_config()
+
+
+@pytest.fixture(scope="module")
+def solved(config: TwinConfig) -> Solved:
+    """Every operating point of :data:`CURVES`, keyed (temperature C, speed rpm, preload N),
+    solved with the report's warm-start sweep; a point that does not converge fails here."""
+    result: Solved = {}
+    for key, solution in solve_curves(config, CURVES).items():
+        if isinstance(solution, SolverError):
+            raise AssertionError(f"{key}: {solution}")
+        result[key] = solution.output
+    return result
+
+
+@pytest.fixture(scope="module")
+def drag(solved: Solved) -> Drag:
+    """Drag torque [N m] at (temperature C, speed rpm, preload N)."""
+    return lambda celsius, rpm, preload: solved[(celsius, rpm, preload)].drag_torque
+
+
+def nut_contact(solved: Solved, nut: int) -> Contact:
+    """Quantities (:data:`ballscrew_twin.report.paper.CONTACT_QUANTITIES`) of ``nut``'s contacts."""
+
+    def value(celsius: float, rpm: float, preload: float, side: Side, name: str) -> float:
+        contacts = solved[(celsius, rpm, preload)].contacts
+        assert contacts is not None
+        return float(contact_side(contacts, nut, side)[f"{side}_{name}"])
+
+    return value
+
+
+@pytest.fixture(scope="module")
+def master(solved: Solved) -> Contact:
+    return nut_contact(solved, MASTER)
+
+
+@pytest.fixture(scope="module")
+def slave(solved: Solved) -> Contact:
+    return nut_contact(solved, SLAVE)
+
+
+def series(
+    func: Callable[..., float],
+    celsius: float,
+    rpm: float,
+    *rest: str,
+    preloads: tuple[float, ...] = PRELOADS,
+) -> FloatArray:
+    """``func(celsius, rpm, preload, *rest)`` over ``preloads``."""
+    return np.array([func(celsius, rpm, p, *rest) for p in preloads], dtype=np.float64)
+
+
+def fmt(values: FloatArray, scale: float = 1.0) -> str:
+    """Values for an assertion message."""
+    return " ".join(f"{v * scale:.4g}" for v in values)
+
+
+# ------------------------------------------------------------------ drag torque vs preload
+
+
+@pytest.mark.parametrize("celsius", [-20.0, 20.0, 60.0])
+def test_drag_rises_linearly_with_preload(drag: Drag, celsius: float) -> None:
+    """Fig. 9: at 100 rpm the drag torque rises with preload, linearly (R^2 > 0.95, 500-3000 N)."""
+    torque = series(drag, celsius, 100.0)
+    assert np.all(np.diff(torque) > 0.0), fmt(torque, 1e3)
+    inside = [LINEAR_RANGE[0] <= p <= LINEAR_RANGE[1] for p in PRELOADS]
+    x, y = np.array(PRELOADS)[inside], torque[inside]
+    residual = y - np.polyval(np.polyfit(x, y, 1), x)
+    r_squared = 1.0 - np.sum(residual**2) / np.sum((y - y.mean()) ** 2)
+    assert r_squared > 0.95
+
+
+@pytest.mark.parametrize("celsius", [20.0, 60.0])
+def test_drag_matches_eq52_at_20_and_60_c(config: TwinConfig, drag: Drag, celsius: float) -> None:
+    """Fig. 9: at 100 rpm, 20 and 60 C the drag matches Eq. 52 (mu_lit = 0.002).
+
+    "Match" read off a plot: within 25 % at every preload of 500-3000 N.
+    """
+    zhou = CatalogModel(config, mu_lit=MU_LIT, formula="zhou")
+    preloads = tuple(p for p in PRELOADS if LINEAR_RANGE[0] <= p <= LINEAR_RANGE[1])
+    ratio = series(drag, celsius, 100.0, preloads=preloads) / [
+        zhou.torque_at_preload(p) for p in preloads
+    ]
+    assert np.all(np.abs(ratio - 1.0) < 0.25), fmt(ratio)
+
+
+def test_drag_higher_at_minus_20_c_noticeably_at_low_preload(drag: Drag) -> None:
+    """Fig. 9: at -20 C the drag is above the 20 C drag, relatively more at low preload."""
+    ratio = series(drag, -20.0, 100.0) / series(drag, 20.0, 100.0)
+    assert np.all(ratio > 1.0), fmt(ratio)
+    assert ratio[PRELOADS.index(500.0)] > ratio[PRELOADS.index(3000.0)], fmt(ratio)
+
+
+# ------------------------------------------------------------------ speed
+
+
+def _relative_rise(drag: Drag, celsius: float, preload: float) -> float:
+    return float(drag(celsius, 2000.0, preload) / drag(celsius, 100.0, preload) - 1.0)
+
+
+@pytest.mark.parametrize(
+    "celsius",
+    [
+        -20.0,
+        20.0,
+        pytest.param(
+            60.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="60 C drag falls with speed at 1500 N: 18.6 N mm at 100 rpm, 15.0 N mm "
+                "at 2000 rpm (-20 %), where 20 C rises 18.5 -> 30.5 N mm (+65 %); at 500 N "
+                "60 C rises only +14 % (4.86 -> 5.54 N mm): 60 C does not behave like 20 C",
+            ),
+        ),
+    ],
+)
+def test_drag_rises_with_speed(drag: Drag, celsius: float) -> None:
+    """Fig. 11a: higher speed, higher drag (100 -> 2000 rpm), at every temperature."""
+    rises = [_relative_rise(drag, celsius, p) for p in (500.0, 1500.0)]
+    assert all(rise > 0.0 for rise in rises), rises
+
+
+def test_speed_effect_much_larger_at_minus_20_c(drag: Drag) -> None:
+    """Fig. 11a: the relative rise 100 -> 2000 rpm is much larger (> 2x) at -20 C than at 20 C."""
+    for preload in (500.0, 1500.0):
+        cold, warm = _relative_rise(drag, -20.0, preload), _relative_rise(drag, 20.0, preload)
+        assert cold > 2.0 * warm > 0.0, (preload, cold, warm)
+
+
+# ------------------------------------------------------------------ lubrication regimes
+
+
+def test_minus_20_c_full_film(master: Contact) -> None:
+    """Fig. 10e/c/d: at -20 C, 100 rpm, Lambda > 3 and the friction is all lubricant shear."""
+    for side in ("screw", "nut"):
+        tallian = series(master, -20.0, 100.0, side, "tallian_parameter")
+        assert np.all(tallian > 3.0), fmt(tallian)
+        dry = series(master, -20.0, 100.0, side, "dry_friction_N")
+        total = series(master, -20.0, 100.0, side, "friction_force_N")
+        assert np.all(dry <= 1e-3 * total), fmt(dry / total)
+
+
+def test_20_c_mixed_lubrication(master: Contact) -> None:
+    """Fig. 10c-e: at 20 C, 100 rpm, Lambda < 3 and film and asperities both carry friction
+    (each at least 10 % of it)."""
+    for side in ("screw", "nut"):
+        tallian = series(master, 20.0, 100.0, side, "tallian_parameter")
+        assert np.all(tallian < 3.0), fmt(tallian)
+        dry_share = series(master, 20.0, 100.0, side, "dry_friction_N") / series(
+            master, 20.0, 100.0, side, "friction_force_N"
+        )
+        assert np.all((dry_share > 0.1) & (dry_share < 0.9)), fmt(dry_share)
+
+
+def test_60_c_film_thinner_than_at_20_c(master: Contact) -> None:
+    """Fig. 10e: at 60 C the Tallian parameter is below the 20 C one at every preload."""
+    for side in ("screw", "nut"):
+        hot = series(master, 60.0, 100.0, side, "tallian_parameter")
+        warm = series(master, 20.0, 100.0, side, "tallian_parameter")
+        assert np.all(hot < warm), (fmt(hot), fmt(warm))
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="at 60 C, 100 rpm, 100 N the dry part is 5.7 times the lubricant part (screw side "
+    "0.0383 vs 0.0067 N; 2.5-2.8 times at 500-3000 N): asperities dominate at low preload",
+)
+def test_60_c_dry_and_lubricant_parts_comparable(master: Contact) -> None:
+    """Fig. 10c-d: at 60 C (almost boundary) the dry and lubricant parts are comparable:
+    within a factor of 3 of each other at every preload."""
+    for side in ("screw", "nut"):
+        ratio = series(master, 60.0, 100.0, side, "dry_friction_N") / series(
+            master, 60.0, 100.0, side, "lubricant_friction_N"
+        )
+        assert np.all((ratio > 1.0 / 3.0) & (ratio < 3.0)), fmt(ratio)
+
+
+@pytest.mark.parametrize("celsius", [-20.0, 20.0, 60.0])
+def test_tallian_parameter_falls_with_preload(master: Contact, celsius: float) -> None:
+    """Fig. 10e: Lambda falls as the preload rises."""
+    for side in ("screw", "nut"):
+        tallian = series(master, celsius, 100.0, side, "tallian_parameter")
+        assert np.all(np.diff(tallian) < 0.0), fmt(tallian)
+
+
+# ------------------------------------------------------------------ friction coefficient
+
+
+def test_friction_coefficient_small(master: Contact) -> None:
+    """Fig. 11b: F_t/F_n per contact is small (near pure rolling): below 0.1 everywhere."""
+    for (celsius, rpm), preloads in CURVES.items():
+        for side in ("screw", "nut"):
+            mu = series(master, celsius, rpm, side, "friction_coefficient", preloads=preloads)
+            assert np.all((mu > 0.0) & (mu < 0.1)), (celsius, rpm, side, fmt(mu))
+
+
+@pytest.mark.parametrize(
+    "celsius",
+    [
+        pytest.param(
+            -20.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at -20 C, 100 rpm, screw-side F_t/F_n rises from 0.01391 (100 N) to "
+                "0.01454 (500 N) before falling to 0.01397 (3000 N)",
+            ),
+        ),
+        pytest.param(
+            20.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at 20 C, 100 rpm, screw-side F_t/F_n rises with preload: 0.00760 (100 N), "
+                "0.00960 (500 N), 0.01015 (1500 N), 0.01030 (3000 N)",
+            ),
+        ),
+        pytest.param(
+            60.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at 60 C, 100 rpm, screw-side F_t/F_n rises with preload: 0.00818 (100 N), "
+                "0.01017 (500 N), 0.01088 (1500 N), 0.01115 (3000 N)",
+            ),
+        ),
+    ],
+)
+def test_friction_coefficient_falls_with_preload(master: Contact, celsius: float) -> None:
+    """Figs. 10a, 11b: the normal force rises more than the friction force: F_t/F_n falls."""
+    for side in ("screw", "nut"):
+        mu = series(master, celsius, 100.0, side, "friction_coefficient")
+        assert np.all(np.diff(mu) < 0.0), fmt(mu)
+
+
+def _plateau_preload(mu: FloatArray) -> float:
+    """Lowest preload [N] from which on F_t/F_n stays within 5 % of its 3000 N value."""
+    inside = np.abs(mu / mu[-1] - 1.0) <= 0.05
+    first = len(mu) - int(np.argmin(inside[::-1])) if not inside.all() else 0
+    return PRELOADS[first]
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="plateau (F_t/F_n within 5 % of its 3000 N value, screw side, 100 rpm) reached at "
+    "100 N at -20 C, 1000 N at 20 C and 1000 N at 60 C: earliest, not latest, when coldest",
+)
+def test_friction_plateau_at_higher_preload_when_colder(master: Contact) -> None:
+    """Fig. 11b text: as the temperature drops the F_t/F_n plateau is reached at higher preload."""
+    plateau = {
+        t: _plateau_preload(series(master, t, 100.0, "screw", "friction_coefficient"))
+        for t in (-20.0, 20.0, 60.0)
+    }
+    assert plateau[-20.0] >= plateau[20.0] >= plateau[60.0] and plateau[-20.0] > plateau[60.0], (
+        plateau
+    )
+
+
+# ------------------------------------------------------------------ screw side vs nut side
+
+
+@pytest.mark.parametrize("celsius", [-20.0, 20.0, 60.0])
+def test_screw_side_pressure_higher_area_smaller(master: Contact, celsius: float) -> None:
+    """Fig. 10g-h: the screw-side contact is smaller and its maximum pressure higher."""
+    pressure = {s: series(master, celsius, 100.0, s, "max_pressure_Pa") for s in ("screw", "nut")}
+    area = {s: series(master, celsius, 100.0, s, "contact_area_m2") for s in ("screw", "nut")}
+    assert np.all(pressure["screw"] > pressure["nut"])
+    assert np.all(area["screw"] < area["nut"])
+
+
+@pytest.mark.parametrize(
+    "celsius",
+    [
+        -20.0,
+        20.0,
+        pytest.param(
+            60.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at 60 C, 100 rpm, 100 N the nut-side shear stress is higher: 1.49 MPa "
+                "vs 1.40 MPa on the screw side (screw side higher from 500 N on)",
+            ),
+        ),
+    ],
+)
+def test_screw_side_shear_stress_higher(master: Contact, celsius: float) -> None:
+    """Fig. 10f: the lubricant shear stress is higher on the screw side."""
+    screw = series(master, celsius, 100.0, "screw", "shear_stress_Pa")
+    nut = series(master, celsius, 100.0, "nut", "shear_stress_Pa")
+    assert np.all(screw > nut), (fmt(screw, 1e-6), fmt(nut, 1e-6))
+
+
+def _nut_side_higher_at_speed(celsius: float, rpm: float, numbers: str) -> object:
+    reason = f"at {celsius:g} C, {rpm:g} rpm the nut-side F_t/F_n is higher: {numbers}"
+    return pytest.param(celsius, rpm, marks=pytest.mark.xfail(strict=True, reason=reason))
+
+
+@pytest.mark.parametrize(
+    ("celsius", "rpm"),
+    [
+        (-20.0, 100.0),
+        (20.0, 100.0),
+        (60.0, 100.0),
+        (-20.0, 2000.0),
+        _nut_side_higher_at_speed(
+            20.0, 2000.0, "0.009301/0.009485 vs 0.009376/0.00951 (500/1500 N)"
+        ),
+        _nut_side_higher_at_speed(
+            60.0, 2000.0, "0.005877/0.006444 vs 0.005974/0.006476 (500/1500 N)"
+        ),
+        (-20.0, 4000.0),
+        _nut_side_higher_at_speed(
+            20.0, 4000.0, "0.008869/0.009492 vs 0.00913/0.009553 at 100/3000 N (not at 0 N)"
+        ),
+    ],
+)
+def test_screw_side_friction_coefficient_higher(
+    master: Contact, celsius: float, rpm: float
+) -> None:
+    """Figs. 10a, 11b: F_t/F_n is (slightly) higher on the screw side, at every speed."""
+    preloads = CURVES[(celsius, rpm)]
+    screw = series(master, celsius, rpm, "screw", "friction_coefficient", preloads=preloads)
+    nut = series(master, celsius, rpm, "nut", "friction_coefficient", preloads=preloads)
+    assert np.all(screw > nut), (fmt(screw), fmt(nut))
+
+
+# ------------------------------------------------------------------ contact angles
+
+
+@pytest.mark.parametrize(
+    "celsius",
+    [
+        pytest.param(
+            -20.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at -20 C, 100 rpm, the nut-side angle is 44.53 deg at 100 N and 45.09 deg "
+                "at 500 N: it first approaches the nominal 45 deg, then moves away",
+            ),
+        ),
+        20.0,
+        60.0,
+    ],
+)
+def test_contact_angles_move_away_from_nominal(
+    config: TwinConfig, master: Contact, celsius: float
+) -> None:
+    """Fig. 10b: the higher the preload, the further the angles are from the nominal 45 deg."""
+    nominal = config.screw.nominal_contact_angle
+    for side in ("screw", "nut"):
+        angle = series(master, celsius, 100.0, side, "contact_angle_rad")
+        assert np.all(np.diff(np.abs(angle - nominal)) > 0.0), fmt(np.degrees(angle))
+
+
+def _split(master: Contact, celsius: float, rpm: float, preload: float) -> float:
+    """|screw-side - nut-side| contact angle [rad]."""
+    return abs(
+        master(celsius, rpm, preload, "screw", "contact_angle_rad")
+        - master(celsius, rpm, preload, "nut", "contact_angle_rad")
+    )
+
+
+@pytest.mark.parametrize(
+    ("celsius", "low_preload"),
+    [
+        (-20.0, 0.0),
+        (20.0, 0.0),
+        pytest.param(
+            -20.0,
+            100.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at -20 C, 100 N the screw/nut angle split shrinks with speed: 1.51 deg at "
+                "100 rpm, 0.80 deg at 4000 rpm (3000 N: 1.60 -> 1.56 deg); the centrifugal "
+                "split exists at 0 N only (0.31 -> 11.5 deg)",
+            ),
+        ),
+        pytest.param(
+            20.0,
+            100.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at 20 C the screw/nut angle split barely changes with speed: 100 N "
+                "0.86 -> 0.89 deg, 3000 N 1.18 -> 1.10 deg (100 -> 4000 rpm); the centrifugal "
+                "split exists at 0 N only (0.31 -> 13.7 deg)",
+            ),
+        ),
+    ],
+)
+def test_centrifugal_angle_split_at_low_preload_only(
+    master: Contact, celsius: float, low_preload: float
+) -> None:
+    """Fig. 11c: at low preload the speed (centrifugal force) splits the screw-side and nut-side
+    angles; at high preload it does not. The split added by 100 -> 4000 rpm at the low preload
+    is positive and larger than the change the speed makes at 3000 N."""
+    low = _split(master, celsius, 4000.0, low_preload) - _split(master, celsius, 100.0, low_preload)
+    high = _split(master, celsius, 4000.0, 3000.0) - _split(master, celsius, 100.0, 3000.0)
+    assert low > abs(high) and low > 0.0, (math.degrees(low), math.degrees(high))
+
+
+# ------------------------------------------------------------------ master vs slave nut
+
+
+@pytest.mark.parametrize("celsius", [-20.0, 20.0, 60.0])
+def test_master_ball_forces_slightly_lower_than_slave(
+    master: Contact, slave: Contact, celsius: float
+) -> None:
+    """Fig. 10a text: on the vertical screw the nut weights load the lower (slave) nut, so its
+    spheres carry slightly (less than 10 %) more than the master nut's."""
+    for side in ("screw", "nut"):
+        upper = series(master, celsius, 100.0, side, "normal_force_N")
+        lower = series(slave, celsius, 100.0, side, "normal_force_N")
+        excess = lower / upper - 1.0
+        assert np.all((excess > 0.0) & (excess < 0.1)), fmt(excess)

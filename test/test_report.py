@@ -1,0 +1,96 @@
+"""``ballscrew-twin report paper --quick``: files written, CSV complete, numbers finite and SI."""
+
+import contextlib
+import csv
+import io
+import math
+from pathlib import Path
+
+import pytest
+
+from ballscrew_twin.cli import main
+from ballscrew_twin.report.paper import COLUMNS, CSV_NAME, FILE_NAMES, paper_grid
+
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
+    """Run the quick report once; its output directory and what it printed."""
+    out = tmp_path_factory.mktemp("paper_report")
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["report", "paper", "--out", str(out), "--quick"]) == 0
+    return out, printed.getvalue()
+
+
+def read_rows(out: Path) -> tuple[list[str], list[dict[str, str]]]:
+    with (out / CSV_NAME).open(encoding="utf-8", newline="") as stream:
+        reader = csv.DictReader(stream)
+        return list(reader.fieldnames or []), list(reader)
+
+
+def test_writes_three_pngs_and_the_csv(report: tuple[Path, str]) -> None:
+    out, printed = report
+    for name in FILE_NAMES.values():
+        data = (out / name).read_bytes()
+        assert data.startswith(PNG_SIGNATURE), name
+        assert len(data) > 20_000, name  # a drawn figure, not an empty canvas
+    assert (out / CSV_NAME).is_file()
+    assert "operating points converged" in printed and "wall time" in printed
+
+
+def test_csv_has_the_expected_columns_and_rows(report: tuple[Path, str]) -> None:
+    header, rows = read_rows(report[0])
+    assert tuple(header) == COLUMNS
+    for column in (
+        "drag_torque_Nm",
+        "eq51_drag_torque_Nm",
+        "eq52_drag_torque_Nm",
+        "screw_contact_angle_rad",
+        "nut_max_pressure_Pa",
+        "screw_friction_coefficient",
+        "status",
+    ):
+        assert column in header
+    grid = paper_grid(quick=True)
+    per_curve = len(grid.preloads)
+    expected = {
+        "fig09": len(grid.temperatures) * per_curve,
+        "fig10": len(grid.temperatures) * per_curve,
+        "fig11": len(grid.speed_temperatures) * len(grid.speeds) * per_curve,
+    }
+    counts = {figure: sum(r["figure"] == figure for r in rows) for figure in expected}
+    assert counts == expected
+
+
+def test_values_are_finite_si_where_converged(report: tuple[Path, str]) -> None:
+    _, rows = read_rows(report[0])
+    numeric = [c for c in COLUMNS if c not in ("figure", "status") and "half_groove" not in c]
+    converged = [r for r in rows if r["status"] == "ok"]
+    assert len(converged) >= len(rows) // 2
+    for row in converged:
+        for column in numeric:
+            assert math.isfinite(float(row[column])), (column, row)
+        assert row["screw_half_groove"] in ("S1", "S2")
+        assert row["nut_half_groove"] in ("N1", "N2")
+        # SI: kelvin, rad/s, N m, rad, Pa (a unit slip would be off by orders of magnitude).
+        assert float(row["temperature_K"]) == pytest.approx(float(row["temperature_C"]) + 273.15)
+        assert float(row["screw_speed_rad_s"]) == pytest.approx(
+            float(row["speed_rpm"]) * 2 * math.pi / 60
+        )
+        assert 0.0 < float(row["drag_torque_Nm"]) < 10.0
+        assert 0.5 < float(row["screw_contact_angle_rad"]) < 1.1
+        assert 1e8 < float(row["screw_max_pressure_Pa"]) < 1e10
+    for row in rows:
+        if row["status"] != "ok":
+            assert math.isnan(float(row["drag_torque_Nm"]))  # recorded, never invented
+            assert row["status"]
+
+
+def test_eq51_and_eq52_columns_are_the_catalogue_formulas(report: tuple[Path, str]) -> None:
+    _, rows = read_rows(report[0])
+    at_3000 = next(r for r in rows if r["figure"] == "fig09" and float(r["preload_N"]) == 3000.0)
+    # docs/model.md section 8: 97.0 and 38.3 N mm at 3000 N with mu_lit = 0.002.
+    assert float(at_3000["eq51_drag_torque_Nm"]) == pytest.approx(0.0970, rel=2e-3)
+    assert float(at_3000["eq52_drag_torque_Nm"]) == pytest.approx(0.0383, rel=2e-3)
