@@ -262,7 +262,7 @@ class SteadyStateModel:
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         count = len(balls.nut)
         mask = self._unknown_mask(scene, count)
-        ball_res, axial, nut_res, ev = self._residual(scene, balls, state, loads)
+        ball_res, _, nut_res, ev = self._residual(scene, balls, state, loads)
         speed_scale = max(abs(scene.screw_speed), 1.0)
         steps = np.array([POSITION_STEP, POSITION_STEP] + [KINEMATIC_STEP_REL * speed_scale] * 4)
 
@@ -317,12 +317,12 @@ class SteadyStateModel:
             step = 1.0
             for _ in range(LINE_SEARCH_STEPS):
                 trial = unpack(z + step * dz, e + step * de)
-                rb, ax, rn, ev_t = self._residual(scene, balls, trial, loads)
+                rb, _, rn, ev_t = self._residual(scene, balls, trial, loads)
                 if np.isfinite(rb).all() and (merit(rb, rn) < base or step < MIN_STEP):
                     break
                 step *= 0.5
             z, e = z + step * dz, e + step * de
-            ball_res, axial, nut_res, ev = rb, ax, rn, ev_t
+            ball_res, nut_res, ev = rb, rn, ev_t
         worst = float(max(np.max(np.abs(np.where(mask, ball_res, 0.0))), np.max(np.abs(nut_res))))
         raise SolverError(
             f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
