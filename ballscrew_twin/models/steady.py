@@ -466,17 +466,7 @@ class SteadyStateModel:
             total = breakdown.total
         screw_side = ~geometry.IS_NUT[None, :]
         direct = -float(np.sum(np.where(screw_side, ev.groove_moment_z, 0.0) * weight))
-        geom = scene.geometry
-        lead_rate = geom.lead / (2.0 * math.pi)  # type: ignore[attr-defined]
-        g = self.config.environment.gravity if self.config.screw.orientation == "vertical" else 0.0
-        lift_power = (
-            g
-            * lead_rate
-            * (
-                -2.0 * self.config.screw.nut_mass * speed
-                + scene.ball_mass * float(np.sum(state.kinematics[:, 0] * balls.weight))
-            )
-        )
+        lift_power = self._potential_energy_rate(scene, balls, state)
         gravity_torque = lift_power / speed if speed != 0.0 else 0.0
         notes.extend(self._spacing_notes(scene))
         contacts = _contact_states(balls, ev)
@@ -499,6 +489,39 @@ class SteadyStateModel:
             iterations=iterations,
             residual=residual,
         )
+
+    def _potential_energy_rate(
+        self, scene: ContactScene, balls: BallSet, state: SteadyState
+    ) -> float:
+        """Rate of change of the gravitational energy of spheres and nuts [W].
+
+        Sphere i moves with v = w_B (z x r + p/(2 pi) z) relative to the screw plus
+        Omega z x r; each nut with -Omega p/(2 pi) z. On a horizontal screw the spheres' share
+        does not vanish (1.75 turns are not a whole number), on a vertical one the nuts' weight
+        dominates.
+        """
+        geom = scene.geometry
+        lead_rate = geom.lead / (2.0 * math.pi)  # type: ignore[attr-defined]
+        zhat = geometry.axis_direction(geom.helix_angle)  # type: ignore[attr-defined]
+        r_ball = np.stack(
+            [
+                np.zeros(len(balls.nut)),
+                state.ball_nb[:, 0] - geom.pitch_radius,  # type: ignore[attr-defined]
+                state.ball_nb[:, 1],
+            ],
+            axis=-1,
+        )
+        orbit = np.cross(zhat, r_ball)
+        w_ball = state.kinematics[:, 0]
+        v_abs = (w_ball + scene.screw_speed)[:, None] * orbit + (w_ball * lead_rate)[:, None] * zhat
+        balls_power = scene.ball_mass * float(
+            np.sum(balls.weight * np.einsum("bi,bi->b", balls.gravity, v_abs))
+        )
+        nut_power = 0.0  # gravity's power on the two nuts, moving at -Omega p/(2 pi) z
+        if self.config.screw.orientation == "vertical":
+            g = self.config.environment.gravity
+            nut_power = 2.0 * self.config.screw.nut_mass * g * scene.screw_speed * lead_rate
+        return -(balls_power + nut_power)
 
     def _spacing_notes(self, scene: ContactScene) -> list[str]:
         """Sphere-to-sphere contact is skipped when equally spaced spheres cannot touch."""

@@ -129,3 +129,49 @@ def test_compiled_and_reference_backends_agree(config, mode: str) -> None:  # ty
     fast = SteadyStateModel(config, mode=mode, backend="compiled").solve(point)  # type: ignore[arg-type]
     assert fast.output.drag_torque == pytest.approx(ref.output.drag_torque, rel=1e-8)
     np.testing.assert_allclose(fast.state.kinematics, ref.state.kinematics, rtol=1e-7)
+
+
+def test_external_load_goes_to_the_master_nut(config) -> None:  # type: ignore[no-untyped-def]
+    """Force preload (paper): an external load on the master nut changes only its spheres."""
+    model = SteadyStateModel(config)
+    base = model.solve(op(100, 20, 1000)).output.contacts
+    push = OperatingPoint(
+        screw_speed=100 * RPM, temperature=293.15, preload=1000.0, axial_load=500.0
+    )
+    loaded = model.solve(push).output.contacts
+    assert base is not None and loaded is not None
+    for nut, ratio in ((0, 1500.0 / 1000.0), (1, 1.0)):
+        before = base.normal_force[base.in_contact & (base.nut == nut)].mean()
+        after = loaded.normal_force[loaded.in_contact & (loaded.nut == nut)].mean()
+        assert after / before == pytest.approx(ratio, rel=0.02)
+
+
+def test_master_nut_unloads_onto_the_other_flanks(config) -> None:  # type: ignore[no-untyped-def]
+    pull = OperatingPoint(
+        screw_speed=100 * RPM, temperature=293.15, preload=300.0, axial_load=-800.0
+    )
+    cs = SteadyStateModel(config).solve(pull).output.contacts
+    assert cs is not None
+    master = set(cs.half_groove[cs.in_contact & (cs.nut == 0)].tolist())
+    assert master == {0, 3}  # S1/N2 instead of S2/N1: the nut is pushed the other way
+
+
+def test_horizontal_screw_solves_every_sphere(config) -> None:  # type: ignore[no-untyped-def]
+    import dataclasses
+
+    horizontal = dataclasses.replace(
+        config, screw=dataclasses.replace(config.screw, orientation="horizontal")
+    )
+    model = SteadyStateModel(horizontal)
+    assert model.resolved_mode() == "full"
+    sol = model.solve(op(100, 20, 1500))
+    cs = sol.output.contacts
+    assert cs is not None
+    forces = cs.normal_force[cs.in_contact & (cs.nut == 0)]
+    assert len(forces) == 2 * config.screw.balls_per_nut
+    # Gravity on each sphere varies with its azimuth: loads differ, but only by ~m g / Q.
+    assert forces.std() > 0.0
+    assert forces.std() / forces.mean() < 1e-3
+    assert sol.screw_torque_direct - sol.gravity_torque == pytest.approx(
+        sol.output.drag_torque, rel=1e-7
+    )
