@@ -141,6 +141,7 @@ def calibrate(
     for name in parameters:
         if name not in FITTABLE:
             raise ConfigError(f"cannot fit {name!r}: choose from {sorted(FITTABLE)}")
+        _bounds(name)  # raises for a field that is not a number
     section_of = {n: getattr(getattr(config, FITTABLE[n][0]), n) for n in parameters}
     initial = {n: float(v) for n, v in section_of.items()}
     lower = np.log([_bounds(n)[0] for n in parameters])
