@@ -1,8 +1,9 @@
 """``ballscrew-twin bench steady``: cost of the steady-state model, printed, never asserted.
 
 Times, on this machine and in one run so that the numbers compare: one evaluation of all
-contact laws for 2 and 50 spheres, and one steady solve cold, warm-started at a nearby operating
-point, in symmetric and in full mode.
+contact laws for 2 and 50 spheres by the numpy reference and by the numba kernel, and one steady
+solve (compiled backend) cold and warm-started at a nearby operating point, in symmetric and in
+full mode.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Literal
 import numpy as np
 
 from .cli import CELSIUS_ZERO, RPM
+from .kernels.contacts import evaluate_contacts_compiled
 from .models.base import OperatingPoint
 from .models.contact_forces import evaluate_contacts, make_scene
 from .models.steady import SteadyStateModel
@@ -52,15 +54,9 @@ def _bench_mode(
     solution = model.solve(point)
     state, balls = solution.state, solution.balls
     scene = make_scene(config, point.temperature, point.screw_speed)
-    contact_laws = partial(
-        evaluate_contacts,
-        scene,
-        state.ball_nb,
-        state.kinematics,
-        state.nut_offset[balls.nut],
-        balls.gravity,
-    )
-    contacts = _median_time(contact_laws, repeat)
+    arguments = (scene, state.ball_nb, state.kinematics, state.nut_offset[balls.nut], balls.gravity)
+    reference = _median_time(partial(evaluate_contacts, *arguments), repeat)
+    compiled = _median_time(partial(evaluate_contacts_compiled, *arguments), repeat)
 
     def cold() -> None:
         model.forget_warm_start()
@@ -75,9 +71,9 @@ def _bench_mode(
     warm_time = _median_time(warm, max(repeat // 4, 3)) / 2.0
     count = len(balls.nut)
     return (
-        f"  {mode:<9} {count:3d} spheres: contact evaluation {contacts * 1e6:9.1f} us "
-        f"({contacts * 1e6 / (4 * count):.2f} us per contact), cold solve "
-        f"{cold_time * 1e3:8.1f} ms, warm solve {warm_time * 1e3:8.1f} ms"
+        f"  {mode:<9} {count:3d} spheres: contacts numpy {reference * 1e6:8.1f} us, "
+        f"numba {compiled * 1e6:7.1f} us; solve cold {cold_time * 1e3:7.2f} ms, "
+        f"warm {warm_time * 1e3:7.2f} ms"
     )
 
 

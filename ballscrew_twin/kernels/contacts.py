@@ -422,7 +422,7 @@ def load_share_asperities(tallian):
 # ----------------------------------------------------------------------------- friction (3)
 @njit(inline="always")
 def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r):
-    """Friction at sliding speed v [m/s], Eqs. 34-36 regularised (D6, D8).
+    """Friction at sliding speed v [m/s], Eqs. 34-36 regularised (D6).
 
     F(v) = [(1 - f) A tau(sqrt(v^2 + v_r^2)) + f mu_dry F_n] tanh(|v| / v_r), with the Eyring
     stress tau = min(tau_e asinh(eta gamma / tau_e), tau_lim), gamma = sqrt(v^2 + v_r^2) / h.

@@ -100,7 +100,7 @@ def sliding_friction(
     film_total: FloatArray,
     load_share: FloatArray,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Friction magnitude at sliding speed ``speed`` [m/s], Eqs. 34-36 regularised (D6, D8).
+    """Friction magnitude at sliding speed ``speed`` [m/s], Eqs. 34-36 regularised (D6).
 
     F(v) = [ (1 - f) A tau(sqrt(v^2 + v_r^2)) + f mu_dry F_n ] tanh(v / v_r): the paper's law
     above the threshold speed v_r, linear in v below it (section 3 of the paper), smooth.

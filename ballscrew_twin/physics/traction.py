@@ -2,7 +2,7 @@
 
 F_t = tau A (1 - f(Lambda)) + f(Lambda) mu_dry F_n, with the lubricant shear tau from the
 Eyring law at the Couette shear rate |v_slip| / h_Tc, capped by the limiting shear stress
-tau_lim = tau_L + xi p, and the dry part made speed dependent (docs/model.md, D6-D8).
+tau_lim = tau_L + xi p, and the dry part made speed dependent (docs/model.md, D6 and D7).
 """
 
 from __future__ import annotations
