@@ -496,6 +496,9 @@ def contacts_kernel(
     kinematics,
     nut_offset,
     gravity_frenet,
+    centre_velocity,
+    nut_slide,
+    dynamic,
     ball_radius,
     groove_radius,
     pitch_radius,
@@ -533,6 +536,7 @@ def contacts_kernel(
     mu_dry,
     v_r,
     roughness,
+    damping,
 ):
     """Forces, moments, states and dissipation of B spheres x 4 half grooves.
 
@@ -568,7 +572,11 @@ def contacts_kernel(
         w_ball = kinematics[i, 0]
         omega = (kinematics[i, 1], kinematics[i, 2], kinematics[i, 3])
         r_ball = (0.0, n_i - pitch_radius, b_i)
-        v_centre = _helical(w_ball, zhat, lead_rate, r_ball)
+        if dynamic:  # given centre velocity; contact points follow its t-progression
+            v_centre = (centre_velocity[i, 0], centre_velocity[i, 1], centre_velocity[i, 2])
+            w_ball = v_centre[0] / _helical(1.0, zhat, lead_rate, r_ball)[0]
+        else:
+            v_centre = _helical(w_ball, zhat, lead_rate, r_ball)
         f_sum = (0.0, 0.0, 0.0)
         m_sum = (0.0, 0.0, 0.0)
         for j in range(4):
@@ -611,12 +619,18 @@ def contacts_kernel(
             r_point = _add(r_ball, arm)
             v_ball_point = _add(v_centre, _cross(omega, arm))
             if IS_NUT[j]:
-                v_groove = _helical(w_nut, zhat, lead_rate, r_point)
+                v_groove = _add(
+                    _helical(w_nut, zhat, lead_rate, r_point), _scale(nut_slide[i], zhat)
+                )
                 omega_groove = _scale(w_nut, zhat)
             else:
                 v_groove = (0.0, 0.0, 0.0)
                 omega_groove = (0.0, 0.0, 0.0)
             v_contact = _helical(w_ball, zhat, lead_rate, r_point)
+            # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
+            rate = _dot(_sub(v_centre, v_groove), d)
+            damp = min(damping * math.sqrt(stiffness) * abs(rate), f_n)
+            f_n = f_n + (damp if rate > 0.0 else (-damp if rate < 0.0 else 0.0))
             rel = _sub(v_ball_point, v_groove)
             slip_vec = _sub(rel, _scale(_dot(rel, d), d))
             slip_dir, slip = _unit(slip_vec)
@@ -732,8 +746,13 @@ def contacts_kernel(
             out[F_DISS_CURVATURE, i, j] = mc * roll
             out[F_DISS_SPIN, i, j] = mp * abs(spin)
 
-        # Sphere balance: gravity, centrifugal force, gyroscopic moment (section 7).
-        # Centrifugal force: m Omega^2 times the centre's distance vector from the axis.
+        # Steady use: gravity and the d'Alembert terms of the orbiting frame (section 7).
+        # Dynamic use: the contact actions alone.
+        if dynamic:
+            for k in range(3):
+                out[R_FORCE + k, i, 0] = f_sum[k]
+                out[R_MOMENT + k, i, 0] = m_sum[k]
+            continue
         orbit_rate = screw_speed + w_ball
         r_perp = _sub(r_ball, _scale(_dot(r_ball, zhat), zhat))
         inertial = _scale(ball_mass * orbit_rate * orbit_rate, r_perp)
@@ -801,6 +820,7 @@ def scene_arrays(scene: ContactScene) -> tuple[float | int, ...]:
         float(cfg.contact.dry_friction_coefficient),
         float(cfg.contact.dry_friction_regularisation_speed),
         float(cfg.composite_roughness),
+        float(cfg.contact.damping_coefficient),
     )
 
 
@@ -819,6 +839,9 @@ def _scene_params(scene: ContactScene) -> tuple[float | int, ...]:
     return params
 
 
+_NO_VELOCITY = np.zeros((0, 3))
+
+
 def _as_input(array: FloatArray) -> FloatArray:
     return np.ascontiguousarray(array, dtype=np.float64)
 
@@ -829,6 +852,8 @@ def evaluate_contacts_compiled(
     kinematics: FloatArray,
     nut_offset: FloatArray,
     gravity_frenet: FloatArray,
+    centre_velocity: FloatArray | None = None,
+    nut_slide: FloatArray | None = None,
 ) -> ContactEvaluation:
     """Drop-in, compiled replacement of ``evaluate_contacts`` (same arguments and result).
 
@@ -840,11 +865,16 @@ def evaluate_contacts_compiled(
         nut_offset: (B,) b-offset e of each ball's nut groove [m].
         gravity_frenet: (B, 3) gravitational acceleration in Frenet components [m/s^2].
     """
+    count = len(ball_nb)
+    dynamic = centre_velocity is not None
     active, c = contacts_kernel(
         _as_input(ball_nb),
         _as_input(kinematics),
         _as_input(nut_offset),
         _as_input(gravity_frenet),
+        _as_input(centre_velocity) if dynamic else _NO_VELOCITY[:count],
+        _as_input(nut_slide) if nut_slide is not None else np.zeros(count),
+        dynamic,
         *_scene_params(scene),
     )
     return ContactEvaluation(
@@ -933,7 +963,17 @@ def benchmark(repeat: int = 200) -> str:
         cases: tuple[tuple[str, Callable[[], object]], ...] = (
             ("reference evaluate_contacts  ", partial(evaluate_contacts, *args)),
             ("evaluate_contacts_compiled   ", partial(evaluate_contacts_compiled, *args)),
-            ("contacts_kernel (raw)        ", partial(contacts_kernel, *raw_args, *params)),
+            (
+                "contacts_kernel (raw)        ",
+                partial(
+                    contacts_kernel,
+                    *raw_args,
+                    _NO_VELOCITY,
+                    np.zeros(len(raw_args[0])),
+                    False,
+                    *params,
+                ),
+            ),
         )
         for name, func in cases:
             for _ in range(3):  # compile (first call) and warm up

@@ -159,16 +159,29 @@ def evaluate_contacts(
     kinematics: FloatArray,
     nut_offset: FloatArray,
     gravity_frenet: FloatArray,
+    centre_velocity: FloatArray | None = None,
+    nut_slide: FloatArray | None = None,
 ) -> ContactEvaluation:
     """Contact forces, moments, states and dissipation of B balls.
+
+    Steady use (default): each ball centre moves along the thread by the helical motion of rate
+    w_B, and ``force``/``moment`` include gravity and the d'Alembert terms of the orbiting frame
+    (centrifugal force, gyroscopic moment), so that they vanish in equilibrium. Dynamic use
+    (``centre_velocity`` given): the centre moves with that velocity, and ``force``/``moment``
+    are the contact actions alone (the caller integrates in the inertial frame).
 
     Args:
         scene: constants of the operating point.
         ball_nb: (B, 2) ball-centre offsets (n, b) from the ideal helix point B [m].
         kinematics: (B, 4) orbital rate w_B of the ball along the thread relative to the screw
-            [rad/s] and ball angular velocity relative to the screw (t, n, b) [rad/s].
+            [rad/s] (ignored when ``centre_velocity`` is given) and ball angular velocity
+            relative to the screw (t, n, b) [rad/s].
         nut_offset: (B,) b-offset e of the nut groove of each ball's nut [m].
         gravity_frenet: (B, 3) gravitational acceleration in Frenet components [m/s^2].
+        centre_velocity: (B, 3) velocity of each ball centre relative to the screw, Frenet
+            components [m/s].
+        nut_slide: (B,) axial velocity of each ball's nut relative to the screw's thread, i.e.
+            beyond the helical motion of rate -screw speed [m/s] (0 in a steady state).
     """
     cfg = scene.config
     geom = scene.geometry
@@ -187,7 +200,6 @@ def evaluate_contacts(
     k_roll, k_trans = geometry.principal_curvatures(geom, angle, np.arange(4))
     radius_x, radius_y = geometry.reduced_radii(r_b, k_roll, k_trans)
     hc = hertz.contact_from_approach(delta, radius_x, radius_y, scene.e_star)
-    f_n = np.asarray(hc.stiffness * delta**1.5)  # Eq. 18, static part
 
     def helical(rate: FloatArray | float, r: FloatArray) -> FloatArray:
         return np.asarray(np.asarray(rate)[..., None] * (_cross(zhat, r) + lead_rate * zhat))
@@ -209,14 +221,25 @@ def evaluate_contacts(
     arm = arm_length[..., None] * d  # F -> contact point
     r_point = r_ball[:, None, :] + arm
 
-    w_ball = kinematics[:, 0]
+    dynamic = centre_velocity is not None
     omega = kinematics[:, 1:4]
     w_nut = -scene.screw_speed
     nut = geometry.IS_NUT[None, :, None]
-    v_centre = helical(w_ball, r_ball)  # (B, 3)
+    if centre_velocity is None:
+        w_ball = kinematics[:, 0]
+        v_centre = helical(w_ball, r_ball)  # (B, 3)
+    else:
+        v_centre = np.asarray(centre_velocity, dtype=np.float64)
+        # Progression rate along the thread: the contact points follow the centre's t-motion.
+        w_ball = v_centre[:, 0] / helical(np.ones(len(ball_nb)), r_ball)[:, 0]
+    slide = np.zeros(len(ball_nb)) if nut_slide is None else np.asarray(nut_slide)
     v_ball_point = v_centre[:, None, :] + _cross(omega[:, None, :], arm)
-    v_groove = np.where(nut, helical(np.full(r_point.shape[:-1], w_nut), r_point), 0.0)
+    v_nut = helical(np.full(r_point.shape[:-1], w_nut), r_point) + slide[:, None, None] * zhat
+    v_groove = np.where(nut, v_nut, 0.0)
     v_contact = helical(np.broadcast_to(w_ball[:, None], r_point.shape[:-1]), r_point)
+    # Eq. 18 with the saturated damping of Eq. 19; the approach rate is zero in a steady state.
+    approach_rate = _dot(v_centre[:, None, :] - v_groove, d)
+    f_n = hertz.normal_force(delta, approach_rate, hc.stiffness, cfg.contact.damping_coefficient)
     rel = v_ball_point - v_groove
     slip_vec = rel - _dot(rel, d)[..., None] * d
     slip_dir, slip = _unit(slip_vec)
@@ -293,17 +316,19 @@ def evaluate_contacts(
     groove_moment = _cross(r_point, groove_force) - free_moment
     groove_moment_z = _dot(groove_moment, zhat)
 
-    orbit_rate = scene.screw_speed + w_ball  # absolute rate of the ball's Frenet frame
-    # Centrifugal force on the orbiting centre: m Omega^2 times its distance from the axis.
-    r_perp = r_ball - _dot(r_ball, zhat)[:, None] * zhat
-    inertial = (scene.ball_mass * orbit_rate**2)[:, None] * r_perp
-    force = (contact_on_ball + pressure_on_ball).sum(axis=1) + scene.ball_mass * gravity_frenet
-    force = force + inertial
-    omega_abs = omega + scene.screw_speed * zhat
-    gyro = orbit_rate[:, None] * _cross(
-        np.broadcast_to(zhat, omega_abs.shape), scene.ball_inertia * omega_abs
-    )
-    moment = moment_contacts.sum(axis=1) - gyro
+    force = (contact_on_ball + pressure_on_ball).sum(axis=1)
+    moment = moment_contacts.sum(axis=1)
+    if not dynamic:
+        orbit_rate = scene.screw_speed + w_ball  # absolute rate of the ball's Frenet frame
+        # Centrifugal force on the orbiting centre: m Omega^2 times its distance from the axis.
+        r_perp = r_ball - _dot(r_ball, zhat)[:, None] * zhat
+        inertial = (scene.ball_mass * orbit_rate**2)[:, None] * r_perp
+        force = force + scene.ball_mass * gravity_frenet + inertial
+        omega_abs = omega + scene.screw_speed * zhat
+        gyro = orbit_rate[:, None] * _cross(
+            np.broadcast_to(zhat, omega_abs.shape), scene.ball_inertia * omega_abs
+        )
+        moment = moment - gyro
 
     # Dissipated power of each mechanism. Friction, MER, MC and MP dissipate by construction;
     # FP opposes the centre's motion relative to the groove, so it does too. The FR pair (on

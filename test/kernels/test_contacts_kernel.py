@@ -224,8 +224,10 @@ def test_law_constants_are_those_of_the_reference() -> None:
 def test_scene_arrays_fill_the_kernel_signature(config: TwinConfig) -> None:
     params = scene_arrays(make_scene(config, 300.0, 10.0))
     names = list(inspect.signature(contacts_kernel.py_func).parameters)
-    assert len(params) == len(names) - 4
-    assert isinstance(params[names.index("law") - 4], int)
+    arrays = names.index("ball_radius")  # state arrays and the dynamic flag come first
+    assert names[:arrays][-1] == "dynamic"
+    assert len(params) == len(names) - arrays
+    assert isinstance(params[names.index("law") - arrays], int)
 
 
 @pytest.mark.parametrize("mode", MODES)
