@@ -36,6 +36,7 @@ import statistics
 import time
 from collections.abc import Callable
 from functools import partial
+from typing import Any, cast
 
 import numpy as np
 from numba import njit
@@ -123,6 +124,7 @@ CONTACT_FIELDS = (
     "hysteresis",  # W
     "curvature",  # W
     "spin_dissipation",  # W (key "spin" of ContactEvaluation.dissipation)
+    "normal_damping",  # W, hysteresis damping of Eqs. 18-19 (zero in a steady state)
 )
 N_FIELDS = len(CONTACT_FIELDS)
 (
@@ -154,6 +156,7 @@ N_FIELDS = len(CONTACT_FIELDS)
     F_DISS_HYSTERESIS,
     F_DISS_CURVATURE,
     F_DISS_SPIN,
+    F_DISS_DAMPING,
 ) = range(N_FIELDS)
 # Rows after the per-contact fields: groove force (t, n, b) per contact, then the sphere's force
 # and moment (t, n, b) stored in column 0 of the contact axis (the other columns stay 0).
@@ -630,7 +633,8 @@ def contacts_kernel(
             # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
             rate = _dot(_sub(v_centre, v_groove), d)
             damp = min(damping * math.sqrt(stiffness) * abs(rate), f_n)
-            f_n = f_n + (damp if rate > 0.0 else (-damp if rate < 0.0 else 0.0))
+            damp_force = damp if rate > 0.0 else (-damp if rate < 0.0 else 0.0)
+            f_n = f_n + damp_force
             rel = _sub(v_ball_point, v_groove)
             slip_vec = _sub(rel, _scale(_dot(rel, d), d))
             slip_dir, slip = _unit(slip_vec)
@@ -745,6 +749,7 @@ def contacts_kernel(
             out[F_DISS_HYSTERESIS, i, j] = mer * roll
             out[F_DISS_CURVATURE, i, j] = mc * roll
             out[F_DISS_SPIN, i, j] = mp * abs(spin)
+            out[F_DISS_DAMPING, i, j] = damp_force * rate if active else 0.0
 
         # Steady use: gravity and the d'Alembert terms of the orbiting frame (section 7).
         # Dynamic use: the contact actions alone.
@@ -867,12 +872,13 @@ def evaluate_contacts_compiled(
     """
     count = len(ball_nb)
     dynamic = centre_velocity is not None
+    velocity = _NO_VELOCITY if centre_velocity is None else _as_input(centre_velocity)
     active, c = contacts_kernel(
         _as_input(ball_nb),
         _as_input(kinematics),
         _as_input(nut_offset),
         _as_input(gravity_frenet),
-        _as_input(centre_velocity) if dynamic else _NO_VELOCITY[:count],
+        velocity,
         _as_input(nut_slide) if nut_slide is not None else np.zeros(count),
         dynamic,
         *_scene_params(scene),
@@ -912,6 +918,7 @@ def evaluate_contacts_compiled(
             "hysteresis": c[F_DISS_HYSTERESIS],
             "curvature": c[F_DISS_CURVATURE],
             "spin": c[F_DISS_SPIN],
+            "normal_damping": c[F_DISS_DAMPING],
         },
     )
 
@@ -966,7 +973,7 @@ def benchmark(repeat: int = 200) -> str:
             (
                 "contacts_kernel (raw)        ",
                 partial(
-                    contacts_kernel,
+                    cast(Any, contacts_kernel),
                     *raw_args,
                     _NO_VELOCITY,
                     np.zeros(len(raw_args[0])),

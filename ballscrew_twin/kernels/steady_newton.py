@@ -28,6 +28,11 @@ different LU than LAPACK's), i.e. the converged states to far below the solver t
 The solver constants are imported from :mod:`ballscrew_twin.models.steady`; numba freezes them
 into the cached machine code and the cache is invalidated only by a change of *this* file, so a
 test (``test_frozen_constants_are_those_of_the_reference``) reads them back from compiled code.
+The same holds for ``contacts_kernel``, whose machine code is linked into the cached Newton
+kernel: numba does not notice a change of kernels/contacts.py either. :data:`DEPENDENCY_STAMP`
+(a hash of contacts.py and of the constants) is therefore frozen into the cache as well, and
+:func:`ensure_fresh_cache` (called by :func:`newton_compiled`) recompiles this module's kernels
+once when the cached stamp is not the current one.
 
 :func:`newton_compiled` is the drop-in for ``SteadyStateModel._newton``: import it lazily inside
 the model (this module imports ``models.steady`` at import time) and call
@@ -36,10 +41,12 @@ the model (this module imports ``models.steady`` at import time) and call
 
 from __future__ import annotations
 
+import hashlib
 import math
 import statistics
 import time
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -58,6 +65,7 @@ from ..models.steady import (
     SteadyState,
     SteadyStateModel,
 )
+from . import contacts as _contacts_module
 from .contacts import R_FORCE, R_GROOVE_FORCE, R_MOMENT, contacts_kernel, evaluate_contacts_compiled
 from .contacts import scene_arrays as scene_arrays
 
@@ -76,6 +84,33 @@ _I_SCREW_SPEED = 12
 _I_BALL_MASS = 16
 
 
+SOLVER_CONSTANTS = (
+    NEWTON_MAX_ITER,
+    LINE_SEARCH_STEPS,
+    MIN_STEP,
+    DIAGONAL_SHIFT,
+    POSITION_STEP,
+    KINEMATIC_STEP_REL,
+)
+
+
+def _dependency_stamp() -> int:
+    """Hash of what the cached machine code depends on outside this file (63-bit int)."""
+    digest = hashlib.sha256(Path(_contacts_module.__file__).read_bytes())
+    digest.update(repr(SOLVER_CONSTANTS).encode())
+    return int.from_bytes(digest.digest()[:7], "little")
+
+
+#: frozen into the cached code by :func:`compiled_stamp`; compared at first use
+DEPENDENCY_STAMP = _dependency_stamp()
+
+
+@njit(cache=True)
+def compiled_stamp():
+    """DEPENDENCY_STAMP as it was when the cached machine code was compiled."""
+    return DEPENDENCY_STAMP
+
+
 @njit(cache=True)
 def frozen_constants():
     """The solver constants as the cached machine code sees them (tested against steady.py).
@@ -84,14 +119,7 @@ def frozen_constants():
         (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP [-], DIAGONAL_SHIFT [-],
         POSITION_STEP [m], KINEMATIC_STEP_REL [-]).
     """
-    return (
-        NEWTON_MAX_ITER,
-        LINE_SEARCH_STEPS,
-        MIN_STEP,
-        DIAGONAL_SHIFT,
-        POSITION_STEP,
-        KINEMATIC_STEP_REL,
-    )
+    return SOLVER_CONSTANTS
 
 
 # ----------------------------------------------------------------------------- small helpers
@@ -208,9 +236,7 @@ def lu_solve_pair(a, rhs_a, rhs_b, out_a, out_b):
 
 # ----------------------------------------------------------------------------- residual
 @njit(cache=True, error_model="numpy")
-def _residual(
-    z, e_nut, nut, weight, gravity, loads, force_scale, moment_scale, nut_scale, scene
-):
+def _residual(z, e_nut, nut, weight, gravity, loads, force_scale, moment_scale, nut_scale, scene):
     """Scaled residuals of packed state z (B, 6) = (n, b [m], w_B, omega_t,n,b [rad/s]) and nut
     offsets e_nut (2,) [m], as ``SteadyStateModel._residual``.
 
@@ -229,7 +255,12 @@ def _residual(
         for k in range(4):
             kinematics[i, k] = z[i, 2 + k]
         e_ball[i] = e_nut[nut[i]]
-    _, out = contacts_kernel(ball_nb, kinematics, e_ball, gravity, *scene)
+    # Steady state: centre velocity from the helical motion (no given velocity), no nut slide.
+    no_velocity = np.zeros((0, 3))
+    no_slide = np.zeros(count)
+    _, out = contacts_kernel(
+        ball_nb, kinematics, e_ball, gravity, no_velocity, no_slide, False, *scene
+    )
     sin_helix = scene[_I_SIN_HELIX]
     cos_helix = scene[_I_COS_HELIX]
     ball_res = np.empty((count, 6))
@@ -425,6 +456,37 @@ def newton_kernel(
 
 
 # ----------------------------------------------------------------------------- Python side
+_checked_cache = False
+
+
+def ensure_fresh_cache() -> bool:
+    """Recompile this module's kernels (dropping their numba cache) if contacts.py or the solver
+    constants changed since they were cached; checked once per process.
+
+    Returns:
+        True when a stale cache was found and recompiled.
+    """
+    global _checked_cache
+    if _checked_cache:
+        return False
+    stale = bool(compiled_stamp() != DEPENDENCY_STAMP)
+    if stale:
+        # Callees first: a caller compiled afresh links the machine code of its callees.
+        for dispatcher in (
+            _abs_max,
+            _worst,
+            _merit,
+            lu_solve_pair,
+            _residual,
+            frozen_constants,
+            newton_kernel,
+            compiled_stamp,
+        ):
+            dispatcher.recompile()
+    _checked_cache = True
+    return stale
+
+
 def newton_compiled(
     model: SteadyStateModel,
     scene: ContactScene,
@@ -448,6 +510,7 @@ def newton_compiled(
         SolverError: no convergence in NEWTON_MAX_ITER iterations, or a singular sphere block
             (same messages as the reference).
     """
+    ensure_fresh_cache()
     tolerance = float(model.tolerance)
     ball_nb, kinematics, nut_offset, iterations, worst, status = newton_kernel(
         np.ascontiguousarray(state.ball_nb, dtype=np.float64),
@@ -509,16 +572,15 @@ def benchmark(repeat: int = 40) -> str:
     from ..models.contact_forces import make_scene
     from ..params import load_config
 
+    ensure_fresh_cache()
     rpm = 2.0 * math.pi / 60.0
     config = load_config()
     point = OperatingPoint(screw_speed=100 * rpm, temperature=293.15, preload=1500.0)
     nearby = OperatingPoint(screw_speed=110 * rpm, temperature=294.15, preload=1550.0)
-    lines = [
-        f"steady warm solve, median of {repeat} (20 C/100 rpm/1500 N <-> 21 C/110 rpm/1550 N)"
-    ]
+    lines = [f"steady warm solve, median of {repeat} (20 C/100 rpm/1500 N <-> 21 C/110 rpm/1550 N)"]
     for mode in ("symmetric", "full"):
-        current = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
-        compiled = use_compiled_newton(SteadyStateModel(config, mode=mode))  # type: ignore[arg-type]
+        current = SteadyStateModel(config, mode=mode)
+        compiled = use_compiled_newton(SteadyStateModel(config, mode=mode))
         results = {}
         for name, model in (("current", current), ("compiled", compiled)):
             model.solve(point)

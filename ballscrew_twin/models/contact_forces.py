@@ -340,6 +340,7 @@ def evaluate_contacts(
         "hysteresis": mer * roll,
         "curvature": mc * roll,
         "spin": mp * np.abs(spin),
+        "normal_damping": np.where(active, (f_n - hc.stiffness * delta**1.5) * approach_rate, 0.0),
     }
     return ContactEvaluation(
         force=force,

@@ -246,7 +246,7 @@ class SteadyStateModel:
 
     def _scales(self, scene: ContactScene, loads: FloatArray) -> tuple[float, float]:
         per_ball = float(np.max(np.abs(loads))) / self.config.screw.balls_per_nut
-        force = max(per_ball, scene.ball_mass * 9.81, 1e-6)
+        force = max(per_ball, scene.ball_mass * self.config.environment.gravity, 1e-6)
         geom = scene.geometry
         return force, force * geom.ball_radius  # type: ignore[attr-defined]
 
@@ -318,12 +318,20 @@ class SteadyStateModel:
             for _ in range(LINE_SEARCH_STEPS):
                 trial = unpack(z + step * dz, e + step * de)
                 rb, _, rn, ev_t = self._residual(scene, balls, trial, loads)
-                if np.isfinite(rb).all() and (merit(rb, rn) < base or step < MIN_STEP):
+                finite = bool(np.isfinite(rb).all() and np.isfinite(rn).all())
+                if finite and (merit(rb, rn) < base or step < MIN_STEP):
                     break
                 step *= 0.5
+            else:  # no trial step gave a finite residual
+                raise SolverError(
+                    "steady state: every line-search step gave a non-finite residual "
+                    f"(iteration {iteration}, scaled residual {base**0.5:.3g})"
+                )
             z, e = z + step * dz, e + step * de
             ball_res, nut_res, ev = rb, rn, ev_t
         worst = float(max(np.max(np.abs(np.where(mask, ball_res, 0.0))), np.max(np.abs(nut_res))))
+        if worst < self.tolerance:  # the last update converged
+            return unpack(z, e), ev, NEWTON_MAX_ITER, worst
         raise SolverError(
             f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
             f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"

@@ -1,0 +1,407 @@
+"""High-fidelity dynamic model: every sphere in 6 DOF, the screw, both nuts (paper section 2).
+
+Bodies, in the inertial frame with z up along the screw axis:
+
+- each sphere: centre position and velocity (3 + 3), angular velocity (3); a perfect sphere
+  needs no orientation. Newton-Euler: m dv/dt = F + m g, I domega/dt = M.
+- the screw: angle phi and speed Omega about z, driven by a PI speed controller:
+  I_s dOmega/dt = T_motor + T_contacts.
+- each nut: axial position z_k and speed (rotation held by its guide):
+  M_n d^2 z_k/dt^2 = F_contacts,k + P_k(t) - M_n g.
+
+The contact actions come from the same laws as the steady-state model (``contact_forces`` /
+its numba kernel) in their dynamic form: each sphere is located on the thread by its helix
+parameter (the point of the ball-centre helix whose normal plane contains the centre, Eq. 4),
+its centre velocity relative to the screw is given, the nut groove is the screw's helicoid
+shifted axially by z_k + phi p / (2 pi) (a nut turned by -phi relative to the screw is a nut
+shifted by phi p / (2 pi)), and it slides axially relative to the thread at dz_k/dt +
+Omega p / (2 pi).
+
+Integration (docs/model.md, section 10): the regularised friction makes the sphere velocities
+stiff (time constant m / (dF/dv) ~ 1 ns), the contact springs less so (~100 kHz). Velocities
+of spheres, nuts and screw are advanced linearly implicitly (backward Euler with the Jacobian of
+the contact actions with respect to those velocities, by finite differences, refreshed every
+few steps), positions with the new velocities (semi-implicit Euler). The step is the user's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import OperatingPointError
+from ..params import TwinConfig
+from ..physics import geometry
+from .base import OperatingPoint
+from .contact_forces import ContactEvaluation, evaluate_contacts, make_scene
+from .steady import SteadyStateModel
+
+FloatArray = NDArray[np.float64]
+ContactFunction = Callable[..., ContactEvaluation]
+
+VELOCITY_STEP = 1e-7  # m/s and rad/s x r_b: finite-difference step of the velocity Jacobian
+HELIX_NEWTON_STEPS = 3  # Newton iterations locating each sphere on the helix (Eq. 4)
+
+
+@dataclass
+class DynamicState:
+    """Positions and velocities of all bodies at time ``time`` (SI, inertial frame)."""
+
+    time: float  # s
+    screw_angle: float  # rad
+    screw_speed: float  # rad/s
+    controller_integral: float  # rad, integral of the speed error
+    nut_position: FloatArray  # (2,) m, axial displacement of master and slave nut from start
+    nut_velocity: FloatArray  # (2,) m/s
+    ball_position: FloatArray  # (B, 3) m
+    ball_velocity: FloatArray  # (B, 3) m/s
+    ball_omega: FloatArray  # (B, 3) rad/s, absolute angular velocity
+    helix_parameter: FloatArray  # (B,) rad, continuous azimuth of each sphere on the thread
+
+    def copy(self) -> DynamicState:
+        """An independent copy."""
+        return DynamicState(
+            self.time,
+            self.screw_angle,
+            self.screw_speed,
+            self.controller_integral,
+            self.nut_position.copy(),
+            self.nut_velocity.copy(),
+            self.ball_position.copy(),
+            self.ball_velocity.copy(),
+            self.ball_omega.copy(),
+            self.helix_parameter.copy(),
+        )
+
+
+@dataclass(frozen=True)
+class Commands:
+    """Commanded inputs at one instant."""
+
+    screw_speed: float  # rad/s, reference of the speed controller
+    preload: float  # N, force pushing the nuts apart
+
+
+@dataclass(frozen=True)
+class SpeedController:
+    """PI speed controller of the screw (paper section 3): T = k_p e + k_i int e dt."""
+
+    proportional: float = 0.05  # N m s/rad
+    integral: float = 5.0  # N m/rad
+
+
+@dataclass
+class StepReport:
+    """What one step computed besides the new state (for outputs and checks)."""
+
+    motor_torque: float  # N m, at the end of the step
+    contacts: ContactEvaluation  # at the start of the step
+    nut_force: FloatArray  # (2,) N, axial force of the spheres on each nut
+    screw_torque: float  # N m, moment of the spheres on the screw about z
+    dissipation: float  # W, all contact mechanisms
+
+
+@dataclass
+class DynamicModel:
+    """Multibody model of the double-nut ball screw with all loaded spheres.
+
+    Args:
+        config: parameter set.
+        temperature: bulk temperature [K] (constant during a run, as in the paper).
+        time_step: integration step [s].
+        jacobian_interval: steps between refreshes of the velocity Jacobian.
+        controller: PI gains of the screw speed controller.
+        backend: ``"compiled"`` (numba kernel) or ``"reference"`` (numpy) contact laws.
+    """
+
+    config: TwinConfig
+    temperature: float
+    time_step: float = 1e-6
+    jacobian_interval: int = 10
+    controller: SpeedController = field(default_factory=SpeedController)
+    backend: str = "compiled"
+
+    def __post_init__(self) -> None:
+        OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=0.0).validate()
+        if not (0.0 < self.time_step <= 1e-4):
+            raise OperatingPointError(f"time_step = {self.time_step} s must be in (0, 1e-4]")
+        if self.jacobian_interval < 1:
+            raise OperatingPointError("jacobian_interval must be >= 1")
+        self._scene = make_scene(self.config, self.temperature, 0.0)
+        geom = self._scene.geometry
+        assert isinstance(geom, type(self.config.screw))
+        self.geometry = geom
+        self._contacts: ContactFunction = evaluate_contacts
+        if self.backend == "compiled":
+            from ..kernels.contacts import evaluate_contacts_compiled
+
+            self._contacts = evaluate_contacts_compiled
+        elif self.backend != "reference":
+            raise ValueError(f"backend = {self.backend!r} must be compiled or reference")
+        count = self.config.screw.balls_per_nut
+        self.ball_nut = np.repeat(np.array([0, 1]), count)
+        self.lead_rate = geom.lead / (2.0 * math.pi)
+        self.zhat = geometry.axis_direction(geom.helix_angle)
+        self.gravity = np.array([0.0, 0.0, -self.config.environment.gravity])
+        if self.config.screw.orientation != "vertical":
+            self.gravity = np.array([0.0, -self.config.environment.gravity, 0.0])
+        self._nut_offset0 = np.zeros(2)
+        self._jacobian: Jacobians | None = None
+        self._jacobian_age = 0
+
+    # ----------------------------------------------------------------- initial state
+
+    def initial_state(self, preload: float = 0.0) -> DynamicState:
+        """Spheres at the static equilibrium of the steady model at ``preload`` [N], at rest.
+
+        The spheres of each nut are spread evenly along its loaded turns; the master nut's
+        turns lie above the slave nut's.
+        """
+        static = SteadyStateModel(self.config, mode="symmetric").solve(
+            OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=preload)
+        )
+        screw = self.config.screw
+        count = screw.balls_per_nut
+        spacing = 2.0 * math.pi * screw.loaded_turns / count
+        gap_turns = 2.0 * math.pi * (screw.loaded_turns + 0.5)  # slave turns below the master's
+        theta = np.concatenate([np.arange(count) * spacing, np.arange(count) * spacing - gap_turns])
+        offsets = static.state.ball_nb[self.ball_nut]
+        frames = geometry.frenet_frame(theta, self.geometry.helix_angle)
+        position = (
+            self._helix_point(theta)
+            + offsets[:, 0:1] * frames[:, 1]
+            + offsets[:, 1:2] * (frames[:, 2])
+        )
+        self._nut_offset0 = static.state.nut_offset.copy()
+        self._jacobian = None
+        zeros = np.zeros((2 * count, 3))
+        return DynamicState(
+            time=0.0,
+            screw_angle=0.0,
+            screw_speed=0.0,
+            controller_integral=0.0,
+            nut_position=np.zeros(2),
+            nut_velocity=np.zeros(2),
+            ball_position=position,
+            ball_velocity=zeros.copy(),
+            ball_omega=zeros.copy(),
+            helix_parameter=theta,
+        )
+
+    def _helix_point(self, theta: FloatArray) -> FloatArray:
+        """B(theta) of Eq. 2 in the screw frame [m]."""
+        r_m = self.geometry.pitch_radius
+        return np.stack([r_m * np.cos(theta), r_m * np.sin(theta), self.lead_rate * theta], axis=-1)
+
+    # ----------------------------------------------------------------- contact actions
+
+    def _locate(self, state: DynamicState) -> tuple[FloatArray, FloatArray, FloatArray]:
+        """Helix parameter, Frenet frames (screw frame rows t, n, b) and (n, b) offsets."""
+        c, s = math.cos(state.screw_angle), math.sin(state.screw_angle)
+        to_screw = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        r_s = state.ball_position @ to_screw.T
+        theta = state.helix_parameter.copy()
+        r_m, lead = self.geometry.pitch_radius, self.lead_rate
+        for _ in range(HELIX_NEWTON_STEPS):  # (r - B(theta)) . dB/dtheta = 0
+            rel = r_s - self._helix_point(theta)
+            tangent = np.stack(
+                [-r_m * np.sin(theta), r_m * np.cos(theta), np.full_like(theta, lead)], axis=-1
+            )
+            bend = np.stack([-r_m * np.cos(theta), -r_m * np.sin(theta), 0 * theta], axis=-1)
+            f = np.einsum("bi,bi->b", rel, tangent)
+            df = -np.einsum("bi,bi->b", tangent, tangent) + np.einsum("bi,bi->b", rel, bend)
+            theta = theta - f / df
+        frames = geometry.frenet_frame(theta, self.geometry.helix_angle)
+        rel = r_s - self._helix_point(theta)
+        nb = np.stack(
+            [np.einsum("bi,bi->b", rel, frames[:, 1]), np.einsum("bi,bi->b", rel, frames[:, 2])],
+            axis=-1,
+        )
+        return theta, frames, nb
+
+    def contact_actions(
+        self,
+        state: DynamicState,
+        ball_velocity: FloatArray | None = None,
+        ball_omega: FloatArray | None = None,
+        nut_velocity: FloatArray | None = None,
+        screw_speed: float | None = None,
+    ) -> Actions:
+        """Contact actions on every sphere (world frame) and each sphere's share on the screw
+        and on its nut, at the state's positions and the given (default: the state's)
+        velocities."""
+        v = state.ball_velocity if ball_velocity is None else ball_velocity
+        w = state.ball_omega if ball_omega is None else ball_omega
+        vn = state.nut_velocity if nut_velocity is None else nut_velocity
+        speed = state.screw_speed if screw_speed is None else screw_speed
+        theta, frames, nb = self._locate(state)
+        c, s = math.cos(state.screw_angle), math.sin(state.screw_angle)
+        to_screw = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        zaxis = np.array([0.0, 0.0, 1.0])
+        # Velocities relative to the rotating screw, then in each sphere's Frenet frame.
+        v_rel = (v - speed * np.cross(zaxis, state.ball_position)) @ to_screw.T
+        w_rel = (w - speed * zaxis) @ to_screw.T
+        v_frenet = np.einsum("bij,bj->bi", frames, v_rel)
+        w_frenet = np.einsum("bij,bj->bi", frames, w_rel)
+        shift = state.nut_position + self.lead_rate * state.screw_angle
+        nut_offset = self._nut_offset0 + shift * math.cos(self.geometry.helix_angle)
+        slide = vn + speed * self.lead_rate
+        if speed != self._scene.screw_speed:
+            self._scene = replace(self._scene, screw_speed=speed)
+        kin = np.concatenate([np.zeros((len(nb), 1)), w_frenet], axis=1)
+        ev = self._contacts(
+            self._scene,
+            nb,
+            kin,
+            nut_offset[self.ball_nut],
+            np.zeros((len(nb), 3)),
+            centre_velocity=v_frenet,
+            nut_slide=slide[self.ball_nut],
+        )
+        to_world = to_screw.T
+        force = np.einsum("bji,bj->bi", frames, ev.force) @ to_world.T
+        moment = np.einsum("bji,bj->bi", frames, ev.moment) @ to_world.T
+        on_nut = np.where(geometry.IS_NUT[None, :, None], ev.groove_force, 0.0).sum(axis=1)
+        screw_share = np.where(~geometry.IS_NUT[None, :], ev.groove_moment_z, 0.0).sum(axis=1)
+        return Actions(
+            generalised=np.concatenate([force, moment], axis=1),
+            screw_moment=screw_share,
+            nut_force=np.einsum("bi,i->b", on_nut, self.zhat),
+            contacts=ev,
+            helix_parameter=theta,
+        )
+
+    # ----------------------------------------------------------------- stepping
+
+    def _jacobians(self, state: DynamicState, base: Actions) -> Jacobians:
+        """Derivatives of each sphere's actions with respect to its own velocities and to the
+        shared ones (screw speed, its nut's velocity), by forward differences.
+
+        A sphere's actions depend on its own velocities and the shared ones only, so perturbing
+        one component of all spheres at once gives every sphere's column: 6 + 1 + 1
+        evaluations for any number of spheres.
+        """
+        count = len(base.screw_moment)
+        own = np.zeros((count, 8, 6))  # rows: force (3), moment (3), screw share, nut share
+        shared = np.zeros((count, 8, 3))  # columns: screw speed, master nut, slave nut velocity
+        y0 = base.stacked()
+        r_b = self.geometry.ball_radius
+        for j in range(6):
+            v, w = state.ball_velocity.copy(), state.ball_omega.copy()
+            h = VELOCITY_STEP if j < 3 else VELOCITY_STEP / r_b
+            if j < 3:
+                v[:, j] += h
+            else:
+                w[:, j - 3] += h
+            own[:, :, j] = (self.contact_actions(state, v, w).stacked() - y0) / h
+        h_screw = VELOCITY_STEP / self.geometry.pitch_radius
+        bumped = self.contact_actions(state, screw_speed=state.screw_speed + h_screw)
+        shared[:, :, 0] = (bumped.stacked() - y0) / h_screw
+        bumped = self.contact_actions(state, nut_velocity=state.nut_velocity + VELOCITY_STEP)
+        column = (bumped.stacked() - y0) / VELOCITY_STEP  # each sphere feels its own nut only
+        for k in (0, 1):
+            members = self.ball_nut == k
+            shared[members, :, 1 + k] = column[members]
+        return Jacobians(own, shared)
+
+    def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
+        """Advance all bodies by one linearly implicit (backward Euler) step of the velocities.
+
+        Sphere blocks (M_i - dt A_i) du_i - dt B_i dU = dt f_i and the shared rows (screw,
+        nuts) S dU - dt sum_i E_i (C_i du_i + D_i dU) = dt g are solved by eliminating the
+        sphere blocks (3 x 3 Schur complement); positions then move with the new velocities.
+        """
+        dt = self.time_step
+        screw = self.config.screw
+        base = self.contact_actions(state)
+        if self._jacobian is None or self._jacobian_age >= self.jacobian_interval:
+            self._jacobian = self._jacobians(state, base)
+            self._jacobian_age = 0
+        self._jacobian_age += 1
+        jac = self._jacobian
+        mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
+        diag = np.concatenate([np.full(3, mass), np.full(3, inertia)])
+        gravity = np.concatenate([mass * self.gravity, np.zeros(3)])
+        block = np.eye(6)[None] * diag[None, :, None] - dt * jac.own[:, :6]
+        rhs = dt * np.stack(
+            [base.generalised + gravity, *(dt * jac.shared[:, :6, k] / dt for k in range(3))],
+            axis=-1,
+        )
+        solved = np.linalg.solve(block, rhs)  # (B, 6, 4): p_i and Q_i
+        p, q = solved[:, :, 0], solved[:, :, 1:]
+        # Shared rows: screw (with the PI controller implicit in its speed) and the two nuts.
+        error = commands.screw_speed - state.screw_speed
+        k_p, k_i = self.controller.proportional, self.controller.integral
+        motor0 = k_p * error + k_i * (state.controller_integral + dt * error)
+        weight = screw.nut_mass * self.config.environment.gravity
+        if screw.orientation != "vertical":
+            weight = 0.0
+        route = np.zeros((len(p), 3, 2))  # E_i: (screw share, nut share) -> shared rows
+        route[:, 0, 0] = 1.0
+        route[np.arange(len(p)), 1 + self.ball_nut, 1] = 1.0
+        shares = np.stack([base.screw_moment, base.nut_force], axis=-1)  # (B, 2)
+        g = np.array([motor0, commands.preload - weight, -commands.preload - weight])
+        g = g + np.einsum("bij,bj->i", route, shares)
+        c_i, d_i = jac.own[:, 6:], jac.shared[:, 6:]
+        coupling = np.einsum("bij,bjk->bik", route, np.einsum("bij,bjk->bik", c_i, q) + d_i)
+        lhs = np.diag([screw.screw_inertia, screw.nut_mass, screw.nut_mass]) - dt * coupling.sum(0)
+        lhs[0, 0] += dt * (k_p + k_i * dt)
+        rhs_shared = dt * g + dt * np.einsum("bij,bj->i", route, np.einsum("bij,bj->bi", c_i, p))
+        d_shared = np.linalg.solve(lhs, rhs_shared)
+        d_ball = p + np.einsum("bij,j->bi", q, d_shared)
+        screw_speed = state.screw_speed + d_shared[0]
+        nut_velocity = state.nut_velocity + d_shared[1:]
+        ball_velocity = state.ball_velocity + d_ball[:, :3]
+        ball_omega = state.ball_omega + d_ball[:, 3:]
+        new_error = commands.screw_speed - screw_speed
+        integral = state.controller_integral + dt * new_error
+        new = DynamicState(
+            time=state.time + dt,
+            screw_angle=state.screw_angle + dt * screw_speed,
+            screw_speed=screw_speed,
+            controller_integral=integral,
+            nut_position=state.nut_position + dt * nut_velocity,
+            nut_velocity=nut_velocity,
+            ball_position=state.ball_position + dt * ball_velocity,
+            ball_velocity=ball_velocity,
+            ball_omega=ball_omega,
+            helix_parameter=base.helix_parameter,
+        )
+        ev = base.contacts
+        report = StepReport(
+            motor_torque=k_p * new_error + k_i * integral,
+            contacts=ev,
+            nut_force=np.array([base.nut_force[self.ball_nut == k].sum() for k in (0, 1)]),
+            screw_torque=float(base.screw_moment.sum()),
+            dissipation=float(sum(np.sum(v) for v in ev.dissipation.values())),
+        )
+        return new, report
+
+
+@dataclass
+class Actions:
+    """Contact actions at one state (world frame)."""
+
+    generalised: FloatArray  # (B, 6) force [N] and moment [N m] on each sphere
+    screw_moment: FloatArray  # (B,) N m, each sphere's moment on the screw about z
+    nut_force: FloatArray  # (B,) N, each sphere's axial force on its nut
+    contacts: ContactEvaluation
+    helix_parameter: FloatArray  # (B,) rad
+
+    def stacked(self) -> FloatArray:
+        """(B, 8): force, moment, screw share, nut share."""
+        return np.concatenate(
+            [self.generalised, self.screw_moment[:, None], self.nut_force[:, None]], axis=1
+        )
+
+
+@dataclass
+class Jacobians:
+    """Velocity Jacobians of each sphere's stacked actions (rows as :meth:`Actions.stacked`)."""
+
+    own: FloatArray  # (B, 8, 6) with respect to its velocity and angular velocity
+    shared: FloatArray  # (B, 8, 3) with respect to screw speed, master and slave nut velocity
