@@ -113,7 +113,10 @@ class DynamicModel:
         config: parameter set.
         temperature: bulk temperature [K] (constant during a run, as in the paper).
         time_step: integration step [s].
-        jacobian_interval: steps between refreshes of the velocity Jacobian.
+        jacobian_interval: steps between refreshes of the velocity Jacobian (it is refreshed at
+            once when a contact opens or closes). 1, the default, is needed through impacts and
+            the preload transient: saturated damping and friction are not smooth enough for a
+            stale linearisation (measured, docs/model.md section 10).
         controller: PI gains of the screw speed controller.
         backend: ``"compiled"`` (numba kernel) or ``"reference"`` (numpy) contact laws.
     """
@@ -121,7 +124,7 @@ class DynamicModel:
     config: TwinConfig
     temperature: float
     time_step: float = 1e-6
-    jacobian_interval: int = 10
+    jacobian_interval: int = 1
     controller: SpeedController = field(default_factory=SpeedController)
     backend: str = "compiled"
 
@@ -151,6 +154,7 @@ class DynamicModel:
             self.gravity = np.array([0.0, -self.config.environment.gravity, 0.0])
         self._nut_offset0 = np.zeros(2)
         self._jacobian: Jacobians | None = None
+        self._jacobian_contacts = np.zeros((0, 4), dtype=bool)
         self._jacobian_age = 0
 
     # ----------------------------------------------------------------- initial state
@@ -275,6 +279,36 @@ class DynamicModel:
             helix_parameter=theta,
         )
 
+    # ----------------------------------------------------------------- energy
+
+    def energy(self, state: DynamicState) -> dict[str, float]:
+        """Stored energy [J]: kinetic (spheres, screw, nuts), elastic (Hertz, 2/5 K delta^2.5,
+        the potential of Eq. 18's elastic force) and gravitational (relative to the start).
+        """
+        screw = self.config.screw
+        mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
+        kinetic = (
+            0.5 * mass * float(np.sum(state.ball_velocity**2))
+            + 0.5 * inertia * float(np.sum(state.ball_omega**2))
+            + 0.5 * screw.screw_inertia * state.screw_speed**2
+            + 0.5 * screw.nut_mass * float(np.sum(state.nut_velocity**2))
+        )
+        ev = self.contact_actions(state).contacts
+        delta = np.where(ev.active, np.maximum(ev.approach, 0.0), 0.0)
+        elastic = 0.4 * float(np.sum(ev.hertz.stiffness * delta**2.5))
+        potential = -mass * float(np.sum(state.ball_position @ self.gravity))
+        if screw.orientation == "vertical":
+            potential += screw.nut_mass * self.config.environment.gravity * float(
+                np.sum(state.nut_position)
+            )
+        return {"kinetic": kinetic, "elastic": elastic, "gravitational": potential}
+
+    def input_power(self, state: DynamicState, commands: Commands, motor_torque: float) -> float:
+        """Power put in by the motor and the preload force [W] (preload pushes the nuts apart)."""
+        return motor_torque * state.screw_speed + commands.preload * float(
+            state.nut_velocity[0] - state.nut_velocity[1]
+        )
+
     # ----------------------------------------------------------------- stepping
 
     def _jacobians(self, state: DynamicState, base: Actions) -> Jacobians:
@@ -318,8 +352,16 @@ class DynamicModel:
         dt = self.time_step
         screw = self.config.screw
         base = self.contact_actions(state)
-        if self._jacobian is None or self._jacobian_age >= self.jacobian_interval:
+        # Refresh the linearisation every jacobian_interval steps, and at once when a contact
+        # opens or closes (a stale Jacobian across an impact destabilises the step).
+        contact_set = base.contacts.active
+        if (
+            self._jacobian is None
+            or self._jacobian_age >= self.jacobian_interval
+            or not np.array_equal(contact_set, self._jacobian_contacts)
+        ):
             self._jacobian = self._jacobians(state, base)
+            self._jacobian_contacts = contact_set.copy()
             self._jacobian_age = 0
         self._jacobian_age += 1
         jac = self._jacobian
