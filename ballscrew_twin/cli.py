@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
     "bench": ("ballscrew_twin.bench", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
+    "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
 }
 
 HALF_GROOVES = ("S1", "S2", "N1", "N2")

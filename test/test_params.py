@@ -43,7 +43,8 @@ def rejected(tmp_path: Path, edit: Callable[[dict[str, Any]], None]) -> str:
 
 def test_paper_yaml_loads_with_table_values() -> None:
     cfg = load_config(PAPER)
-    assert default_config_path().resolve() == PAPER
+    # The default is the calibrated set made from this file by `ballscrew-twin calibrate`.
+    assert default_config_path().resolve() == PAPER.with_name("paper_screw_calibrated.yaml")
     assert cfg.screw.pitch_radius == 8.0e-3
     assert cfg.screw.ball_radius == 1.5875e-3
     assert cfg.screw.balls_per_nut == 25 and isinstance(cfg.screw.balls_per_nut, int)

@@ -18,7 +18,7 @@ Newton iteration over all of them at once.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -46,6 +46,9 @@ CONTINUATION_SCHEDULES = (
 )
 POSITION_STEP = 1e-10  # m, finite-difference step of the ball and nut offsets
 KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to the screw speed
+#: Speeds below this are solved as standstill [rad/s] (1e-5 rpm: no ball screw runs there, and
+#: the film laws' groups underflow as the entrainment speed goes to zero).
+STANDSTILL_SPEED = 1e-6
 MECHANISMS = (
     "lubricant_shear",
     "dry_contact",
@@ -371,6 +374,9 @@ class SteadyStateModel:
     def solve(self, op: OperatingPoint, warm_start: SteadyState | None = None) -> SteadySolution:
         """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one)."""
         op.validate()
+        requested = op
+        if 0.0 < abs(op.screw_speed) < STANDSTILL_SPEED:
+            op = replace(op, screw_speed=0.0)
         mode = self.resolved_mode()
         scene = make_scene(self.config, op.temperature, op.screw_speed)
         balls = self.ball_set(mode)
@@ -386,7 +392,17 @@ class SteadyStateModel:
         else:
             state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         self._warm = state
-        return self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+        solution = self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+        if requested is op:
+            return solution
+        note = (
+            f"speed {requested.screw_speed:.3g} rad/s is below {STANDSTILL_SPEED:g} rad/s: "
+            "solved as standstill"
+        )
+        output = replace(
+            solution.output, operating_point=requested, notes=(*solution.output.notes, note)
+        )
+        return replace(solution, output=output)
 
     def _rescaled(
         self, start: SteadyState, scene: ContactScene, balls: BallSet, speed: float

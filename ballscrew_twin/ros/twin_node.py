@@ -274,7 +274,9 @@ class TwinNode(Node):
                 throttle_duration_sec=WARN_THROTTLE)
             return
         elapsed = time.perf_counter() - start
-        msg = self.to_message(out, op, real_time_factor=elapsed / self._period)
+        # Simulated time per wall time (>= 1 keeps up); a compute time below the clock's
+        # resolution counts as one nanosecond.
+        msg = self.to_message(out, op, real_time_factor=self._period / max(elapsed, 1e-9))
         if msg is None:
             self.get_logger().error(
                 f"model {self.model.name} returned a non-finite torque at "
@@ -291,7 +293,7 @@ class TwinNode(Node):
         Args:
             out: model output [N m].
             op: operating point the output was computed at (SI).
-            real_time_factor: model compute time / publish period [-].
+            real_time_factor: publish period / model compute time, >= 1 keeps up [-].
         """
         b = out.breakdown
         values = {

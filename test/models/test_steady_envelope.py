@@ -41,8 +41,15 @@ def test_admissible_state_or_clear_error(preload: float, rpm: float, celsius: fl
     out = sol.output
     cs = out.contacts
     assert cs is not None
-    for name in ("normal_force", "friction_force", "film_thickness", "max_pressure",
-                 "tallian_parameter", "shear_stress", "slip_speed"):
+    for name in (
+        "normal_force",
+        "friction_force",
+        "film_thickness",
+        "max_pressure",
+        "tallian_parameter",
+        "shear_stress",
+        "slip_speed",
+    ):
         values = getattr(cs, name)
         assert np.all(np.isfinite(values)), name
         assert np.all(values >= 0.0), name
@@ -50,13 +57,15 @@ def test_admissible_state_or_clear_error(preload: float, rpm: float, celsius: fl
     # Second law: the contacts dissipate in total; each law that is dissipative by construction
     # (friction, spin, hysteresis, curvature) does so on its own. The hydrodynamic FR pair of
     # Eq. 41 may return power while a barely loaded sphere skids (docs/model.md, D13).
-    power = {m: float(np.sum(sol.contacts.dissipation[m] * sol.balls.weight[:, None]))
-             for m in MECHANISMS}
+    power = {
+        m: float(np.sum(sol.contacts.dissipation[m] * sol.balls.weight[:, None]))
+        for m in MECHANISMS
+    }
     assert all(math.isfinite(p) for p in power.values())
     assert sum(power.values()) >= 0.0
     for name in ("lubricant_shear", "dry_contact", "hysteresis", "curvature", "spin"):
         assert power[name] >= 0.0, name
-    if point.screw_speed != 0.0:
+    if sol.state.screw_speed != 0.0:  # not solved as standstill
         # Work-energy balance: screw torque less the torque lifting the nuts is the dissipation.
         balance = sol.screw_torque_direct - sol.gravity_torque
         scale = max(abs(sol.gravity_torque), abs(out.drag_torque))
@@ -69,3 +78,11 @@ def test_zero_speed_zero_preload_is_defined() -> None:
     )
     assert out.drag_torque == 0.0
     assert any("zero speed" in n for n in out.notes)
+
+
+def test_creeping_speed_is_solved_as_standstill() -> None:
+    point = OperatingPoint(screw_speed=1.5e-295, temperature=273.15, preload=62.0)
+    out = SteadyStateModel(CONFIG).evaluate(point)
+    assert out.drag_torque == 0.0
+    assert out.operating_point == point
+    assert any("standstill" in n for n in out.notes)

@@ -1,0 +1,307 @@
+"""Scenarios of the dynamic model: commanded preload and speed over time, loaded from YAML.
+
+A :class:`Scenario` is a frozen, validated dataclass in SI units (temperature in K, speed in
+rad/s, force in N, time in s). Every numeric field carries its unit and allowed range in the
+field metadata, as the parameter sets of :mod:`ballscrew_twin.params` do; the loader rejects
+unknown keys, non-finite numbers and out-of-range values with a message naming the file and the
+field, and the cross-field checks (ramp end before its start, an averaging window longer than
+the run, ...) name the fields involved.
+
+The default timings are the paper's protocol (section 3): preload smooth-stepped over the first
+5 ms, speed smooth-stepped from 0.05 s to 0.1 s, held for 0.5 s (0.6 s in all), quantities
+averaged over the last 0.2 s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, dataclass, field, fields
+from pathlib import Path
+from typing import Any, Literal, get_args
+
+import yaml
+
+from ..errors import ConfigError
+from .dynamic import Commands, SpeedController
+
+Backend = Literal["compiled", "reference"]
+
+#: Relative tolerance when checking that an interval is a whole number of time steps [-].
+STEP_MULTIPLE_TOLERANCE = 1e-6
+
+_DEFAULT_CONTROLLER = SpeedController()
+
+
+def _num(
+    unit: str, lo: float, hi: float, doc: str, *, default: float, lo_open: bool = False
+) -> Any:
+    """A float field with unit, range [lo, hi] ((lo, hi] when ``lo_open``) and description."""
+    meta = {"unit": unit, "min": lo, "max": hi, "min_open": lo_open, "doc": doc}
+    return field(default=default, metadata=meta)
+
+
+def _req(unit: str, lo: float, hi: float, doc: str) -> Any:
+    """A required float field with unit and closed range [lo, hi]."""
+    return field(metadata={"unit": unit, "min": lo, "max": hi, "min_open": False, "doc": doc})
+
+
+def _int(lo: int, hi: int, doc: str, *, default: int | None) -> Any:
+    """An integer field (``default`` None: optional, absent means "not overridden")."""
+    return field(
+        default=default, metadata={"unit": "-", "min": lo, "max": hi, "integer": True, "doc": doc}
+    )
+
+
+def smooth_step(t: float, t0: float, t1: float) -> float:
+    """Cubic smooth step: 0 for t <= t0, 1 for t >= t1, 3 s^2 - 2 s^3 with s = (t-t0)/(t1-t0).
+
+    Continuous with a continuous first derivative (zero at both ends). ``t1 == t0`` is a hard
+    step at t0 (value 1 from t0 on). Times in any consistent unit (s here).
+    """
+    if t >= t1:
+        return 1.0
+    if t <= t0:
+        return 0.0
+    s = (t - t0) / (t1 - t0)
+    return s * s * (3.0 - 2.0 * s)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Scenario:
+    """One run of the dynamic model: operating point, command ramps, step and outputs (SI).
+
+    The preload is smooth-stepped from 0 at t = 0 to ``preload`` at ``preload_ramp_end``; the
+    speed command from 0 at ``speed_ramp_start`` to ``speed`` at ``speed_ramp_end``. The
+    summary averages over the last ``average_window`` seconds of ``duration``, which must begin
+    after both ramps have ended.
+
+    ``source`` is the file the scenario was read from (used in messages and to resolve
+    ``config``); it is not a YAML key.
+    """
+
+    name: str = field(metadata={"doc": "name of the scenario"})
+    config: str | None = field(
+        default=None,
+        metadata={"doc": "parameter YAML, relative to the scenario file (default: shipped one)"},
+    )
+    balls_per_nut: int | None = _int(
+        1, 500, "override of the configuration's loaded spheres per nut", default=None
+    )
+    temperature: float = _req("K", 139.0, 500.0, "bulk temperature, constant during the run")
+    preload: float = _req("N", 0.0, 1e5, "final preload force pushing the nuts apart")
+    preload_ramp_end: float = _num("s", 0.0, 100.0, "end of the preload smooth step", default=5e-3)
+    speed: float = _req("rad/s", -1e4, 1e4, "final screw speed command (sign = direction)")
+    speed_ramp_start: float = _num("s", 0.0, 100.0, "start of the speed smooth step", default=0.05)
+    speed_ramp_end: float = _num("s", 0.0, 100.0, "end of the speed smooth step", default=0.1)
+    duration: float = _num("s", 0.0, 100.0, "simulated time", default=0.6, lo_open=True)
+    average_window: float = _num(
+        "s", 0.0, 100.0, "summary averaged over the last window", default=0.2, lo_open=True
+    )
+    time_step: float = _num("s", 0.0, 1e-4, "integration step", default=1e-6, lo_open=True)
+    jacobian_interval: int = _int(1, 100_000, "steps between Jacobian refreshes", default=10)
+    output_interval: float = _num(
+        "s", 0.0, 100.0, "time-series sampling period", default=1e-4, lo_open=True
+    )
+    contact_output_interval: float = _num(
+        "s", 0.0, 100.0, "contact-state sampling period", default=1e-3, lo_open=True
+    )
+    controller_proportional: float = _num(
+        "N m s/rad", 0.0, 1e3, "PI speed controller k_p", default=_DEFAULT_CONTROLLER.proportional
+    )
+    controller_integral: float = _num(
+        "N m/rad", 0.0, 1e6, "PI speed controller k_i", default=_DEFAULT_CONTROLLER.integral
+    )
+    backend: Backend = field(
+        default="compiled", metadata={"doc": "contact laws: compiled (numba) or reference"}
+    )
+    source: str = field(default="", metadata={"doc": "file read from (not a YAML key)"})
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    # ------------------------------------------------------------------ validation
+
+    @property
+    def _where(self) -> str:
+        return self.source or "<scenario>"
+
+    def validate(self) -> None:
+        """Check every field against its metadata and the cross-field rules.
+
+        Raises:
+            ConfigError: naming the file (``source``) and the field.
+        """
+        where = self._where
+        if not isinstance(self.name, str) or not self.name.strip():
+            raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
+        if self.config is not None and (not isinstance(self.config, str) or not self.config):
+            raise ConfigError(f"{where}: config must be a path string, got {self.config!r}")
+        if self.backend not in get_args(Backend):
+            raise ConfigError(
+                f"{where}: backend = {self.backend!r} is not one of {list(get_args(Backend))}"
+            )
+        for fld in fields(self):
+            meta = fld.metadata
+            if "min" not in meta:
+                continue
+            value = getattr(self, fld.name)
+            if value is None and fld.default is None:
+                continue
+            _check_number(value, meta, f"{where}: {fld.name}")
+        self._validate_timing(where)
+
+    def _validate_timing(self, where: str) -> None:
+        if self.speed_ramp_end < self.speed_ramp_start:
+            raise ConfigError(
+                f"{where}: speed_ramp_end = {self.speed_ramp_end} s is before "
+                f"speed_ramp_start = {self.speed_ramp_start} s"
+            )
+        if self.duration < self.average_window:
+            raise ConfigError(
+                f"{where}: duration = {self.duration} s is shorter than "
+                f"average_window = {self.average_window} s"
+            )
+        window_start = self.duration - self.average_window
+        for ramp in ("preload_ramp_end", "speed_ramp_end"):
+            end = getattr(self, ramp)
+            if end > window_start * (1.0 + 1e-12):
+                raise ConfigError(
+                    f"{where}: {ramp} = {end} s is inside the averaging window, which starts at "
+                    f"duration - average_window = {window_start:.6g} s; lengthen duration or "
+                    "shorten average_window"
+                )
+        for name in ("duration", "output_interval", "contact_output_interval", "average_window"):
+            value = getattr(self, name)
+            ratio = value / self.time_step
+            if abs(ratio - round(ratio)) > STEP_MULTIPLE_TOLERANCE * max(ratio, 1.0):
+                raise ConfigError(
+                    f"{where}: {name} = {value} s is not a whole number of "
+                    f"time_step = {self.time_step} s"
+                )
+        for name in ("output_interval", "contact_output_interval"):
+            if getattr(self, name) > self.duration:
+                raise ConfigError(
+                    f"{where}: {name} = {getattr(self, name)} s exceeds duration = "
+                    f"{self.duration} s"
+                )
+
+    # ------------------------------------------------------------------ derived
+
+    @property
+    def controller(self) -> SpeedController:
+        """The PI gains as the dynamic model takes them."""
+        return SpeedController(
+            proportional=self.controller_proportional, integral=self.controller_integral
+        )
+
+    @property
+    def steps(self) -> int:
+        """Number of integration steps of the run [-]."""
+        return round(self.duration / self.time_step)
+
+    def steps_per(self, interval: float) -> int:
+        """Whole number of steps in ``interval`` [s] (>= 1)."""
+        return max(1, round(interval / self.time_step))
+
+    def config_path(self) -> Path | None:
+        """Parameter file to load: ``config`` resolved against the scenario file's folder
+        (None: the shipped default)."""
+        if self.config is None:
+            return None
+        path = Path(self.config).expanduser()
+        if not path.is_absolute() and self.source:
+            path = Path(self.source).resolve().parent / path
+        return path
+
+    def commands_at(self, t: float) -> Commands:
+        """Commanded screw speed [rad/s] and preload [N] at time ``t`` [s]."""
+        return Commands(
+            screw_speed=self.speed * smooth_step(t, self.speed_ramp_start, self.speed_ramp_end),
+            preload=self.preload * smooth_step(t, 0.0, self.preload_ramp_end),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scenario as a JSON/YAML-ready mapping (SI units; ``source`` included)."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def _check_number(raw: Any, meta: Any, path: str) -> None:
+    """Type, finiteness and range of one numeric field value."""
+    unit = meta["unit"]
+    integer = meta.get("integer", False)
+    if isinstance(raw, bool) or not isinstance(raw, int | float):
+        raise ConfigError(f"{path}: expected a number in {unit}, got {raw!r}")
+    if not math.isfinite(raw):
+        raise ConfigError(f"{path}: {raw!r} is not a finite number")
+    if integer and raw != int(raw):
+        raise ConfigError(f"{path}: expected a whole number, got {raw!r}")
+    lo, hi = meta["min"], meta["max"]
+    below = raw <= lo if meta.get("min_open") else raw < lo
+    if below or raw > hi:
+        left = "(" if meta.get("min_open") else "["
+        hint = ""
+        if raw < 0.0 <= lo:
+            hint = " (must not be negative)"
+        elif unit == "K" and raw < lo:
+            hint = " (temperatures are in kelvin, not degrees Celsius)"
+        elif raw > hi > 0 and unit == "s":
+            hint = " (times are in seconds)"
+        raise ConfigError(
+            f"{path} = {raw!r} is outside the allowed range {left}{lo:g}, {hi:g}] {unit}{hint}"
+        )
+
+
+def _coerce(raw: Any, fld: Any, path: str) -> Any:
+    """Numbers written as strings (PyYAML reads ``1e-6`` as a string) become numbers."""
+    if "min" not in fld.metadata or not isinstance(raw, str):
+        return raw
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ConfigError(
+            f"{path}: expected a number in {fld.metadata['unit']}, got {raw!r}"
+        ) from None
+    if fld.metadata.get("integer") and math.isfinite(value) and value == int(value):
+        return int(value)
+    return value
+
+
+def scenario_from_mapping(data: Any, source: str = "<mapping>") -> Scenario:
+    """Validate a parsed YAML mapping into a :class:`Scenario`; errors name ``source``."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: top level must be a mapping of scenario fields")
+    known = {f.name: f for f in fields(Scenario) if f.name != "source"}
+    unknown = sorted(set(map(str, data)) - set(known) - {"description"})
+    if unknown:
+        raise ConfigError(f"{source}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+    values: dict[str, Any] = {}
+    for name, fld in known.items():
+        if name not in data:
+            if fld.default is MISSING:
+                raise ConfigError(f"{source}: {name}: missing")
+            continue
+        raw = data[name]
+        if raw is None and fld.default is None:
+            continue
+        values[name] = _coerce(raw, fld, f"{source}: {name}")
+    if isinstance(values.get("config"), Path):
+        values["config"] = str(values["config"])
+    return Scenario(**values, source=source)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file.
+
+    Raises:
+        ConfigError: unreadable file, invalid YAML or any invalid field (message names both).
+    """
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except OSError as err:
+        raise ConfigError(f"{file}: cannot read scenario file ({err.strerror})") from err
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ConfigError(f"{file}: not valid YAML ({err})") from err
+    return scenario_from_mapping(data, str(file))

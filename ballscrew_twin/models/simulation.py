@@ -1,0 +1,442 @@
+"""Run a :class:`~ballscrew_twin.models.scenario.Scenario` through the dynamic model.
+
+:func:`simulate` builds the parameter set and the :class:`DynamicModel`, starts from the static
+equilibrium at zero preload, steps to the end of the scenario and records
+
+- every ``output_interval``: commands, screw speed, motor torque, the spheres' torque on the
+  screw, nut forces and positions, dissipation (total, per mechanism, per nut), stored energy
+  (kinetic, elastic, gravitational), the gravitational power and the power-balance error
+  E(t) - E(0) - int_0^t (P_in - P_diss) dt (trapezoid over every step);
+- every ``contact_output_interval``: the state of every sphere / half-groove contact;
+- a summary over the last ``average_window`` (paper protocol, section 3): mean motor torque,
+  gravity torque (mean gravitational power / mean speed), drag torque = mean motor torque -
+  gravity torque, breakdown by mechanism (mean dissipation / mean speed), the drag's standard
+  deviation over the window, the final power-balance error, wall time and real-time factor.
+
+Every value is SI (s, rad/s, N m, N, m, W, J). The per-step means of the summary use every
+integration step of the window, not only the recorded samples.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import SolverError
+from ..params import TwinConfig, load_config
+from .contact_forces import make_scene
+from .dynamic import DynamicModel, DynamicState, StepReport
+from .scenario import Scenario
+
+FloatArray = NDArray[np.float64]
+ProgressCallback = Callable[[float, float], None]
+
+#: Dissipation mechanisms of the contact laws, in the order of the result's columns.
+MECHANISMS = (
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
+    "normal_damping",
+)
+
+#: Progress is reported about every this fraction of the run [-].
+PROGRESS_FRACTION = 0.005
+
+#: Speeds below this are treated as standstill when dividing a power by the speed [rad/s].
+STANDSTILL_SPEED = 1e-9
+
+
+@dataclass
+class SimulationResult:
+    """Recorded time series, contact states and summary of one run (SI units).
+
+    Time series (length N, every output interval): ``time`` [s], ``speed_command`` [rad/s],
+    ``preload_command`` [N], ``screw_speed`` [rad/s], ``motor_torque`` [N m], ``screw_torque``
+    (spheres on the screw about z) [N m], ``nut_force`` (N, 2) [N], ``nut_position`` (N, 2) [m],
+    ``dissipation`` [W], ``mechanism_dissipation`` (N, 7) [W] in :data:`MECHANISMS` order,
+    ``nut_dissipation`` (N, 2) [W], ``kinetic_energy``, ``elastic_energy``,
+    ``gravitational_energy`` [J], ``gravitational_power`` (dE_grav/dt) [W], ``input_energy``
+    (cumulative int P_in dt) [J], ``dissipated_energy`` [J], ``power_balance_error`` [J].
+
+    Contact states (M samples, B spheres, 4 half grooves S1, S2, N1, N2): ``contact_time`` [s],
+    ``normal_force`` (elastic part K delta^1.5) [N], ``friction_force`` [N], ``contact_angle``
+    [rad], ``tallian`` [-], ``film_thickness`` [m], ``slip`` [m/s], ``max_pressure`` [Pa],
+    ``semi_axis_x``, ``semi_axis_y`` [m], ``lubricant_share``, ``dry_share`` [-] of the
+    friction, ``in_contact`` (bool); ``ball_nut`` (B,) 0 master / 1 slave and ``ball_index`` (B,)
+    index within its nut.
+    """
+
+    scenario: Scenario
+    time: FloatArray
+    speed_command: FloatArray
+    preload_command: FloatArray
+    screw_speed: FloatArray
+    motor_torque: FloatArray
+    screw_torque: FloatArray
+    nut_force: FloatArray
+    nut_position: FloatArray
+    dissipation: FloatArray
+    mechanism_dissipation: FloatArray
+    nut_dissipation: FloatArray
+    kinetic_energy: FloatArray
+    elastic_energy: FloatArray
+    gravitational_energy: FloatArray
+    gravitational_power: FloatArray
+    input_energy: FloatArray
+    dissipated_energy: FloatArray
+    power_balance_error: FloatArray
+    contact_time: FloatArray
+    normal_force: FloatArray
+    friction_force: FloatArray
+    contact_angle: FloatArray
+    tallian: FloatArray
+    film_thickness: FloatArray
+    slip: FloatArray
+    max_pressure: FloatArray
+    semi_axis_x: FloatArray
+    semi_axis_y: FloatArray
+    lubricant_share: FloatArray
+    dry_share: FloatArray
+    in_contact: NDArray[np.bool_]
+    ball_nut: NDArray[np.int64]
+    ball_index: NDArray[np.int64]
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def gravity_torque(self) -> FloatArray:
+        """Gravitational power / screw speed at each sample, 0 at standstill [N m]."""
+        return _per_speed(self.gravitational_power, self.screw_speed)
+
+    @property
+    def drag_torque(self) -> FloatArray:
+        """Motor torque minus gravity torque at each sample [N m]."""
+        return self.motor_torque - self.gravity_torque
+
+    def breakdown_torque(self) -> FloatArray:
+        """(N, 7) dissipation per mechanism / screw speed at each sample, 0 at standstill [N m]."""
+        return _per_speed(self.mechanism_dissipation, self.screw_speed[:, None])
+
+
+def _per_speed(power: FloatArray, speed: FloatArray) -> FloatArray:
+    """power / speed where |speed| > STANDSTILL_SPEED, else 0."""
+    moving = np.abs(speed) > STANDSTILL_SPEED
+    return np.asarray(np.where(moving, power / np.where(moving, speed, 1.0), 0.0))
+
+
+def build_config(scenario: Scenario) -> TwinConfig:
+    """The scenario's parameter set, with ``balls_per_nut`` overridden when it is given."""
+    config = load_config(scenario.config_path())
+    count = scenario.balls_per_nut
+    if count is not None:
+        screw = replace(
+            config.screw,
+            balls_per_nut=count,
+            balls_total_per_nut=max(count, config.screw.balls_total_per_nut),
+        )
+        screw.validate(f"{scenario.source or '<scenario>'}: balls_per_nut override")
+        config = replace(config, screw=screw)
+    return config
+
+
+class _Recorder:
+    """Preallocated buffers of the time series and contact samples."""
+
+    def __init__(self, samples: int, contact_samples: int, balls: int) -> None:
+        self.n = 0
+        self.m = 0
+        zeros = np.zeros
+        self.series: dict[str, FloatArray] = {
+            name: zeros(samples)
+            for name in (
+                "time",
+                "speed_command",
+                "preload_command",
+                "screw_speed",
+                "motor_torque",
+                "screw_torque",
+                "dissipation",
+                "kinetic_energy",
+                "elastic_energy",
+                "gravitational_energy",
+                "gravitational_power",
+                "input_energy",
+                "dissipated_energy",
+                "power_balance_error",
+            )
+        }
+        self.series["nut_force"] = zeros((samples, 2))
+        self.series["nut_position"] = zeros((samples, 2))
+        self.series["nut_dissipation"] = zeros((samples, 2))
+        self.series["mechanism_dissipation"] = zeros((samples, len(MECHANISMS)))
+        self.contacts: dict[str, FloatArray] = {"contact_time": zeros(contact_samples)}
+        for name in (
+            "normal_force",
+            "friction_force",
+            "contact_angle",
+            "tallian",
+            "film_thickness",
+            "slip",
+            "max_pressure",
+            "semi_axis_x",
+            "semi_axis_y",
+            "lubricant_share",
+            "dry_share",
+        ):
+            self.contacts[name] = zeros((contact_samples, balls, 4))
+        self.in_contact = np.zeros((contact_samples, balls, 4), dtype=bool)
+
+    def trimmed(self) -> tuple[dict[str, Any], dict[str, Any], NDArray[np.bool_]]:
+        """The filled part of every buffer (values are float arrays)."""
+        series = {k: v[: self.n] for k, v in self.series.items()}
+        contacts = {k: v[: self.m] for k, v in self.contacts.items()}
+        return series, contacts, self.in_contact[: self.m]
+
+
+def _gravitational_power(
+    model: DynamicModel, ball_mass: float, state: DynamicState
+) -> float:
+    """d/dt of :meth:`DynamicModel.energy`'s gravitational term at ``state`` [W]."""
+    power = -ball_mass * float(np.sum(state.ball_velocity @ model.gravity))
+    if model.config.screw.orientation == "vertical":
+        power += (
+            model.config.screw.nut_mass
+            * model.config.environment.gravity
+            * float(np.sum(state.nut_velocity))
+        )
+    return power
+
+
+def _check_finite(state: DynamicState, report: StepReport, t: float) -> None:
+    """Raise :class:`SolverError` naming the first non-finite quantity of a step."""
+    checks = {
+        "screw speed": state.screw_speed,
+        "motor torque": report.motor_torque,
+        "dissipation": report.dissipation,
+        "screw torque": report.screw_torque,
+        "nut velocity": float(np.sum(state.nut_velocity)),
+        "sphere velocity": float(np.sum(state.ball_velocity)),
+        "sphere angular velocity": float(np.sum(state.ball_omega)),
+    }
+    for name, value in checks.items():
+        if not math.isfinite(value):
+            raise SolverError(
+                f"dynamic model diverged at t = {t:.7g} s: {name} is {value} "
+                f"(last screw speed {state.screw_speed:.6g} rad/s)"
+            )
+
+
+def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> SimulationResult:
+    """Run ``scenario`` through the dynamic model and record its outputs.
+
+    Args:
+        scenario: the validated scenario.
+        progress: called as ``progress(fraction_done, elapsed_wall_seconds)`` about every 0.5 %
+            of the run and once at the end.
+
+    Raises:
+        ConfigError: the parameter file or the ``balls_per_nut`` override is invalid.
+        SolverError: the dynamic model produced a non-finite value (time and quantity named).
+    """
+    started = time.perf_counter()
+    config = build_config(scenario)
+    model = DynamicModel(
+        config,
+        scenario.temperature,
+        time_step=scenario.time_step,
+        jacobian_interval=scenario.jacobian_interval,
+        controller=scenario.controller,
+        backend=scenario.backend,
+    )
+    ball_mass = make_scene(config, scenario.temperature, 0.0).ball_mass
+    state = model.initial_state(0.0)
+    balls = len(model.ball_nut)
+    nut_members = [model.ball_nut == k for k in (0, 1)]
+    dt = scenario.time_step
+    steps = scenario.steps
+    every = scenario.steps_per(scenario.output_interval)
+    contact_every = scenario.steps_per(scenario.contact_output_interval)
+    window_first = steps - scenario.steps_per(scenario.average_window)
+    rec = _Recorder(steps // every + 1, steps // contact_every + 1, balls)
+    progress_every = max(1, round(steps * PROGRESS_FRACTION))
+
+    energy0 = model.energy(state)
+    total0 = float(sum(energy0.values()))
+    motor = 0.0  # N m: the controller starts at rest with zero error
+    input_energy = dissipated = 0.0
+    abs_input_energy = 0.0
+    previous: tuple[float, float] | None = None  # (input power, dissipation) of the last sample
+    window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
+    window_mechanisms = np.zeros(len(MECHANISMS))
+    window_nuts = np.zeros(2)
+
+    for k in range(steps + 1):
+        t = k * dt
+        commands = scenario.commands_at(t)
+        new_state, report = model.step(state, commands)
+        _check_finite(state, report, t)
+        power_in = model.input_power(state, commands, motor)
+        diss = report.dissipation
+        if previous is not None:
+            input_energy += 0.5 * dt * (previous[0] + power_in)
+            abs_input_energy += 0.5 * dt * (abs(previous[0]) + abs(power_in))
+            dissipated += 0.5 * dt * (previous[1] + diss)
+        previous = (power_in, diss)
+        record = k % every == 0
+        per_contact = report.contacts.dissipation
+        mechanisms = np.array([float(np.sum(per_contact[name])) for name in MECHANISMS])
+        per_ball = np.sum([per_contact[name] for name in MECHANISMS], axis=(0, 2))
+        per_nut = np.array([float(per_ball[m].sum()) for m in nut_members])
+        p_grav = _gravitational_power(model, ball_mass, state)
+        if k >= window_first:
+            window["motor"] += motor
+            window["speed"] += state.screw_speed
+            window["gravity"] += p_grav
+            window["count"] += 1
+            window_mechanisms += mechanisms
+            window_nuts += per_nut
+        if record:
+            energy = model.energy(state)
+            i = rec.n
+            s = rec.series
+            s["time"][i] = t
+            s["speed_command"][i] = commands.screw_speed
+            s["preload_command"][i] = commands.preload
+            s["screw_speed"][i] = state.screw_speed
+            s["motor_torque"][i] = motor
+            s["screw_torque"][i] = report.screw_torque
+            s["nut_force"][i] = report.nut_force
+            s["nut_position"][i] = state.nut_position
+            s["dissipation"][i] = diss
+            s["mechanism_dissipation"][i] = mechanisms
+            s["nut_dissipation"][i] = per_nut
+            s["kinetic_energy"][i] = energy["kinetic"]
+            s["elastic_energy"][i] = energy["elastic"]
+            s["gravitational_energy"][i] = energy["gravitational"]
+            s["gravitational_power"][i] = p_grav
+            s["input_energy"][i] = input_energy
+            s["dissipated_energy"][i] = dissipated
+            s["power_balance_error"][i] = (
+                float(sum(energy.values())) - total0 - input_energy + dissipated
+            )
+            rec.n += 1
+        if k % contact_every == 0:
+            _record_contacts(rec, report, t)
+        if k == steps:
+            break
+        state, motor = new_state, report.motor_torque
+        if progress is not None and (k + 1) % progress_every == 0:
+            progress((k + 1) / steps, time.perf_counter() - started)
+
+    wall = time.perf_counter() - started
+    if progress is not None:
+        progress(1.0, wall)
+    series, contacts, in_contact = rec.trimmed()
+    ball_index = np.concatenate([np.arange(int(m.sum())) for m in nut_members]).astype(np.int64)
+    result = SimulationResult(
+        scenario=scenario,
+        **series,
+        **contacts,
+        in_contact=in_contact,
+        ball_nut=model.ball_nut.astype(np.int64),
+        ball_index=ball_index,
+    )
+    result.summary = _summary(
+        result, window, window_mechanisms, window_nuts, abs_input_energy, wall, steps, config
+    )
+    return result
+
+
+def _record_contacts(rec: _Recorder, report: StepReport, t: float) -> None:
+    """Store the contact states of one step's start (time ``t`` [s])."""
+    ev = report.contacts
+    j = rec.m
+    c = rec.contacts
+    active = ev.active
+    c["contact_time"][j] = t
+    c["normal_force"][j] = np.where(
+        active, ev.hertz.stiffness * np.maximum(ev.approach, 0.0) ** 1.5, 0.0
+    )
+    friction = ev.friction_lubricant + ev.friction_dry
+    c["friction_force"][j] = np.where(active, friction, 0.0)
+    c["contact_angle"][j] = ev.contact_angle
+    c["tallian"][j] = ev.tallian
+    c["film_thickness"][j] = ev.film_total
+    c["slip"][j] = ev.slip
+    c["max_pressure"][j] = np.where(active, ev.hertz.max_pressure, 0.0)
+    c["semi_axis_x"][j] = np.where(active, ev.hertz.semi_axis_x, 0.0)
+    c["semi_axis_y"][j] = np.where(active, ev.hertz.semi_axis_y, 0.0)
+    safe = np.where(friction > 0.0, friction, 1.0)
+    c["lubricant_share"][j] = np.where(active & (friction > 0.0), ev.friction_lubricant / safe, 0.0)
+    c["dry_share"][j] = np.where(active & (friction > 0.0), ev.friction_dry / safe, 0.0)
+    rec.in_contact[j] = active
+    rec.m += 1
+
+
+def _summary(
+    result: SimulationResult,
+    window: dict[str, float],
+    mechanisms: FloatArray,
+    nuts: FloatArray,
+    abs_input_energy: float,
+    wall: float,
+    steps: int,
+    config: TwinConfig,
+) -> dict[str, Any]:
+    """The paper's averages over the last window plus run statistics (SI, JSON-ready)."""
+    sc = result.scenario
+    count = max(int(window["count"]), 1)
+    motor = window["motor"] / count
+    speed = window["speed"] / count
+    gravity_power = window["gravity"] / count
+    moving = abs(speed) > STANDSTILL_SPEED
+    gravity_torque = gravity_power / speed if moving else 0.0
+    breakdown = {
+        name: (float(value) / count / speed if moving else 0.0)
+        for name, value in zip(MECHANISMS, mechanisms, strict=True)
+    }
+    in_window = result.time >= sc.duration - sc.average_window - 0.5 * sc.time_step
+    drag_samples = result.drag_torque[in_window]
+    final_error = float(result.power_balance_error[-1])
+    abs_input_energy = float(abs_input_energy)
+    motor, speed, gravity_power = float(motor), float(speed), float(gravity_power)
+    gravity_torque = float(gravity_torque)
+    return {
+        "window_start_s": sc.duration - sc.average_window,
+        "window_end_s": sc.duration,
+        "mean_screw_speed_rad_s": speed,
+        "mean_motor_torque_Nm": motor,
+        "mean_gravitational_power_W": gravity_power,
+        "gravity_torque_Nm": gravity_torque,
+        "drag_torque_Nm": motor - gravity_torque,
+        "drag_torque_std_Nm": float(np.std(drag_samples)) if len(drag_samples) else 0.0,
+        "breakdown_Nm": breakdown,
+        "breakdown_total_Nm": float(sum(breakdown.values())),
+        "nut_torque_Nm": {
+            "master": float(nuts[0]) / count / speed if moving else 0.0,
+            "slave": float(nuts[1]) / count / speed if moving else 0.0,
+        },
+        "mean_dissipation_W": float(mechanisms.sum()) / count,
+        "power_balance_error_J": final_error,
+        "input_energy_J": float(result.input_energy[-1]),
+        "gross_input_energy_J": abs_input_energy,
+        "dissipated_energy_J": float(result.dissipated_energy[-1]),
+        "power_balance_error_relative": (
+            final_error / abs_input_energy if abs_input_energy > 0.0 else 0.0
+        ),
+        "wall_time_s": wall,
+        "real_time_factor": sc.duration / wall if wall > 0.0 else math.inf,
+        "steps": steps,
+        "step_cost_s": wall / max(steps, 1),
+        "balls_per_nut": config.screw.balls_per_nut,
+        "config": config.source,
+    }
+

@@ -1,0 +1,301 @@
+"""Writers of a :class:`~ballscrew_twin.models.simulation.SimulationResult`: CSV, NPZ, rosbag2, PNG.
+
+- :func:`write_csv`: the time series, one row per output sample, units in the header.
+- :func:`write_npz`: every array, plus the summary and the scenario as JSON strings.
+- :func:`write_bag`: a rosbag2 (MCAP or SQLite3) with ``/drag_torque``
+  (``ballscrew_twin_msgs/msg/DragTorque``) at every output sample and ``/contact_states``
+  (``ballscrew_twin_msgs/msg/ContactStateArray``) at every contact sample, written with the
+  pure-Python ``rosbags`` library (0.11); the custom message definitions are read from
+  ``msg_defs/msg/*.msg`` and stored in the bag, so any reader can decode them. Header stamps are
+  the simulated time in integer nanoseconds.
+- :func:`plot_result`: speed, motor torque and drag over time, and the power-balance error.
+
+SI units throughout (REP 103).
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import BallscrewTwinError
+from .models.simulation import MECHANISMS, SimulationResult
+
+#: Folder of the message definitions (repository layout).
+MSG_DIR = Path(__file__).resolve().parents[1] / "msg_defs" / "msg"
+MSG_PACKAGE = "ballscrew_twin_msgs"
+DRAG_TOPIC = "/drag_torque"
+CONTACT_TOPIC = "/contact_states"
+FRAME_ID = "screw"
+FIDELITY = "dynamic"
+#: Mechanisms that are fields of DragTorque (normal damping has no field of its own).
+MESSAGE_MECHANISMS = (
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
+)
+
+
+class ResultsError(BallscrewTwinError):
+    """An output could not be written (missing message definitions, unwritable path, ...)."""
+
+
+def _columns(result: SimulationResult) -> list[tuple[str, np.ndarray]]:
+    """(header with unit, column) of every time series."""
+    columns: list[tuple[str, np.ndarray]] = [
+        ("time [s]", result.time),
+        ("speed_command [rad/s]", result.speed_command),
+        ("preload_command [N]", result.preload_command),
+        ("screw_speed [rad/s]", result.screw_speed),
+        ("motor_torque [N m]", result.motor_torque),
+        ("gravity_torque [N m]", result.gravity_torque),
+        ("drag_torque [N m]", result.drag_torque),
+        ("screw_torque_contacts [N m]", result.screw_torque),
+        ("nut_force_master [N]", result.nut_force[:, 0]),
+        ("nut_force_slave [N]", result.nut_force[:, 1]),
+        ("nut_position_master [m]", result.nut_position[:, 0]),
+        ("nut_position_slave [m]", result.nut_position[:, 1]),
+        ("dissipation_reported [W]", result.dissipation),
+    ]
+    columns += [
+        (f"dissipation_reported_{name} [W]", result.mechanism_dissipation[:, k])
+        for k, name in enumerate(MECHANISMS)
+    ]
+    columns += [
+        ("kinetic_energy [J]", result.kinetic_energy),
+        ("elastic_energy [J]", result.elastic_energy),
+        ("gravitational_energy [J]", result.gravitational_energy),
+        ("gravitational_power [W]", result.gravitational_power),
+        ("input_energy [J]", result.input_energy),
+        ("dissipated_energy [J]", result.dissipated_energy),
+        ("power_balance_error [J]", result.power_balance_error),
+    ]
+    return columns
+
+
+def write_csv(result: SimulationResult, path: str | Path) -> Path:
+    """The time series as CSV, one row per output sample, units in the header.
+
+    Values are written with 17 significant digits, so they read back exactly. The
+    ``dissipation_reported*`` columns are the contact laws' dissipation at the start of each
+    step, not yet consistent with the work of the implicit step (docs/model.md section 10).
+    """
+    file = Path(path)
+    columns = _columns(result)
+    try:
+        with file.open("w", newline="", encoding="utf-8") as handle:
+            writer = csv.writer(handle)
+            writer.writerow([name for name, _ in columns])
+            for i in range(len(result.time)):
+                writer.writerow([f"{float(values[i]):.17g}" for _, values in columns])
+    except OSError as err:
+        raise ResultsError(f"{file}: cannot write CSV ({err.strerror})") from err
+    return file
+
+
+def _echo(result: SimulationResult) -> dict[str, Any]:
+    """Summary and scenario as a JSON-ready mapping."""
+    scenario = dataclasses.asdict(result.scenario)
+    return {"summary": result.summary, "scenario": scenario}
+
+
+def summary_json(result: SimulationResult) -> str:
+    """The summary and the scenario that made it, as JSON (SI units)."""
+    return json.dumps(_echo(result), indent=2, default=str, allow_nan=True)
+
+
+def write_npz(result: SimulationResult, path: str | Path) -> Path:
+    """Every array of the result, the mechanism names and ``summary_json`` (a JSON string)."""
+    file = Path(path)
+    arrays: dict[str, Any] = {
+        f.name: getattr(result, f.name)
+        for f in dataclasses.fields(result)
+        if isinstance(getattr(result, f.name), np.ndarray)
+    }
+    arrays["mechanisms"] = np.array(MECHANISMS)
+    arrays["summary_json"] = np.array(summary_json(result))
+    try:
+        with file.open("wb") as handle:
+            np.savez(handle, **arrays)
+    except OSError as err:
+        raise ResultsError(f"{file}: cannot write NPZ ({err.strerror})") from err
+    return file
+
+
+def make_typestore(msg_dir: str | Path = MSG_DIR) -> Any:
+    """A ROS 2 Jazzy type store with this package's messages registered from their .msg text."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+    folder = Path(msg_dir)
+    files = sorted(folder.glob("*.msg")) if folder.is_dir() else []
+    if not files:
+        raise ResultsError(f"{folder}: message definitions folder does not exist or has no *.msg")
+    store = get_typestore(Stores.ROS2_JAZZY)
+    types: dict[str, Any] = {}
+    for file in files:
+        types.update(
+            get_types_from_msg(file.read_text(encoding="utf-8"), f"{MSG_PACKAGE}/msg/{file.stem}")
+        )
+    store.register(types)
+    return store
+
+
+def _nanoseconds(seconds: float) -> int:
+    """Simulated time as integer nanoseconds (bag and header time)."""
+    return round(seconds * 1e9)
+
+
+def _stamp(store: Any, t_ns: int) -> Any:
+    """builtin_interfaces/Time of ``t_ns``."""
+    time_cls = store.types["builtin_interfaces/msg/Time"]
+    return time_cls(sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+
+
+def write_bag(
+    result: SimulationResult,
+    path: str | Path,
+    storage: str = "mcap",
+    msg_dir: str | Path = MSG_DIR,
+) -> Path:
+    """A rosbag2 with ``/drag_torque`` and ``/contact_states`` of the run.
+
+    Args:
+        result: the simulation result.
+        path: the bag folder to create (must not exist).
+        storage: ``"mcap"`` or ``"sqlite3"``.
+        msg_dir: folder of the ``*.msg`` definitions.
+
+    ``DragTorque.total`` is the motor torque minus the gravity torque at that sample. The
+    breakdown and per-nut fields are left 0 (not resolved, as for the catalogue model): the
+    dynamic model's per-step dissipation does not yet match the work the implicit step does
+    (docs/model.md section 10), so it is kept in the CSV/NPZ outputs, labelled, and not
+    published as a torque. ``real_time_factor`` is simulated time per wall time (>= 1 keeps up).
+    """
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+    if storage not in plugins:
+        raise ResultsError(f"storage = {storage!r} must be one of {sorted(plugins)}")
+    store = make_typestore(msg_dir)
+    folder = Path(path)
+    if folder.exists():
+        raise ResultsError(f"{folder}: bag folder exists already")
+    types = store.types
+    drag_cls = types[f"{MSG_PACKAGE}/msg/DragTorque"]
+    array_cls = types[f"{MSG_PACKAGE}/msg/ContactStateArray"]
+    state_cls = types[f"{MSG_PACKAGE}/msg/ContactState"]
+    header_cls = types["std_msgs/msg/Header"]
+    sc = result.scenario
+    rtf = float(result.summary.get("real_time_factor", 0.0))
+    drag = result.drag_torque
+    try:
+        with Writer(folder, version=9, storage_plugin=plugins[storage]) as writer:
+            drag_conn = writer.add_connection(DRAG_TOPIC, drag_cls.__msgtype__, typestore=store)
+            contact_conn = writer.add_connection(
+                CONTACT_TOPIC, array_cls.__msgtype__, typestore=store
+            )
+            for i, t in enumerate(result.time):
+                t_ns = _nanoseconds(float(t))
+                msg = drag_cls(
+                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
+                    total=float(drag[i]),
+                    nut_master=0.0,
+                    nut_slave=0.0,
+                    **dict.fromkeys(MESSAGE_MECHANISMS, 0.0),
+                    fidelity=FIDELITY,
+                    real_time_factor=float(rtf) if math.isfinite(rtf) else 0.0,
+                    screw_speed=float(result.screw_speed[i]),
+                    temperature=float(sc.temperature),
+                    preload=float(result.preload_command[i]),
+                )
+                writer.write(drag_conn, t_ns, store.serialize_cdr(msg, drag_cls.__msgtype__))
+            for j, t in enumerate(result.contact_time):
+                t_ns = _nanoseconds(float(t))
+                states = _contact_states(result, j, state_cls)
+                msg = array_cls(
+                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
+                    fidelity=FIDELITY,
+                    contacts=states,
+                )
+                writer.write(contact_conn, t_ns, store.serialize_cdr(msg, array_cls.__msgtype__))
+    except OSError as err:
+        raise ResultsError(f"{folder}: cannot write bag ({err.strerror})") from err
+    return folder
+
+
+def _contact_states(result: SimulationResult, j: int, state_cls: Any) -> list[Any]:
+    """One ContactState per sphere and half groove in contact at contact sample ``j``."""
+    states = []
+    balls, grooves = np.nonzero(result.in_contact[j])
+    for b, g in zip(balls.tolist(), grooves.tolist(), strict=True):
+        states.append(
+            state_cls(
+                sphere_index=int(result.ball_index[b]),
+                nut=int(result.ball_nut[b]),
+                half_groove=int(g),
+                in_contact=True,
+                normal_force=float(result.normal_force[j, b, g]),
+                friction_force=float(result.friction_force[j, b, g]),
+                contact_angle=float(result.contact_angle[j, b, g]),
+                max_pressure=float(result.max_pressure[j, b, g]),
+                semi_axis_x=float(result.semi_axis_x[j, b, g]),
+                semi_axis_y=float(result.semi_axis_y[j, b, g]),
+                film_thickness=float(result.film_thickness[j, b, g]),
+                tallian_parameter=float(result.tallian[j, b, g]),
+                lubricant_share=float(result.lubricant_share[j, b, g]),
+                dry_share=float(result.dry_share[j, b, g]),
+                slip_speed=float(result.slip[j, b, g]),
+            )
+        )
+    return states
+
+
+def plot_result(result: SimulationResult, path: str | Path) -> Path:
+    """PNG of screw speed (and command), motor torque and drag, and the power-balance error."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    file = Path(path)
+    sc = result.scenario
+    t_ms = result.time * 1e3
+    fig, axes = plt.subplots(3, 1, figsize=(8, 9), sharex=True)
+    ax = axes[0]
+    ax.plot(t_ms, result.speed_command, "k--", lw=1, label="command")
+    ax.plot(t_ms, result.screw_speed, lw=1, label="screw")
+    ax.set_ylabel("speed [rad/s]")
+    ax.legend(loc="best")
+    ax = axes[1]
+    ax.plot(t_ms, result.motor_torque * 1e3, lw=1, label="motor torque")
+    ax.plot(t_ms, result.drag_torque * 1e3, lw=1, label="drag (motor - gravity)")
+    drag = result.summary.get("drag_torque_Nm")
+    if drag is not None and math.isfinite(drag):
+        ax.axhline(drag * 1e3, color="r", lw=1, label=f"mean drag {drag * 1e3:.4g} N mm")
+    ax.axvspan((sc.duration - sc.average_window) * 1e3, sc.duration * 1e3, color="0.9")
+    ax.set_ylabel("torque [N mm]")
+    ax.legend(loc="best")
+    ax = axes[2]
+    ax.plot(t_ms, result.power_balance_error * 1e3, lw=1, label="E - E0 - int(P_in - P_diss)")
+    ax.plot(t_ms, result.input_energy * 1e3, lw=1, ls=":", label="input energy")
+    ax.set_ylabel("energy [mJ]")
+    ax.set_xlabel("time [ms]")
+    ax.legend(loc="best")
+    fig.suptitle(f"{sc.name}: dynamic model")
+    fig.tight_layout()
+    try:
+        fig.savefig(file, dpi=110)
+    except OSError as err:
+        raise ResultsError(f"{file}: cannot write plot ({err.strerror})") from err
+    finally:
+        plt.close(fig)
+    return file

@@ -1,0 +1,253 @@
+"""The simulation runner and its writers on a small scene (2 spheres per nut, ~1000 steps).
+
+Measured on the scene below (before the master nut has crossed its axial play): power-balance
+error 7e-7 J against 1.3e-3 J of input energy, i.e. ~6e-4 relative; the tests allow 10x that.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.errors import ConfigError, SolverError
+from ballscrew_twin.models import dynamic
+from ballscrew_twin.models.scenario import Scenario
+from ballscrew_twin.models.simulation import MECHANISMS, SimulationResult, simulate
+from ballscrew_twin.results import (
+    CONTACT_TOPIC,
+    DRAG_TOPIC,
+    ResultsError,
+    make_typestore,
+    plot_result,
+    write_bag,
+    write_csv,
+    write_npz,
+)
+
+#: Relative power-balance error measured on SMALL: 5.7e-4; bound = 10x.
+BALANCE_BOUND = 6e-3
+
+SMALL: dict[str, Any] = {
+    "name": "small",
+    "balls_per_nut": 2,
+    "temperature": 293.15,
+    "preload": 20.0,
+    "preload_ramp_end": 2e-4,
+    "speed": 10.0,
+    "speed_ramp_start": 3e-4,
+    "speed_ramp_end": 6e-4,
+    "duration": 1.2e-3,
+    "average_window": 4e-4,
+    "time_step": 1e-6,
+    "jacobian_interval": 1,
+    "output_interval": 1e-5,
+    "contact_output_interval": 1e-4,
+}
+
+
+@pytest.fixture(scope="module")
+def run() -> tuple[SimulationResult, list[tuple[float, float]]]:
+    calls: list[tuple[float, float]] = []
+    result = simulate(Scenario(**SMALL), progress=lambda f, e: calls.append((f, e)))
+    return result, calls
+
+
+@pytest.fixture(scope="module")
+def result(run: tuple[SimulationResult, list[tuple[float, float]]]) -> SimulationResult:
+    return run[0]
+
+
+def test_shapes_and_time_grid(result: SimulationResult) -> None:
+    assert len(result.time) == 121 and len(result.contact_time) == 13
+    np.testing.assert_allclose(result.time, np.arange(121) * 1e-5, atol=1e-15)
+    assert result.nut_force.shape == (121, 2)
+    assert result.mechanism_dissipation.shape == (121, len(MECHANISMS))
+    assert result.normal_force.shape == (13, 4, 4) and result.in_contact.dtype == bool
+    assert result.ball_nut.tolist() == [0, 0, 1, 1] and result.ball_index.tolist() == [0, 1, 0, 1]
+
+
+def test_everything_is_finite(result: SimulationResult) -> None:
+    for name, value in vars(result).items():
+        if isinstance(value, np.ndarray) and value.dtype.kind == "f":
+            assert np.all(np.isfinite(value)), name
+    assert all(math.isfinite(v) for v in result.summary["breakdown_Nm"].values())
+
+
+def test_power_balance_closes(result: SimulationResult) -> None:
+    s = result.summary
+    assert s["gross_input_energy_J"] > 1e-3
+    assert abs(s["power_balance_error_relative"]) < BALANCE_BOUND
+    scale = np.maximum(np.abs(result.input_energy), 1e-6)
+    assert np.all(np.abs(result.power_balance_error) < BALANCE_BOUND * scale.max())
+
+
+def test_gravitational_power_is_the_rate_of_the_gravitational_energy(
+    result: SimulationResult,
+) -> None:
+    integral = np.concatenate(
+        [[0.0], np.cumsum(0.5 * np.diff(result.time) * (result.gravitational_power[1:]
+                                                        + result.gravitational_power[:-1]))]
+    )
+    change = result.gravitational_energy - result.gravitational_energy[0]
+    assert np.max(np.abs(integral - change)) < 0.02 * np.max(np.abs(change))
+
+
+def test_speed_follows_the_command(result: SimulationResult) -> None:
+    assert result.speed_command[-1] == 10.0
+    assert abs(result.screw_speed[-1] - 10.0) < 0.5
+    assert result.preload_command[0] == 0.0 and result.preload_command[-1] == 20.0
+
+
+def test_contact_samples_are_consistent(result: SimulationResult) -> None:
+    loaded = result.normal_force > 0.0
+    assert np.array_equal(loaded, result.in_contact)
+    assert np.all(result.film_thickness[result.in_contact] > 0.0)
+    assert np.all(result.friction_force[~result.in_contact] == 0.0)
+    share = result.lubricant_share + result.dry_share
+    assert np.allclose(share[result.friction_force > 0.0], 1.0)
+
+
+def test_summary_follows_the_papers_definitions(result: SimulationResult) -> None:
+    s = result.summary
+    assert s["drag_torque_Nm"] == pytest.approx(s["mean_motor_torque_Nm"] - s["gravity_torque_Nm"])
+    assert s["gravity_torque_Nm"] == pytest.approx(
+        s["mean_gravitational_power_W"] / s["mean_screw_speed_rad_s"]
+    )
+    assert s["breakdown_total_Nm"] == pytest.approx(
+        s["mean_dissipation_W"] / s["mean_screw_speed_rad_s"]
+    )
+    assert s["real_time_factor"] == pytest.approx(1.2e-3 / s["wall_time_s"])
+    assert s["steps"] == 1200 and s["balls_per_nut"] == 2
+    json.dumps(s, allow_nan=False)
+
+
+def test_progress_is_reported_about_every_half_percent(
+    run: tuple[SimulationResult, list[tuple[float, float]]],
+) -> None:
+    calls = run[1]
+    fractions = [f for f, _ in calls]
+    assert 150 <= len(calls) <= 260
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    assert all(e >= 0.0 for _, e in calls)
+
+
+def test_balls_per_nut_override_is_checked() -> None:
+    with pytest.raises(ConfigError, match="balls_per_nut override"):
+        simulate(Scenario(**{**SMALL, "balls_per_nut": 500}))
+
+
+def test_divergence_is_reported_not_hidden(monkeypatch: pytest.MonkeyPatch) -> None:
+    original = dynamic.DynamicModel.step
+
+    def poisoned(self: Any, state: Any, commands: Any) -> Any:
+        new, report = original(self, state, commands)
+        if state.time > 2.0e-5:
+            new.screw_speed = math.nan
+        return new, report
+
+    monkeypatch.setattr(dynamic.DynamicModel, "step", poisoned)
+    short = {**SMALL, "duration": 5e-5, "average_window": 1e-5, "preload_ramp_end": 1e-5,
+             "speed_ramp_start": 1e-5, "speed_ramp_end": 2e-5, "contact_output_interval": 1e-5}
+    expected = re.escape("diverged at t = 2.1e-05 s: screw speed is nan")
+    with pytest.raises(SolverError, match=expected):
+        simulate(Scenario(**short))
+
+
+# ---------------------------------------------------------------------------------- writers
+
+
+def test_csv_round_trip(result: SimulationResult, tmp_path: Path) -> None:
+    path = write_csv(result, tmp_path / "ts.csv")
+    with path.open(encoding="utf-8") as handle:
+        rows = list(csv.reader(handle))
+    header, body = rows[0], np.array(rows[1:], dtype=float)
+    assert header[:4] == ["time [s]", "speed_command [rad/s]", "preload_command [N]",
+                          "screw_speed [rad/s]"]
+    assert "drag_torque [N m]" in header and "power_balance_error [J]" in header
+    assert body.shape == (121, len(header))
+    np.testing.assert_array_equal(body[:, header.index("motor_torque [N m]")],
+                                  result.motor_torque)
+    np.testing.assert_array_equal(body[:, header.index("drag_torque [N m]")], result.drag_torque)
+
+
+def test_npz_round_trip(result: SimulationResult, tmp_path: Path) -> None:
+    path = write_npz(result, tmp_path / "r.npz")
+    with np.load(path) as data:
+        np.testing.assert_array_equal(data["screw_speed"], result.screw_speed)
+        np.testing.assert_array_equal(data["normal_force"], result.normal_force)
+        np.testing.assert_array_equal(data["in_contact"], result.in_contact)
+        assert list(data["mechanisms"]) == list(MECHANISMS)
+        echoed = json.loads(str(data["summary_json"]))
+    assert echoed["summary"]["drag_torque_Nm"] == result.summary["drag_torque_Nm"]
+    assert echoed["scenario"]["balls_per_nut"] == 2
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) -> None:
+    from rosbags.highlevel import AnyReader
+
+    bag = write_bag(result, tmp_path / "bag", storage=storage)
+    store = make_typestore()
+    drags: list[tuple[int, Any]] = []
+    arrays: list[tuple[int, Any]] = []
+    with AnyReader([bag], default_typestore=store) as reader:
+        for conn, t_ns, raw in reader.messages():
+            msg = reader.deserialize(raw, conn.msgtype)
+            (drags if conn.topic == DRAG_TOPIC else arrays).append((t_ns, msg))
+        topics = {c.topic: c.msgtype for c in reader.connections}
+    assert topics == {
+        DRAG_TOPIC: "ballscrew_twin_msgs/msg/DragTorque",
+        CONTACT_TOPIC: "ballscrew_twin_msgs/msg/ContactStateArray",
+    }
+    assert len(drags) == len(result.time) and len(arrays) == len(result.contact_time)
+    for i, (t_ns, msg) in enumerate(drags):
+        assert t_ns == round(result.time[i] * 1e9)
+        assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t_ns
+        assert msg.total == result.drag_torque[i]
+        assert msg.fidelity == "dynamic" and msg.temperature == 293.15
+        assert msg.screw_speed == result.screw_speed[i]
+    # The dynamic breakdown is not published (docs/model.md section 10): fields stay 0.
+    assert all(m.lubricant_shear == 0.0 and m.nut_master == 0.0 for _, m in drags)
+    for j, (t_ns, msg) in enumerate(arrays):
+        assert t_ns == round(result.contact_time[j] * 1e9)
+        assert len(msg.contacts) == int(result.in_contact[j].sum())
+        for c in msg.contacts:
+            ball = int(np.flatnonzero((result.ball_nut == c.nut)
+                                      & (result.ball_index == c.sphere_index))[0])
+            assert c.in_contact
+            assert c.normal_force == result.normal_force[j, ball, c.half_groove]
+            assert c.contact_angle == result.contact_angle[j, ball, c.half_groove]
+
+
+def test_bag_errors(result: SimulationResult, tmp_path: Path) -> None:
+    with pytest.raises(ResultsError, match="does not exist"):
+        write_bag(result, tmp_path / "b1", msg_dir=tmp_path / "no_msgs")
+    with pytest.raises(ResultsError, match="storage"):
+        write_bag(result, tmp_path / "b2", storage="rosbag1")
+    (tmp_path / "b3").mkdir()
+    with pytest.raises(ResultsError, match="exists already"):
+        write_bag(result, tmp_path / "b3")
+
+
+def test_plot_is_written(result: SimulationResult, tmp_path: Path) -> None:
+    path = plot_result(result, tmp_path / "p.png")
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="dynamic model: when the master nut reaches the far flank of its play (t ~ 1.3 ms "
+    "here) the step's dissipation, evaluated at the start-of-step velocities of stiff laws "
+    "(normal damping, regularised friction) integrated implicitly, jumps to 100s of W: "
+    "measured error 0.0175 J against 0.0017 J of input at 1.47 ms",
+)
+def test_power_balance_survives_the_nut_impact() -> None:
+    res = simulate(Scenario(**{**SMALL, "duration": 1.5e-3, "average_window": 5e-4}))
+    assert abs(res.summary["power_balance_error_relative"]) < BALANCE_BOUND
