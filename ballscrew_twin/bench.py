@@ -9,9 +9,6 @@ full mode.
 from __future__ import annotations
 
 import argparse
-import statistics
-import time
-from collections.abc import Callable
 from functools import partial
 from typing import Literal
 
@@ -23,6 +20,7 @@ from .models.base import OperatingPoint
 from .models.contact_forces import evaluate_contacts, make_scene
 from .models.steady import SteadyStateModel
 from .params import TwinConfig, load_config
+from .timing import median_time
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,16 +28,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("what", choices=("steady",), help="which benchmark")
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
-
-
-def _median_time(func: Callable[[], object], repeat: int) -> float:
-    """Median wall time of ``func`` over ``repeat`` calls [s]."""
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def _bench_mode(
@@ -55,8 +43,8 @@ def _bench_mode(
     state, balls = solution.state, solution.balls
     scene = make_scene(config, point.temperature, point.screw_speed)
     arguments = (scene, state.ball_nb, state.kinematics, state.nut_offset[balls.nut], balls.gravity)
-    reference = _median_time(partial(evaluate_contacts, *arguments), repeat)
-    compiled = _median_time(partial(evaluate_contacts_compiled, *arguments), repeat)
+    reference = median_time(partial(evaluate_contacts, *arguments), repeat)
+    compiled = median_time(partial(evaluate_contacts_compiled, *arguments), repeat)
 
     def cold() -> None:
         model.forget_warm_start()
@@ -66,9 +54,9 @@ def _bench_mode(
         model.solve(point)
         model.solve(nearby)
 
-    cold_time = _median_time(cold, max(repeat // 4, 3))
+    cold_time = median_time(cold, max(repeat // 4, 3))
     model.solve(point)
-    warm_time = _median_time(warm, max(repeat // 4, 3)) / 2.0
+    warm_time = median_time(warm, max(repeat // 4, 3)) / 2.0
     count = len(balls.nut)
     return (
         f"  {mode:<9} {count:3d} spheres: contacts numpy {reference * 1e6:8.1f} us, "

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .errors import BallscrewTwinError
+from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation import MECHANISMS, SimulationResult
 
 #: Folder of the message definitions (repository layout).
@@ -34,15 +35,6 @@ DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
 FRAME_ID = "screw"
 FIDELITY = "dynamic"
-#: Mechanisms that are fields of DragTorque (normal damping has no field of its own).
-MESSAGE_MECHANISMS = (
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-)
 
 
 class ResultsError(BallscrewTwinError):
@@ -210,7 +202,7 @@ def write_bag(
                     total=float(drag[i]),
                     nut_master=0.0,
                     nut_slave=0.0,
-                    **dict.fromkeys(MESSAGE_MECHANISMS, 0.0),
+                    **dict.fromkeys(BREAKDOWN_FIELDS, 0.0),
                     fidelity=FIDELITY,
                     real_time_factor=float(rtf) if math.isfinite(rtf) else 0.0,
                     screw_speed=float(result.screw_speed[i]),

@@ -32,8 +32,6 @@ the test checks that they equal the reference's.
 from __future__ import annotations
 
 import math
-import statistics
-import time
 from collections.abc import Callable
 from functools import partial
 from typing import Any, cast
@@ -45,6 +43,7 @@ from numpy.typing import NDArray
 from ..models.contact_forces import ContactEvaluation, ContactScene
 from ..params import ScrewGeometry
 from ..physics.hertz import HertzContact
+from ..timing import median_time
 
 FloatArray = NDArray[np.float64]
 
@@ -118,7 +117,7 @@ CONTACT_FIELDS = (
     "shear_stress",  # Pa
     "sliding_coefficient",  # -
     "groove_moment_z",  # N m
-    "lubricant_shear",  # W, dissipation rows in MECHANISMS order from here
+    "lubricant_shear",  # W, dissipation rows in models.base.DISSIPATION_KEYS order from here
     "dry_contact",  # W
     "rolling_resistance",  # W
     "hysteresis",  # W
@@ -164,14 +163,6 @@ R_GROOVE_FORCE = N_FIELDS
 R_FORCE = N_FIELDS + 3
 R_MOMENT = N_FIELDS + 6
 N_ROWS = N_FIELDS + 9
-MECHANISMS = (
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-)
 
 # Half grooves S1, S2, N1, N2 (physics/geometry.py).
 SIDE_N = (1.0, 1.0, -1.0, -1.0)
@@ -924,16 +915,6 @@ def evaluate_contacts_compiled(
 
 
 # ----------------------------------------------------------------------------- benchmark
-def _median_time(func: Callable[[], object], repeat: int) -> float:
-    """Median wall time of ``func`` over ``repeat`` calls [s]."""
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def benchmark(repeat: int = 200) -> str:
     """Median time per call of the reference and the compiled contact laws (printed, not asserted).
 
@@ -985,7 +966,7 @@ def benchmark(repeat: int = 200) -> str:
         for name, func in cases:
             for _ in range(3):  # compile (first call) and warm up
                 func()
-            seconds = _median_time(func, repeat)
+            seconds = median_time(func, repeat)
             lines.append(f"  {label} {name} {seconds * 1e6:10.2f} us")
     return "\n".join(lines)
 

@@ -43,9 +43,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import statistics
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -65,6 +62,7 @@ from ..models.steady import (
     SteadyState,
     SteadyStateModel,
 )
+from ..timing import median_time
 from . import contacts as _contacts_module
 from .contacts import R_FORCE, R_GROOVE_FORCE, R_MOMENT, contacts_kernel, evaluate_contacts_compiled
 from .contacts import scene_arrays as scene_arrays
@@ -551,16 +549,6 @@ def use_compiled_newton(model: SteadyStateModel) -> SteadyStateModel:
 
 
 # ----------------------------------------------------------------------------- benchmark
-def _median_time(func: Callable[[], object], repeat: int) -> float:
-    """Median wall time of ``func`` over ``repeat`` calls [s]."""
-    times = []
-    for _ in range(repeat):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def benchmark(repeat: int = 40) -> str:
     """Median warm solve time, current vs compiled Newton, symmetric and full (printed).
 
@@ -590,7 +578,7 @@ def benchmark(repeat: int = 40) -> str:
                 m.solve(point)
                 m.solve(nearby)
 
-            results[name] = _median_time(warm, repeat) / 2.0
+            results[name] = median_time(warm, repeat) / 2.0
         # The Newton iteration alone, warm-started at `nearby` from the state at `point`.
         base = compiled.solve(point)
         scene = make_scene(config, nearby.temperature, nearby.screw_speed)
@@ -611,7 +599,7 @@ def benchmark(repeat: int = 40) -> str:
             params,
         )
         iterations = newton_kernel(*kernel_args)[3]
-        kernel_time = _median_time(lambda a=kernel_args: newton_kernel(*a), repeat)  # type: ignore[misc]
+        kernel_time = median_time(lambda a=kernel_args: newton_kernel(*a), repeat)  # type: ignore[misc]
         count = len(balls.nut)
         lines.append(
             f"  {mode:<9} {count:3d} spheres: current {results['current'] * 1e6:9.1f} us, "

@@ -117,6 +117,13 @@ class TwinOutput:
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
+#: The mechanisms of the drag-torque breakdown (the fields of :class:`TorqueBreakdown`).
+MECHANISMS: tuple[str, ...] = tuple(f.name for f in fields(TorqueBreakdown))
+#: Every dissipation the contact laws report: the mechanisms and the normal damping of
+#: Eqs. 18-19 (zero in a steady state, so not part of a steady breakdown).
+DISSIPATION_KEYS: tuple[str, ...] = (*MECHANISMS, "normal_damping")
+
+
 class SteadyStateModel(Protocol):
     """Anything that maps an operating point to a drag torque."""
 

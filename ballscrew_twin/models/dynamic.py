@@ -298,8 +298,8 @@ class DynamicModel:
         elastic = 0.4 * float(np.sum(ev.hertz.stiffness * delta**2.5))
         potential = -mass * float(np.sum(state.ball_position @ self.gravity))
         if screw.orientation == "vertical":
-            potential += screw.nut_mass * self.config.environment.gravity * float(
-                np.sum(state.nut_position)
+            potential += (
+                screw.nut_mass * self.config.environment.gravity * float(np.sum(state.nut_position))
             )
         return {"kinetic": kinetic, "elastic": elastic, "gravitational": potential}
 

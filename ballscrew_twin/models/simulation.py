@@ -30,6 +30,7 @@ from numpy.typing import NDArray
 
 from ..errors import SolverError
 from ..params import TwinConfig, load_config
+from .base import DISSIPATION_KEYS
 from .contact_forces import make_scene
 from .dynamic import DynamicModel, DynamicState, StepReport
 from .scenario import Scenario
@@ -38,15 +39,7 @@ FloatArray = NDArray[np.float64]
 ProgressCallback = Callable[[float, float], None]
 
 #: Dissipation mechanisms of the contact laws, in the order of the result's columns.
-MECHANISMS = (
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-    "normal_damping",
-)
+MECHANISMS = DISSIPATION_KEYS
 
 #: Progress is reported about every this fraction of the run [-].
 PROGRESS_FRACTION = 0.005
@@ -201,9 +194,7 @@ class _Recorder:
         return series, contacts, self.in_contact[: self.m]
 
 
-def _gravitational_power(
-    model: DynamicModel, ball_mass: float, state: DynamicState
-) -> float:
+def _gravitational_power(model: DynamicModel, ball_mass: float, state: DynamicState) -> float:
     """d/dt of :meth:`DynamicModel.energy`'s gravitational term at ``state`` [W]."""
     power = -ball_mass * float(np.sum(state.ball_velocity @ model.gravity))
     if model.config.screw.orientation == "vertical":
@@ -439,4 +430,3 @@ def _summary(
         "balls_per_nut": config.screw.balls_per_nut,
         "config": config.source,
     }
-

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from ..errors import SolverError
 from ..params import TwinConfig
 from ..physics import geometry, hertz
-from .base import ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
+from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
 from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, make_scene
 
 FloatArray = NDArray[np.float64]
@@ -49,14 +49,6 @@ KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to th
 #: Speeds below this are solved as standstill [rad/s] (1e-5 rpm: no ball screw runs there, and
 #: the film laws' groups underflow as the entrainment speed goes to zero).
 STANDSTILL_SPEED = 1e-6
-MECHANISMS = (
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-)
 
 
 @dataclass(frozen=True)

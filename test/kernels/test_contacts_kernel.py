@@ -30,7 +30,7 @@ from ballscrew_twin.kernels.contacts import (
     scene_arrays,
 )
 from ballscrew_twin.models import steady
-from ballscrew_twin.models.base import OperatingPoint
+from ballscrew_twin.models.base import DISSIPATION_KEYS, MECHANISMS, OperatingPoint
 from ballscrew_twin.models.contact_forces import (
     ContactEvaluation,
     ContactScene,
@@ -121,7 +121,7 @@ def _fields(ev: ContactEvaluation) -> Iterator[tuple[str, NDArray[np.generic]]]:
             for key, array in value._asdict().items():
                 yield f"hertz.{key}", array
         elif field.name == "dissipation":
-            assert list(value) == [*steady.MECHANISMS, "normal_damping"]
+            assert list(value) == list(DISSIPATION_KEYS)
             for key, array in value.items():
                 yield f"dissipation.{key}", array
         else:
@@ -223,7 +223,8 @@ def test_law_constants_are_those_of_the_reference() -> None:
     from ballscrew_twin.models import contact_forces
 
     assert kernel.SPIN_SLIDING_FACTOR == contact_forces.SPIN_SLIDING_FACTOR
-    assert kernel.MECHANISMS == steady.MECHANISMS
+    rows = kernel.CONTACT_FIELDS[-len(DISSIPATION_KEYS) :]  # "spin" is a field name too
+    assert rows == (*MECHANISMS[:-1], "spin_dissipation", "normal_damping")
 
 
 def test_scene_arrays_fill_the_kernel_signature(config: TwinConfig) -> None:
