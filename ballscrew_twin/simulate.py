@@ -18,6 +18,7 @@ from .models.scenario import load_scenario
 from .models.simulation import SimulationResult, simulate
 
 NMM_PER_NM = 1e3
+UNRELIABLE_BREAKDOWN = 0.01  # relative power-balance error above which the breakdown is flagged
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -55,6 +56,12 @@ def format_summary(result: SimulationResult) -> str:
         f"wall time {s['wall_time_s']:.3f} s, {s['steps']} steps "
         f"({s['step_cost_s'] * 1e3:.3g} ms/step), real-time factor {s['real_time_factor']:.3g}",
     ]
+    if not abs(s["power_balance_error_relative"]) < UNRELIABLE_BREAKDOWN:
+        lines.append(
+            "WARNING: the power balance does not close: the breakdown above (the contact laws' "
+            "dissipation at the start of each step) is not the work the implicit step did and "
+            "is not reliable; the drag torque (motor - gravity) is (docs/model.md, section 10)"
+        )
     return "\n".join(lines)
 
 
