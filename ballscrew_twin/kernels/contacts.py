@@ -50,6 +50,7 @@ FloatArray = NDArray[np.float64]
 # ----------------------------------------------------------------------------- law constants
 # physics/lubricant.py (Eqs. 24-25)
 ROELANDS_PRESSURE_SCALE = 5.1e-9  # 1/Pa
+FILM_MIN_LOAD = 1e-6  # N, film.FILM_MIN_LOAD
 ROELANDS_LN_ETA_INF = 9.67  # -ln(eta_inf / Pa s)
 ROELANDS_T_INF = 138.0  # K
 WALTHER_SHIFT = 0.7  # cSt
@@ -368,10 +369,10 @@ def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alph
 
     Moes groups on the sum velocity u_s = 2|u| (Eqs. 27-29): M = F/(E' R_x^2) (E' R_x /
     (eta0 u_s))^(3/4), L = alpha E' (E' R_x / (eta0 u_s))^(-1/4), lambda = R_x / R_y.
-    Zero when F_n or u is zero.
+    Zero when u is zero or F_n below FILM_MIN_LOAD (film.py, D15).
     """
     u_sum = 2.0 * abs(entrainment)
-    if not (u_sum > 0.0 and f_n > 0.0):
+    if not (u_sum > 0.0 and f_n > FILM_MIN_LOAD):
         return 0.0
     speed_group = e_reduced * r_x / (eta_atm * u_sum)
     ln_group = math.log(speed_group)
@@ -445,7 +446,7 @@ def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):
     """
     f = max(f_n, 0.0)
     u = abs(entrainment)
-    if not (f > 0.0 and u > 0.0):
+    if not (f > FILM_MIN_LOAD and u > 0.0):  # a film effect: none without a film
         return 0.0
     ln_lam = math.log(r_x / r_y)
     load = f / (e_reduced * (r_x * r_x))
@@ -623,8 +624,10 @@ def contacts_kernel(
             v_contact = _helical(w_ball, zhat, lead_rate, r_point)
             # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
             rate = _dot(_sub(v_centre, v_groove), d)
-            damp = min(damping * math.sqrt(stiffness) * abs(rate), f_n)
-            damp_force = damp if rate > 0.0 else (-damp if rate < 0.0 else 0.0)
+            # Smooth saturation of the damping at the elastic force (reference: hertz, D14).
+            damp_force = (
+                f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
+            )
             f_n = f_n + damp_force
             rel = _sub(v_ball_point, v_groove)
             slip_vec = _sub(rel, _scale(_dot(rel, d), d))
@@ -679,8 +682,8 @@ def contacts_kernel(
                 lub_m, dry_m, tau = sliding_friction(
                     slip + v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
                 )
-                if f_n > 0.0:
-                    mu_s = (lub_m + dry_m) / max(f_n, 1e-300)
+                if f_n > FILM_MIN_LOAD:  # unloaded: mu_s = 0 (reference, D15)
+                    mu_s = (lub_m + dry_m) / f_n
                 mer = hysteresis_moment(f_n, ball_radius, r_y / r_x, mu_s, mu_dry_mer)
                 mc = curvature_moment(f_n, semi_y, surface_radius, mu_s)
                 fr = rolling_resistance_force(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced)

@@ -287,7 +287,10 @@ def evaluate_contacts(
     ellipticity = semi_major / np.maximum(semi_minor, 1e-300)
     mp = rolling.spin_moment(rolling.spin_moment_factor(ellipticity), semi_major, lub_s + dry_s)
     lub_m, dry_m, tau = sliding_friction(scene, slip + v_spin, *args)
-    mu_s = np.where(f_n > 0.0, (lub_m + dry_m) / np.maximum(f_n, 1e-300), 0.0)
+    # mu_s = F_t / F_n means nothing on an unloaded contact (a released one keeps its Hertz
+    # area, so F_t stays finite while F_n -> 0): 0 below the film's minimum load (D15).
+    loaded = f_n > film.FILM_MIN_LOAD
+    mu_s = np.where(loaded, (lub_m + dry_m) / np.where(loaded, f_n, 1.0), 0.0)
     law = cfg.contact
     mer = rolling.hysteresis_moment(
         f_n, r_b, radius_y / radius_x, mu_s, max(law.dry_friction_coefficient, 1e-6)

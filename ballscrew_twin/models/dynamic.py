@@ -45,6 +45,9 @@ ContactFunction = Callable[..., ContactEvaluation]
 
 VELOCITY_STEP = 1e-7  # m/s and rad/s x r_b: finite-difference step of the velocity Jacobian
 HELIX_NEWTON_STEPS = 3  # Newton iterations locating each sphere on the helix (Eq. 4)
+STEP_NEWTON_MAX = 6  # Newton iterations of one backward-Euler step at most
+STEP_TOLERANCE = 1e-6  # scaled residual of the step equations that ends the iterations
+STEP_BACKTRACKS = 4  # halvings of a Newton correction that would raise the residual
 
 
 @dataclass
@@ -155,6 +158,8 @@ class DynamicModel:
         self._nut_offset0 = np.zeros(2)
         self._jacobian: Jacobians | None = None
         self._jacobian_contacts = np.zeros((0, 4), dtype=bool)
+        self.unconverged_steps = 0  # steps that ended at STEP_NEWTON_MAX iterations
+        self.last_step_residual = 0.0  # scaled residual at the end of the last step
         self._jacobian_age = 0
 
     # ----------------------------------------------------------------- initial state
@@ -342,63 +347,129 @@ class DynamicModel:
             shared[members, :, 1 + k] = column[members]
         return Jacobians(own, shared)
 
-    def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
-        """Advance all bodies by one linearly implicit (backward Euler) step of the velocities.
+    def _with_velocities(
+        self, state: DynamicState, u: FloatArray, shared: FloatArray
+    ) -> DynamicState:
+        """The state's positions with sphere velocities ``u`` (B, 6) and screw/nut ones."""
+        trial = state.copy()
+        trial.ball_velocity = u[:, :3].copy()
+        trial.ball_omega = u[:, 3:].copy()
+        trial.screw_speed = float(shared[0])
+        trial.nut_velocity = shared[1:].copy()
+        return trial
 
-        Sphere blocks (M_i - dt A_i) du_i - dt B_i dU = dt f_i and the shared rows (screw,
-        nuts) S dU - dt sum_i E_i (C_i du_i + D_i dU) = dt g are solved by eliminating the
-        sphere blocks (3 x 3 Schur complement); positions then move with the new velocities.
+    def _correction(
+        self, jac: Jacobians, r_ball: FloatArray, r_shared: FloatArray, route: FloatArray
+    ) -> tuple[FloatArray, FloatArray]:
+        """Newton correction of the backward-Euler equations (Schur complement on 3 rows).
+
+        Sphere rows (M_i - dt A_i) du_i - dt B_i dU = r_i, shared rows
+        (S - dt sum_i E_i D_i + dt K_motor) dU - dt sum_i E_i C_i du_i = r_s.
         """
         dt = self.time_step
         screw = self.config.screw
-        base = self.contact_actions(state)
-        # Refresh the linearisation every jacobian_interval steps, and at once when a contact
-        # opens or closes (a stale Jacobian across an impact destabilises the step).
-        contact_set = base.contacts.active
+        mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
+        diag = np.concatenate([np.full(3, mass), np.full(3, inertia)])
+        block = np.eye(6)[None] * diag[None, :, None] - dt * jac.own[:, :6]
+        rhs = np.concatenate([r_ball[..., None], dt * jac.shared[:, :6]], axis=-1)
+        solved = np.linalg.solve(block, rhs)  # (B, 6, 4): p_i and Q_i
+        p, q = solved[:, :, 0], solved[:, :, 1:]
+        c_i, d_i = jac.own[:, 6:], jac.shared[:, 6:]
+        coupling = np.einsum("bij,bjk->bik", route, np.einsum("bij,bjk->bik", c_i, q) + d_i)
+        lhs = np.diag([screw.screw_inertia, screw.nut_mass, screw.nut_mass]) - dt * coupling.sum(0)
+        k_p, k_i = self.controller.proportional, self.controller.integral
+        lhs[0, 0] += dt * (k_p + k_i * dt)
+        rhs_shared = r_shared + dt * np.einsum("bij,bj->i", route, np.einsum("bij,bj->bi", c_i, p))
+        d_shared = np.linalg.solve(lhs, rhs_shared)
+        return p + np.einsum("bij,j->bi", q, d_shared), d_shared
+
+    def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
+        """Advance all bodies by one backward-Euler step of the velocities, solved by Newton.
+
+        The equations M (u - u_n) = dt f(x_n, u) for every sphere and S (U - U_n) = dt g for
+        screw (PI controller implicit) and nuts are solved by Newton iterations (Jacobian of
+        the contact actions re-evaluated at the iterate after the first one) until the scaled
+        residual is below STEP_TOLERANCE; positions then move with the new velocities. The
+        reported contact actions and dissipation are those at the converged velocities, i.e.
+        the forces the step applied.
+        """
+        dt = self.time_step
+        screw = self.config.screw
+        mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
+        diag = np.concatenate([np.full(3, mass), np.full(3, inertia)])
+        gravity = np.concatenate([mass * self.gravity, np.zeros(3)])
+        shared_mass = np.array([screw.screw_inertia, screw.nut_mass, screw.nut_mass])
+        k_p, k_i = self.controller.proportional, self.controller.integral
+        weight = screw.nut_mass * self.config.environment.gravity
+        if screw.orientation != "vertical":
+            weight = 0.0
+        count = len(state.ball_velocity)
+        route = np.zeros((count, 3, 2))  # E_i: (screw share, nut share) -> shared rows
+        route[:, 0, 0] = 1.0
+        route[np.arange(count), 1 + self.ball_nut, 1] = 1.0
+        u0 = np.concatenate([state.ball_velocity, state.ball_omega], axis=1)
+        shared0 = np.concatenate([[state.screw_speed], state.nut_velocity])
+        u, shared = u0.copy(), shared0.copy()
+        actions = self.contact_actions(state)
+        contact_set = actions.contacts.active
         if (
             self._jacobian is None
             or self._jacobian_age >= self.jacobian_interval
             or not np.array_equal(contact_set, self._jacobian_contacts)
         ):
-            self._jacobian = self._jacobians(state, base)
+            self._jacobian = self._jacobians(state, actions)
             self._jacobian_contacts = contact_set.copy()
             self._jacobian_age = 0
         self._jacobian_age += 1
-        jac = self._jacobian
-        mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
-        diag = np.concatenate([np.full(3, mass), np.full(3, inertia)])
-        gravity = np.concatenate([mass * self.gravity, np.zeros(3)])
-        block = np.eye(6)[None] * diag[None, :, None] - dt * jac.own[:, :6]
-        rhs = dt * np.stack(
-            [base.generalised + gravity, *(dt * jac.shared[:, :6, k] / dt for k in range(3))],
-            axis=-1,
-        )
-        solved = np.linalg.solve(block, rhs)  # (B, 6, 4): p_i and Q_i
-        p, q = solved[:, :, 0], solved[:, :, 1:]
-        # Shared rows: screw (with the PI controller implicit in its speed) and the two nuts.
-        error = commands.screw_speed - state.screw_speed
-        k_p, k_i = self.controller.proportional, self.controller.integral
-        motor0 = k_p * error + k_i * (state.controller_integral + dt * error)
-        weight = screw.nut_mass * self.config.environment.gravity
-        if screw.orientation != "vertical":
-            weight = 0.0
-        route = np.zeros((len(p), 3, 2))  # E_i: (screw share, nut share) -> shared rows
-        route[:, 0, 0] = 1.0
-        route[np.arange(len(p)), 1 + self.ball_nut, 1] = 1.0
-        shares = np.stack([base.screw_moment, base.nut_force], axis=-1)  # (B, 2)
-        g = np.array([motor0, commands.preload - weight, -commands.preload - weight])
-        g = g + np.einsum("bij,bj->i", route, shares)
-        c_i, d_i = jac.own[:, 6:], jac.shared[:, 6:]
-        coupling = np.einsum("bij,bjk->bik", route, np.einsum("bij,bjk->bik", c_i, q) + d_i)
-        lhs = np.diag([screw.screw_inertia, screw.nut_mass, screw.nut_mass]) - dt * coupling.sum(0)
-        lhs[0, 0] += dt * (k_p + k_i * dt)
-        rhs_shared = dt * g + dt * np.einsum("bij,bj->i", route, np.einsum("bij,bj->bi", c_i, p))
-        d_shared = np.linalg.solve(lhs, rhs_shared)
-        d_ball = p + np.einsum("bij,j->bi", q, d_shared)
-        screw_speed = state.screw_speed + d_shared[0]
-        nut_velocity = state.nut_velocity + d_shared[1:]
-        ball_velocity = state.ball_velocity + d_ball[:, :3]
-        ball_omega = state.ball_omega + d_ball[:, 3:]
+
+        def residual(
+            acts: Actions, u: FloatArray, shared: FloatArray
+        ) -> tuple[FloatArray, FloatArray, float]:
+            """Backward-Euler residuals (sphere rows, shared rows) and their scaled maximum."""
+            f = acts.generalised + gravity
+            error = commands.screw_speed - shared[0]
+            motor = k_p * error + k_i * (state.controller_integral + dt * error)
+            shares = np.stack([acts.screw_moment, acts.nut_force], axis=-1)
+            g = np.array([motor, commands.preload - weight, -commands.preload - weight])
+            g = g + np.einsum("bij,bj->i", route, shares)
+            r_ball = dt * f - diag * (u - u0)
+            r_shared = dt * g - shared_mass * (shared - shared0)
+            force_scale = np.abs(f[:, :3]).max() + mass * self.config.environment.gravity
+            scale = dt * np.concatenate(
+                [np.full(3, force_scale), np.full(3, force_scale * self.geometry.ball_radius)]
+            )
+            shared_scale = dt * (np.abs(g) + np.array([1e-6, 1e-3, 1e-3]))
+            worst = max(
+                float(np.max(np.abs(r_ball) / scale)),
+                float(np.max(np.abs(r_shared) / shared_scale)),
+            )
+            return r_ball, r_shared, worst
+
+        r_ball, r_shared, worst = residual(actions, u, shared)
+        for iteration in range(STEP_NEWTON_MAX):
+            if iteration > 0:
+                if worst < STEP_TOLERANCE:
+                    break
+                trial = self._with_velocities(state, u, shared)
+                self._jacobian = self._jacobians(trial, actions)  # at the iterate
+                self._jacobian_contacts = actions.contacts.active.copy()
+                self._jacobian_age = 0
+            du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route)
+            step = 1.0
+            for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
+                u_try, shared_try = u + step * du, shared + step * d_shared
+                acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
+                rb, rs, w = residual(acts, u_try, shared_try)
+                if w < worst or iteration == 0:
+                    break
+                step *= 0.5
+            u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
+        else:
+            if worst >= STEP_TOLERANCE:
+                self.unconverged_steps += 1
+        self.last_step_residual = worst
+        screw_speed = float(shared[0])
+        nut_velocity = shared[1:].copy()
         new_error = commands.screw_speed - screw_speed
         integral = state.controller_integral + dt * new_error
         new = DynamicState(
@@ -408,17 +479,17 @@ class DynamicModel:
             controller_integral=integral,
             nut_position=state.nut_position + dt * nut_velocity,
             nut_velocity=nut_velocity,
-            ball_position=state.ball_position + dt * ball_velocity,
-            ball_velocity=ball_velocity,
-            ball_omega=ball_omega,
-            helix_parameter=base.helix_parameter,
+            ball_position=state.ball_position + dt * u[:, :3],
+            ball_velocity=u[:, :3].copy(),
+            ball_omega=u[:, 3:].copy(),
+            helix_parameter=actions.helix_parameter,
         )
-        ev = base.contacts
+        ev = actions.contacts
         report = StepReport(
             motor_torque=k_p * new_error + k_i * integral,
             contacts=ev,
-            nut_force=np.array([base.nut_force[self.ball_nut == k].sum() for k in (0, 1)]),
-            screw_torque=float(base.screw_moment.sum()),
+            nut_force=np.array([actions.nut_force[self.ball_nut == k].sum() for k in (0, 1)]),
+            screw_torque=float(actions.screw_moment.sum()),
             dissipation=float(sum(np.sum(v) for v in ev.dissipation.values())),
         )
         return new, report

@@ -13,6 +13,9 @@ from numpy.typing import ArrayLike, NDArray
 FloatArray = NDArray[np.float64]
 
 MINIMUM_TO_CENTRAL = 0.75  # h_0 / h_c, Eq. 30
+#: Below this load no film is formed [N]: the rigid-isoviscous term of Eq. 26d grows as M^-2,
+#: so a vanishing load (a contact being released) would give an unbounded film (docs, D15).
+FILM_MIN_LOAD = 1e-6
 
 
 def moes_groups(
@@ -86,7 +89,7 @@ def film_thickness_central_isothermal(
 ) -> FloatArray:
     """Isothermal central film thickness h_c [m], Eq. 26a: h_c = R_x sqrt(eta0 u_s/(E' R_x)) H_c.
 
-    Zero where the entrainment speed or the load is zero (no film is built).
+    Zero where the entrainment speed is zero or the load below FILM_MIN_LOAD (no film).
 
     Args:
         normal_force: F_n [N].
@@ -100,7 +103,7 @@ def film_thickness_central_isothermal(
     u_sum = 2.0 * np.abs(np.asarray(mean_velocity, dtype=np.float64))
     f = np.asarray(normal_force, dtype=np.float64)
     rx = np.asarray(radius_x, dtype=np.float64)
-    active = (u_sum > 0.0) & (f > 0.0)
+    active = (u_sum > 0.0) & (f > FILM_MIN_LOAD)
     u_safe = np.where(active, u_sum, 1.0)
     f_safe = np.where(active, f, 1.0)
     m, ell, lam = moes_groups(

@@ -273,21 +273,29 @@ def normal_force(
     K_H: ArrayLike,  # noqa: N803
     b_h: ArrayLike,
 ) -> FloatArray:
-    """Normal contact force [N] with saturated hysteresis damping (paper Eqs. 18-19).
+    """Normal contact force [N] with saturated hysteresis damping (paper Eqs. 18-19, D14).
 
-        F = K_H delta^1.5 + min(C_H |d delta/dt|, K_H delta^1.5) sign(d delta/dt),
-        C_H = b_h sqrt(K_H),
+        F = K_H delta^1.5 + K_H delta^1.5 tanh(C_H (d delta/dt) / (K_H delta^1.5)),
+        C_H = b_h sqrt(K_H).
+
+    The paper saturates the damping with min(C_H |d delta/dt|, K_H delta^1.5): the tanh has the
+    same slope C_H at zero rate and the same bound (the total force stays in [0, 2 K_H
+    delta^1.5], no attraction on release) without the kink that stalls an implicit step.
 
     delta: approach (interpenetration) [m], no contact and F = 0 where delta <= 0;
     delta_rate: d delta/dt [m/s], positive while the bodies approach;
     K_H: Hertz stiffness [N m^-1.5]; b_h: damping proportionality coefficient
     [N s m^-1 (N m^-1.5)^-0.5 = N^0.5 s m^-0.25 = kg^0.5 m^0.25], so that C_H is in N s m^-1.
-    The damping term is capped by the elastic term, so F >= 0 always (no attraction on release).
     """
     rate = _f64(delta_rate)
     stiffness = _f64(K_H)
     elastic = stiffness * np.maximum(_f64(delta), 0.0) ** 1.5
-    damping = np.minimum(_f64(b_h) * np.sqrt(stiffness) * np.abs(rate), elastic) * np.sign(rate)
+    viscous = _f64(b_h) * np.sqrt(stiffness) * rate
+    # Smooth saturation (docs/model.md, D14): elastic * tanh(C_H rate / elastic) has slope C_H
+    # at zero rate and magnitude below the elastic force, as min(C_H |rate|, elastic) has, but
+    # no kink, which the dynamic model's implicit step needs.
+    safe = np.where(elastic > 0.0, elastic, 1.0)
+    damping = np.where(elastic > 0.0, elastic * np.tanh(viscous / safe), 0.0)
     return _f64(elastic + damping)
 
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import film
+
 FloatArray = NDArray[np.float64]
 
 MER_CONSTANT = 7.48e-7  # Eq. 43, evaluated with r_b in m, Q in N, MER in N m (D9)
@@ -48,7 +50,7 @@ def rolling_resistance_force(
     u = np.abs(np.asarray(mean_velocity, dtype=np.float64))
     rx = np.asarray(radius_x, dtype=np.float64)
     lam = rx / np.asarray(radius_y, dtype=np.float64)
-    active = (f > 0.0) & (u > 0.0)
+    active = (f > film.FILM_MIN_LOAD) & (u > 0.0)  # a film effect: none without a film
     load = np.where(active, f, 1.0) / (reduced_modulus * rx**2)
     speed = np.asarray(viscosity_atm) * np.where(active, u, 1.0) / (reduced_modulus * rx)
     scale = reduced_modulus * rx**2 * load ** (1.0 / 3.0)

@@ -39,7 +39,7 @@ from ballscrew_twin.models.contact_forces import (
 )
 from ballscrew_twin.models.steady import SteadySolution, SteadyStateModel
 from ballscrew_twin.params import TwinConfig, ViscosityLaw, load_config
-from ballscrew_twin.physics import hertz, lubricant, rolling, traction
+from ballscrew_twin.physics import film, hertz, lubricant, rolling, traction
 
 FloatArray = NDArray[np.float64]
 RPM = 2.0 * math.pi / 60.0
@@ -199,6 +199,7 @@ def perturbed(case: Case, rng: np.random.Generator, size: float) -> Case:
 # ----------------------------------------------------------------------------- tests
 def test_law_constants_are_those_of_the_reference() -> None:
     """The kernel's copies of the law constants (frozen into its cached code) are current."""
+    assert kernel.FILM_MIN_LOAD == film.FILM_MIN_LOAD
     assert kernel.ANTOINE_NUMERATOR == hertz._ANTOINE_NUMERATOR
     assert kernel.ANTOINE_DENOMINATOR == hertz._ANTOINE_DENOMINATOR
     assert kernel.K_POLY == hertz._K_POLY

@@ -241,13 +241,6 @@ def test_plot_is_written(result: SimulationResult, tmp_path: Path) -> None:
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="dynamic model: when the master nut reaches the far flank of its play (t ~ 1.3 ms "
-    "here) the step's dissipation, evaluated at the start-of-step velocities of stiff laws "
-    "(normal damping, regularised friction) integrated implicitly, jumps to 100s of W: "
-    "measured error 0.0175 J against 0.0017 J of input at 1.47 ms",
-)
 def test_power_balance_survives_the_nut_impact() -> None:
     res = simulate(Scenario(**{**SMALL, "duration": 1.5e-3, "average_window": 5e-4}))
     assert abs(res.summary["power_balance_error_relative"]) < BALANCE_BOUND

@@ -295,16 +295,20 @@ def test_normal_force_is_zero_without_interpenetration(delta: float, rate: float
 
 
 def test_normal_force_elastic_and_damped() -> None:
-    """Below saturation F = K delta^1.5 + b_h sqrt(K) rate; at rest the pure Hertz force."""
+    """F = K delta^1.5 (1 + tanh(C_H rate / (K delta^1.5))) (D14): the pure Hertz force at rest,
+    K delta^1.5 + C_H rate to second order while C_H rate << K delta^1.5 (Eq. 18)."""
     delta = 5e-6
     elastic = K_H * delta**1.5
     assert float(hertz.normal_force(delta, 0.0, K_H, B_H)) == pytest.approx(elastic, rel=1e-15)
     rate = 0.01  # m/s: C_H rate = 1.2 N, well below the 162 N elastic force
     damping = B_H * math.sqrt(K_H) * rate
-    assert damping < elastic
+    x = damping / elastic
+    assert x < 0.01
     for sign in (1.0, -1.0):
         force = float(hertz.normal_force(delta, sign * rate, K_H, B_H))
-        assert force == pytest.approx(elastic + sign * damping, rel=1e-14)
+        assert force == pytest.approx(elastic * (1.0 + math.tanh(sign * x)), rel=1e-14)
+        # tanh(x) = x - x^3/3 + ...: the linear law of Eq. 18 to relative order x^2 / 3.
+        assert force == pytest.approx(elastic + sign * damping, rel=x**2)
 
 
 def test_normal_force_damping_saturates_at_elastic_force() -> None:
