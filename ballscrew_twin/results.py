@@ -166,11 +166,11 @@ def write_bag(
         storage: ``"mcap"`` or ``"sqlite3"``.
         msg_dir: folder of the ``*.msg`` definitions.
 
-    ``DragTorque.total`` is the motor torque minus the gravity torque at that sample. The
-    breakdown and per-nut fields are left 0 (not resolved, as for the catalogue model): the
-    dynamic model's per-step dissipation does not yet match the work the implicit step does
-    (docs/model.md section 10), so it is kept in the CSV/NPZ outputs, labelled, and not
-    published as a torque. ``real_time_factor`` is simulated time per wall time (>= 1 keeps up).
+    ``DragTorque.total`` is the motor torque minus the gravity torque at that sample; the
+    breakdown is each mechanism's dissipation / screw speed and the per-nut torques each nut's
+    dissipation / speed (0 at standstill; the normal damping of Eqs. 18-19 has no field and is
+    only in the CSV/NPZ outputs). ``real_time_factor`` is simulated time per wall time (>= 1
+    keeps up).
     """
     from rosbags.rosbag2 import StoragePlugin, Writer
 
@@ -189,6 +189,9 @@ def write_bag(
     sc = result.scenario
     rtf = float(result.summary.get("real_time_factor", 0.0))
     drag = result.drag_torque
+    breakdown = result.breakdown_torque()
+    nut_torque = result.nut_torque()
+    index = {name: k for k, name in enumerate(MECHANISMS)}
     try:
         with Writer(folder, version=9, storage_plugin=plugins[storage]) as writer:
             drag_conn = writer.add_connection(DRAG_TOPIC, drag_cls.__msgtype__, typestore=store)
@@ -200,9 +203,9 @@ def write_bag(
                 msg = drag_cls(
                     header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
                     total=float(drag[i]),
-                    nut_master=0.0,
-                    nut_slave=0.0,
-                    **dict.fromkeys(BREAKDOWN_FIELDS, 0.0),
+                    nut_master=float(nut_torque[i, 0]),
+                    nut_slave=float(nut_torque[i, 1]),
+                    **{name: float(breakdown[i, index[name]]) for name in BREAKDOWN_FIELDS},
                     fidelity=FIDELITY,
                     real_time_factor=float(rtf) if math.isfinite(rtf) else 0.0,
                     screw_speed=float(result.screw_speed[i]),

@@ -114,6 +114,10 @@ class SimulationResult:
         """Motor torque minus gravity torque at each sample [N m]."""
         return self.motor_torque - self.gravity_torque
 
+    def nut_torque(self) -> FloatArray:
+        """(N, 2) dissipation of each nut's spheres / screw speed, 0 at standstill [N m]."""
+        return _per_speed(self.nut_dissipation, self.screw_speed[:, None])
+
     def breakdown_torque(self) -> FloatArray:
         """(N, 7) dissipation per mechanism / screw speed at each sample, 0 at standstill [N m]."""
         return _per_speed(self.mechanism_dissipation, self.screw_speed[:, None])
