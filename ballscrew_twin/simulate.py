@@ -54,13 +54,14 @@ def format_summary(result: SimulationResult) -> str:
         f"({s['power_balance_error_relative']:.3g} of the gross input energy "
         f"{s['gross_input_energy_J']:.4g} J)",
         f"wall time {s['wall_time_s']:.3f} s, {s['steps']} steps "
+        f"({s.get('unconverged_steps', 0)} not converged) "
         f"({s['step_cost_s'] * 1e3:.3g} ms/step), real-time factor {s['real_time_factor']:.3g}",
     ]
     if not abs(s["power_balance_error_relative"]) < UNRELIABLE_BREAKDOWN:
         lines.append(
-            "WARNING: the power balance does not close: the breakdown above (the contact laws' "
-            "dissipation at the start of each step) is not the work the implicit step did and "
-            "is not reliable; the drag torque (motor - gravity) is (docs/model.md, section 10)"
+            "WARNING: the power balance does not close to 1 %: the breakdown above is not "
+            f"reliable ({s.get('unconverged_steps', 0)} steps ended without converged Newton "
+            "iterations; try a smaller time_step); docs/model.md, section 10"
         )
     return "\n".join(lines)
 

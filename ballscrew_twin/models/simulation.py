@@ -347,6 +347,7 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
     result.summary = _summary(
         result, window, window_mechanisms, window_nuts, abs_input_energy, wall, steps, config
     )
+    result.summary["unconverged_steps"] = model.unconverged_steps
     return result
 
 
