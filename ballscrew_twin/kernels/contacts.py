@@ -493,6 +493,7 @@ def contacts_kernel(
     gravity_frenet,
     centre_velocity,
     nut_slide,
+    approach_offset,
     dynamic,
     ball_radius,
     groove_radius,
@@ -583,6 +584,8 @@ def contacts_kernel(
             d_n = rel_n / safe_dist
             d_b = rel_b / safe_dist
             approach = dist + ball_radius - groove_radius
+            if approach_offset.shape[0] > 0:  # defects (reference: approach_offset)
+                approach += approach_offset[i, j]
             angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
             active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
             delta = approach if active else 0.0
@@ -839,6 +842,7 @@ def _scene_params(scene: ContactScene) -> tuple[float | int, ...]:
 
 
 _NO_VELOCITY = np.zeros((0, 3))
+_NO_OFFSET = np.zeros((0, 4))
 
 
 def _as_input(array: FloatArray) -> FloatArray:
@@ -853,6 +857,7 @@ def evaluate_contacts_compiled(
     gravity_frenet: FloatArray,
     centre_velocity: FloatArray | None = None,
     nut_slide: FloatArray | None = None,
+    approach_offset: FloatArray | None = None,
 ) -> ContactEvaluation:
     """Drop-in, compiled replacement of ``evaluate_contacts`` (same arguments and result).
 
@@ -874,6 +879,7 @@ def evaluate_contacts_compiled(
         _as_input(gravity_frenet),
         velocity,
         _as_input(nut_slide) if nut_slide is not None else np.zeros(count),
+        _NO_OFFSET if approach_offset is None else _as_input(approach_offset),
         dynamic,
         *_scene_params(scene),
     )
@@ -961,6 +967,7 @@ def benchmark(repeat: int = 200) -> str:
                     *raw_args,
                     _NO_VELOCITY,
                     np.zeros(len(raw_args[0])),
+                    _NO_OFFSET,
                     False,
                     *params,
                 ),

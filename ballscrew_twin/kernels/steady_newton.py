@@ -257,7 +257,8 @@ def _residual(z, e_nut, nut, weight, gravity, loads, force_scale, moment_scale, 
     no_velocity = np.zeros((0, 3))
     no_slide = np.zeros(count)
     _, out = contacts_kernel(
-        ball_nb, kinematics, e_ball, gravity, no_velocity, no_slide, False, *scene
+        ball_nb, kinematics, e_ball, gravity, no_velocity, no_slide, np.zeros((0, 4)), False,
+        *scene,
     )
     sin_helix = scene[_I_SIN_HELIX]
     cos_helix = scene[_I_COS_HELIX]

@@ -161,6 +161,7 @@ def evaluate_contacts(
     gravity_frenet: FloatArray,
     centre_velocity: FloatArray | None = None,
     nut_slide: FloatArray | None = None,
+    approach_offset: FloatArray | None = None,
 ) -> ContactEvaluation:
     """Contact forces, moments, states and dissipation of B balls.
 
@@ -182,6 +183,9 @@ def evaluate_contacts(
             components [m/s].
         nut_slide: (B,) axial velocity of each ball's nut relative to the screw's thread, i.e.
             beyond the helical motion of rate -screw speed [m/s] (0 in a steady state).
+        approach_offset: (B, 4) added to each contact's approach [m]: a defect of the sphere
+            (radius change, on all its contacts) or of the raceway (a spall, negative where
+            the groove is hollowed), see models/faults.py.
     """
     cfg = scene.config
     geom = scene.geometry
@@ -193,6 +197,8 @@ def evaluate_contacts(
 
     centres = geometry.half_groove_centres(geom, nut_offset)
     approach, normal_nb, angle = geometry.contact_geometry(ball_nb, centres, r_b, r_s)
+    if approach_offset is not None:
+        approach = approach + np.asarray(approach_offset, dtype=np.float64)
     active = geometry.contact_exists(
         approach, angle, geom.inner_containment_angle, geom.outer_containment_angle
     )

@@ -38,6 +38,7 @@ from ..params import TwinConfig
 from ..physics import geometry
 from .base import OperatingPoint
 from .contact_forces import ContactEvaluation, evaluate_contacts, make_scene
+from .faults import Faults
 from .steady import SteadyStateModel
 
 FloatArray = NDArray[np.float64]
@@ -122,6 +123,7 @@ class DynamicModel:
             stale linearisation (measured, docs/model.md section 10).
         controller: PI gains of the screw speed controller.
         backend: ``"compiled"`` (numba kernel) or ``"reference"`` (numpy) contact laws.
+        faults: defective spheres and raceway spalls (models/faults.py).
     """
 
     config: TwinConfig
@@ -130,6 +132,7 @@ class DynamicModel:
     jacobian_interval: int = 1
     controller: SpeedController = field(default_factory=SpeedController)
     backend: str = "compiled"
+    faults: Faults = field(default_factory=Faults)
 
     def __post_init__(self) -> None:
         OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=0.0).validate()
@@ -150,6 +153,7 @@ class DynamicModel:
             raise ValueError(f"backend = {self.backend!r} must be compiled or reference")
         count = self.config.screw.balls_per_nut
         self.ball_nut = np.repeat(np.array([0, 1]), count)
+        self.ball_index = np.tile(np.arange(count), 2)
         self.lead_rate = geom.lead / (2.0 * math.pi)
         self.zhat = geometry.axis_direction(geom.helix_angle)
         self.gravity = np.array([0.0, 0.0, -self.config.environment.gravity])
@@ -262,6 +266,9 @@ class DynamicModel:
         if speed != self._scene.screw_speed:
             self._scene = replace(self._scene, screw_speed=speed)
         kin = np.concatenate([np.zeros((len(nb), 1)), w_frenet], axis=1)
+        offsets = self.faults.approach_offsets(
+            theta, state.screw_angle, self.ball_nut, self.ball_index
+        )
         ev = self._contacts(
             self._scene,
             nb,
@@ -270,6 +277,7 @@ class DynamicModel:
             np.zeros((len(nb), 3)),
             centre_velocity=v_frenet,
             nut_slide=slide[self.ball_nut],
+            approach_offset=offsets,
         )
         to_world = to_screw.T
         force = np.einsum("bji,bj->bi", frames, ev.force) @ to_world.T

@@ -23,6 +23,7 @@ import yaml
 
 from ..errors import ConfigError
 from .dynamic import Commands, SpeedController
+from .faults import faults_from_mapping
 
 Backend = Literal["compiled", "reference"]
 
@@ -114,6 +115,13 @@ class Scenario:
     backend: Backend = field(
         default="compiled", metadata={"doc": "contact laws: compiled (numba) or reference"}
     )
+    faults: Any = field(
+        default=None,
+        metadata={
+            "doc": "defects: {spheres: [{nut, index, radius_change}], spalls: "
+            "[{half_groove, centre, width, depth}]} (models/faults.py), SI units"
+        },
+    )
     source: str = field(default="", metadata={"doc": "file read from (not a YAML key)"})
 
     def __post_init__(self) -> None:
@@ -132,6 +140,9 @@ class Scenario:
             ConfigError: naming the file (``source``) and the field.
         """
         where = self._where
+        # Sphere indices are checked against the parameter file's count when the model is
+        # built; here against the largest count allowed.
+        faults_from_mapping(self.faults, self.balls_per_nut or 500, f"{where}: faults")
         if not isinstance(self.name, str) or not self.name.strip():
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
         if self.config is not None and (not isinstance(self.config, str) or not self.config):

@@ -33,6 +33,7 @@ from ..params import TwinConfig, load_config
 from .base import DISSIPATION_KEYS
 from .contact_forces import make_scene
 from .dynamic import DynamicModel, DynamicState, StepReport
+from .faults import faults_from_mapping
 from .scenario import Scenario
 
 FloatArray = NDArray[np.float64]
@@ -250,6 +251,9 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
         jacobian_interval=scenario.jacobian_interval,
         controller=scenario.controller,
         backend=scenario.backend,
+        faults=faults_from_mapping(
+            scenario.faults, config.screw.balls_per_nut, f"{scenario.source or 'scenario'}: faults"
+        ),
     )
     ball_mass = make_scene(config, scenario.temperature, 0.0).ball_mass
     state = model.initial_state(0.0)

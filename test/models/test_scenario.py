@@ -138,7 +138,7 @@ def test_smooth_step_values_and_slopes() -> None:
     assert smooth_step(1.0, 1.0, 1.0) == 1.0 and smooth_step(0.999, 1.0, 1.0) == 0.0
 
 
-@pytest.mark.parametrize("name", ["paper_protocol", "short_check"])
+@pytest.mark.parametrize("name", [p.stem for p in sorted(SCENARIOS.glob("*.yaml"))])
 def test_shipped_scenarios_load(name: str) -> None:
     sc = load_scenario(SCENARIOS / f"{name}.yaml")
     assert sc.name == name and sc.temperature == 293.15
