@@ -333,15 +333,19 @@ def default_config_path() -> Path:
     raise ConfigError(f"default parameter file not found in {[str(c) for c in candidates]}")
 
 
-def load_config(path: str | Path | None = None) -> TwinConfig:
-    """Read and validate a YAML parameter file (``None``: the paper's screw)."""
-    file = Path(path) if path is not None else default_config_path()
+def read_yaml(file: Path, what: str) -> Any:
+    """Parsed content of a YAML file; ConfigError naming the file when unreadable or invalid."""
     try:
         text = file.read_text(encoding="utf-8")
     except OSError as err:
-        raise ConfigError(f"{file}: cannot read parameter file ({err.strerror})") from err
+        raise ConfigError(f"{file}: cannot read {what} ({err.strerror})") from err
     try:
-        data = yaml.safe_load(text)
+        return yaml.safe_load(text)
     except yaml.YAMLError as err:
         raise ConfigError(f"{file}: not valid YAML ({err})") from err
-    return config_from_mapping(data, str(file))
+
+
+def load_config(path: str | Path | None = None) -> TwinConfig:
+    """Read and validate a YAML parameter file (``None``: the paper's screw)."""
+    file = Path(path) if path is not None else default_config_path()
+    return config_from_mapping(read_yaml(file, "parameter file"), str(file))

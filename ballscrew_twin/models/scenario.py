@@ -19,9 +19,8 @@ from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal, get_args
 
-import yaml
-
 from ..errors import ConfigError
+from ..params import read_yaml
 from .dynamic import Commands, SpeedController
 from .faults import faults_from_mapping
 
@@ -307,12 +306,4 @@ def load_scenario(path: str | Path) -> Scenario:
         ConfigError: unreadable file, invalid YAML or any invalid field (message names both).
     """
     file = Path(path)
-    try:
-        text = file.read_text(encoding="utf-8")
-    except OSError as err:
-        raise ConfigError(f"{file}: cannot read scenario file ({err.strerror})") from err
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as err:
-        raise ConfigError(f"{file}: not valid YAML ({err})") from err
-    return scenario_from_mapping(data, str(file))
+    return scenario_from_mapping(read_yaml(file, "scenario file"), str(file))
