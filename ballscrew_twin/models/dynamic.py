@@ -162,6 +162,8 @@ class DynamicModel:
         self._nut_offset0 = np.zeros(2)
         self._jacobian: Jacobians | None = None
         self._jacobian_contacts = np.zeros((0, 4), dtype=bool)
+        self._step_location: tuple[FloatArray, tuple[FloatArray, FloatArray, FloatArray]] | None
+        self._step_location = None
         self.unconverged_steps = 0  # steps that ended at STEP_NEWTON_MAX iterations
         self.last_step_residual = 0.0  # scaled residual at the end of the last step
         self._jacobian_age = 0
@@ -213,7 +215,14 @@ class DynamicModel:
     # ----------------------------------------------------------------- contact actions
 
     def _locate(self, state: DynamicState) -> tuple[FloatArray, FloatArray, FloatArray]:
-        """Helix parameter, Frenet frames (screw frame rows t, n, b) and (n, b) offsets."""
+        """Helix parameter, Frenet frames (screw frame rows t, n, b) and (n, b) offsets.
+
+        Inside :meth:`step` the positions do not change while velocities are iterated, so the
+        step locates the spheres once (``_step_location``) for every evaluation it makes.
+        """
+        cached = self._step_location
+        if cached is not None and cached[0] is state.ball_position:
+            return cached[1]
         c, s = math.cos(state.screw_angle), math.sin(state.screw_angle)
         to_screw = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
         r_s = state.ball_position @ to_screw.T
@@ -358,13 +367,15 @@ class DynamicModel:
     def _with_velocities(
         self, state: DynamicState, u: FloatArray, shared: FloatArray
     ) -> DynamicState:
-        """The state's positions with sphere velocities ``u`` (B, 6) and screw/nut ones."""
-        trial = state.copy()
-        trial.ball_velocity = u[:, :3].copy()
-        trial.ball_omega = u[:, 3:].copy()
-        trial.screw_speed = float(shared[0])
-        trial.nut_velocity = shared[1:].copy()
-        return trial
+        """The state's positions (shared, not copied) with sphere velocities ``u`` (B, 6) and
+        screw/nut velocities ``shared``."""
+        return replace(
+            state,
+            ball_velocity=u[:, :3].copy(),
+            ball_omega=u[:, 3:].copy(),
+            screw_speed=float(shared[0]),
+            nut_velocity=shared[1:].copy(),
+        )
 
     def _correction(
         self, jac: Jacobians, r_ball: FloatArray, r_shared: FloatArray, route: FloatArray
@@ -392,6 +403,14 @@ class DynamicModel:
         return p + np.einsum("bij,j->bi", q, d_shared), d_shared
 
     def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
+        """Advance all bodies by one step (see :meth:`_step`); the spheres are located once."""
+        self._step_location = (state.ball_position, self._locate(state))
+        try:
+            return self._step(state, commands)
+        finally:
+            self._step_location = None
+
+    def _step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
         """Advance all bodies by one backward-Euler step of the velocities, solved by Newton.
 
         The equations M (u - u_n) = dt f(x_n, u) for every sphere and S (U - U_n) = dt g for
