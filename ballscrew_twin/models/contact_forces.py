@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ..params import TwinConfig
+from ..params import ScrewGeometry, TwinConfig
 from ..physics import film, geometry, hertz, lubricant, rolling, traction
 
 FloatArray = NDArray[np.float64]
@@ -31,7 +31,7 @@ class ContactScene:
     """Per-operating-point constants of the contact laws (computed once per solve)."""
 
     config: TwinConfig
-    geometry: object  # ScrewGeometry at temperature (typed loosely to avoid a cycle in docs)
+    geometry: ScrewGeometry  # at the scene's temperature
     temperature: float  # K
     screw_speed: float  # rad/s
     e_star: float  # Pa, Hertz modulus
@@ -78,16 +78,16 @@ def make_scene(config: TwinConfig, temperature: float, screw_speed: float) -> Co
     )
 
 
-def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+def cross(a: FloatArray, b: FloatArray) -> FloatArray:
     return np.asarray(np.cross(a, b))
 
 
-def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
+def dot(a: FloatArray, b: FloatArray) -> FloatArray:
     return np.asarray(np.einsum("...i,...i->...", a, b))
 
 
-def _unit(v: FloatArray) -> tuple[FloatArray, FloatArray]:
-    norm = np.sqrt(_dot(v, v))
+def unit(v: FloatArray) -> tuple[FloatArray, FloatArray]:
+    norm = np.sqrt(dot(v, v))
     return v / np.maximum(norm, 1e-300)[..., None], norm
 
 
@@ -189,7 +189,6 @@ def evaluate_contacts(
     """
     cfg = scene.config
     geom = scene.geometry
-    assert isinstance(geom, type(cfg.screw))
     r_b, r_s, r_m = geom.ball_radius, geom.groove_radius, geom.pitch_radius
     lead_rate = geom.lead / (2.0 * math.pi)
     zhat = geometry.axis_direction(geom.helix_angle)
@@ -208,7 +207,7 @@ def evaluate_contacts(
     hc = hertz.contact_from_approach(delta, radius_x, radius_y, scene.e_star)
 
     def helical(rate: FloatArray | float, r: FloatArray) -> FloatArray:
-        return np.asarray(np.asarray(rate)[..., None] * (_cross(zhat, r) + lead_rate * zhat))
+        return np.asarray(np.asarray(rate)[..., None] * (cross(zhat, r) + lead_rate * zhat))
 
     zeros = np.zeros(normal_nb.shape[:-1])
     d_plane = np.stack([zeros, normal_nb[..., 0], normal_nb[..., 1]], axis=-1)  # (B, 4, 3)
@@ -222,8 +221,8 @@ def evaluate_contacts(
     # out (a t-component of order (offset / r_m) sin l). Without it the normal force would do
     # spurious work and the power balance would not close (docs/model.md, D12).
     field = helical(np.ones(zeros.shape), np.broadcast_to(r_ball[:, None, :], d_plane.shape))
-    d = d_plane - (_dot(d_plane, field) / _dot(field, field))[..., None] * field
-    d, _ = _unit(d)
+    d = d_plane - (dot(d_plane, field) / dot(field, field))[..., None] * field
+    d, _ = unit(d)
     arm = arm_length[..., None] * d  # F -> contact point
     r_point = r_ball[:, None, :] + arm
 
@@ -239,26 +238,26 @@ def evaluate_contacts(
         # Progression rate along the thread: the contact points follow the centre's t-motion.
         w_ball = v_centre[:, 0] / helical(np.ones(len(ball_nb)), r_ball)[:, 0]
     slide = np.zeros(len(ball_nb)) if nut_slide is None else np.asarray(nut_slide)
-    v_ball_point = v_centre[:, None, :] + _cross(omega[:, None, :], arm)
+    v_ball_point = v_centre[:, None, :] + cross(omega[:, None, :], arm)
     v_nut = helical(np.full(r_point.shape[:-1], w_nut), r_point) + slide[:, None, None] * zhat
     v_groove = np.where(nut, v_nut, 0.0)
     v_contact = helical(np.broadcast_to(w_ball[:, None], r_point.shape[:-1]), r_point)
     # Eq. 18 with the saturated damping of Eq. 19; the approach rate is zero in a steady state.
-    approach_rate = _dot(v_centre[:, None, :] - v_groove, d)
+    approach_rate = dot(v_centre[:, None, :] - v_groove, d)
     f_n = hertz.normal_force(delta, approach_rate, hc.stiffness, cfg.contact.damping_coefficient)
     rel = v_ball_point - v_groove
-    slip_vec = rel - _dot(rel, d)[..., None] * d
-    slip_dir, slip = _unit(slip_vec)
-    u1 = _dot(v_ball_point - v_contact, that)
-    u2 = _dot(v_groove - v_contact, that)
+    slip_vec = rel - dot(rel, d)[..., None] * d
+    slip_dir, slip = unit(slip_vec)
+    u1 = dot(v_ball_point - v_contact, that)
+    u2 = dot(v_groove - v_contact, that)
     entrain = 0.5 * (u1 + u2)
     srr = np.abs(u1 - u2) / np.maximum(np.abs(entrain), 1e-12)
     e_dir = np.where(entrain >= 0.0, 1.0, -1.0)[..., None] * that
     omega_groove = np.where(nut, w_nut * zhat, 0.0)
     omega_rel = omega[:, None, :] - omega_groove
-    spin = _dot(omega_rel, d)
+    spin = dot(omega_rel, d)
     roll_vec = omega_rel - spin[..., None] * d
-    roll_dir, roll = _unit(roll_vec)
+    roll_dir, roll = unit(roll_vec)
 
     # Lubrication (Eqs. 26-33, 37-38).
     lub = cfg.lubricant
@@ -314,27 +313,27 @@ def evaluate_contacts(
     rel_centre = (
         v_centre[:, None, :]
         - v_groove
-        + scene.screw_speed * _cross(np.broadcast_to(zhat, arm.shape), -arm)
+        + scene.screw_speed * cross(np.broadcast_to(zhat, arm.shape), -arm)
     )
-    fp_dir = np.where(_dot(rel_centre, that) > 0.0, -1.0, 1.0)[..., None] * that
+    fp_dir = np.where(dot(rel_centre, that) > 0.0, -1.0, 1.0)[..., None] * that
     contact_on_ball = -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
     pressure_on_ball = fp[..., None] * fp_dir  # acts at the ball centre
     free_moment = -(mer + mc)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
-    moment_contacts = _cross(arm, contact_on_ball) + free_moment
+    moment_contacts = cross(arm, contact_on_ball) + free_moment
     groove_force = -(contact_on_ball + pressure_on_ball)
-    groove_moment = _cross(r_point, groove_force) - free_moment
-    groove_moment_z = _dot(groove_moment, zhat)
+    groove_moment = cross(r_point, groove_force) - free_moment
+    groove_moment_z = dot(groove_moment, zhat)
 
     force = (contact_on_ball + pressure_on_ball).sum(axis=1)
     moment = moment_contacts.sum(axis=1)
     if not dynamic:
         orbit_rate = scene.screw_speed + w_ball  # absolute rate of the ball's Frenet frame
         # Centrifugal force on the orbiting centre: m Omega^2 times its distance from the axis.
-        r_perp = r_ball - _dot(r_ball, zhat)[:, None] * zhat
+        r_perp = r_ball - dot(r_ball, zhat)[:, None] * zhat
         inertial = (scene.ball_mass * orbit_rate**2)[:, None] * r_perp
         force = force + scene.ball_mass * gravity_frenet + inertial
         omega_abs = omega + scene.screw_speed * zhat
-        gyro = orbit_rate[:, None] * _cross(
+        gyro = orbit_rate[:, None] * cross(
             np.broadcast_to(zhat, omega_abs.shape), scene.ball_inertia * omega_abs
         )
         moment = moment - gyro
@@ -345,7 +344,7 @@ def evaluate_contacts(
     dissipation = {
         "lubricant_shear": lub_c * slip,
         "dry_contact": dry_c * slip,
-        "rolling_resistance": -fp * _dot(fp_dir, rel_centre) + fr * _dot(e_dir, slip_vec),
+        "rolling_resistance": -fp * dot(fp_dir, rel_centre) + fr * dot(e_dir, slip_vec),
         "hysteresis": mer * roll,
         "curvature": mc * roll,
         "spin": mp * np.abs(spin),

@@ -66,21 +66,6 @@ class DynamicState:
     ball_omega: FloatArray  # (B, 3) rad/s, absolute angular velocity
     helix_parameter: FloatArray  # (B,) rad, continuous azimuth of each sphere on the thread
 
-    def copy(self) -> DynamicState:
-        """An independent copy."""
-        return DynamicState(
-            self.time,
-            self.screw_angle,
-            self.screw_speed,
-            self.controller_integral,
-            self.nut_position.copy(),
-            self.nut_velocity.copy(),
-            self.ball_position.copy(),
-            self.ball_velocity.copy(),
-            self.ball_omega.copy(),
-            self.helix_parameter.copy(),
-        )
-
 
 @dataclass(frozen=True)
 class Commands:
@@ -142,7 +127,6 @@ class DynamicModel:
             raise OperatingPointError("jacobian_interval must be >= 1")
         self._scene = make_scene(self.config, self.temperature, 0.0)
         geom = self._scene.geometry
-        assert isinstance(geom, type(self.config.screw))
         self.geometry = geom
         self._contacts: ContactFunction = evaluate_contacts
         if self.backend == "compiled":
@@ -223,8 +207,7 @@ class DynamicModel:
         cached = self._step_location
         if cached is not None and cached[0] is state.ball_position:
             return cached[1]
-        c, s = math.cos(state.screw_angle), math.sin(state.screw_angle)
-        to_screw = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        to_screw = _to_screw_frame(state.screw_angle)
         r_s = state.ball_position @ to_screw.T
         theta = state.helix_parameter.copy()
         r_m, lead = self.geometry.pitch_radius, self.lead_rate
@@ -261,8 +244,7 @@ class DynamicModel:
         vn = state.nut_velocity if nut_velocity is None else nut_velocity
         speed = state.screw_speed if screw_speed is None else screw_speed
         theta, frames, nb = self._locate(state)
-        c, s = math.cos(state.screw_angle), math.sin(state.screw_angle)
-        to_screw = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
+        to_screw = _to_screw_frame(state.screw_angle)
         zaxis = np.array([0.0, 0.0, 1.0])
         # Velocities relative to the rotating screw, then in each sphere's Frenet frame.
         v_rel = (v - speed * np.cross(zaxis, state.ball_position)) @ to_screw.T
@@ -520,6 +502,12 @@ class DynamicModel:
             dissipation=float(sum(np.sum(v) for v in ev.dissipation.values())),
         )
         return new, report
+
+
+def _to_screw_frame(angle: float) -> FloatArray:
+    """Rotation taking world (inertial) components into the screw frame turned by ``angle``."""
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
 @dataclass

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..physics import film, hertz, rolling, traction
-from .contact_forces import SPIN_SLIDING_FACTOR, ContactScene, sliding_friction
+from .contact_forces import SPIN_SLIDING_FACTOR, ContactScene, dot, sliding_friction
 
 FloatArray = NDArray[np.float64]
 
@@ -39,10 +39,6 @@ class SpherePairContact:
     dissipation: FloatArray  # (P,) W, >= 0
 
 
-def _dot(a: FloatArray, b: FloatArray) -> FloatArray:
-    return np.asarray(np.einsum("...i,...i->...", a, b))
-
-
 def sphere_pair_contact(
     scene: ContactScene,
     centre_a: FloatArray,
@@ -61,7 +57,7 @@ def sphere_pair_contact(
         omega_a, omega_b: (P, 3) angular velocities [rad/s].
     """
     geom = scene.geometry
-    r_b = float(geom.ball_radius)  # type: ignore[attr-defined]
+    r_b = geom.ball_radius
     cfg = scene.config
     mats = cfg.materials
     e_star = float(
@@ -73,14 +69,14 @@ def sphere_pair_contact(
         )
     )
     separation = np.asarray(centre_b, dtype=np.float64) - np.asarray(centre_a, dtype=np.float64)
-    distance = np.sqrt(_dot(separation, separation))
+    distance = np.sqrt(dot(separation, separation))
     d = separation / np.maximum(distance, 1e-300)[:, None]  # from a towards b
     approach = 2.0 * r_b - distance
     touching = approach > 0.0
     delta = np.where(touching, approach, 0.0)
     radius = np.full_like(delta, 0.5 * r_b)
     hc = hertz.contact_from_approach(delta, radius, radius, e_star)
-    rate = -_dot(np.asarray(velocity_b) - np.asarray(velocity_a), d)  # d delta / dt
+    rate = -dot(np.asarray(velocity_b) - np.asarray(velocity_a), d)  # d delta / dt
     f_n = hertz.normal_force(delta, rate, hc.stiffness, cfg.contact.damping_coefficient)
 
     arm_a = (r_b - 0.5 * delta)[:, None] * d
@@ -89,12 +85,12 @@ def sphere_pair_contact(
     surf_b = np.asarray(velocity_b) + np.cross(omega_b, arm_b)
     point_velocity = 0.5 * (np.asarray(velocity_a) + np.asarray(velocity_b))
     rel = surf_a - surf_b
-    slip_vec = rel - _dot(rel, d)[:, None] * d
-    slip = np.sqrt(_dot(slip_vec, slip_vec))
+    slip_vec = rel - dot(rel, d)[:, None] * d
+    slip = np.sqrt(dot(slip_vec, slip_vec))
     slip_dir = slip_vec / np.maximum(slip, 1e-300)[:, None]
     mean_surface = 0.5 * ((surf_a - point_velocity) + (surf_b - point_velocity))
-    mean_surface = mean_surface - _dot(mean_surface, d)[:, None] * d
-    entrain = np.sqrt(_dot(mean_surface, mean_surface))
+    mean_surface = mean_surface - dot(mean_surface, d)[:, None] * d
+    entrain = np.sqrt(dot(mean_surface, mean_surface))
     e_dir = mean_surface / np.maximum(entrain, 1e-300)[:, None]
 
     lub = cfg.lubricant
@@ -114,7 +110,7 @@ def sphere_pair_contact(
     args = (f_n, hc.area, hc.mean_pressure, h_tot, share)
     lub_c, dry_c, _ = sliding_friction(scene, slip, *args)
     f_t = lub_c + dry_c
-    spin = _dot(np.asarray(omega_a) - np.asarray(omega_b), d)
+    spin = dot(np.asarray(omega_a) - np.asarray(omega_b), d)
     lub_s, dry_s, _ = sliding_friction(
         scene, SPIN_SLIDING_FACTOR * hc.semi_axis_y * np.abs(spin), *args
     )
@@ -130,7 +126,7 @@ def sphere_pair_contact(
     spin_moment = -(mp * np.sign(spin))[:, None] * d
     moment_a = np.cross(arm_a, on_a) + spin_moment
     moment_b = np.cross(arm_b, -on_a) - spin_moment
-    dissipation = f_t * slip + fr * _dot(e_dir, slip_vec) + mp * np.abs(spin)
+    dissipation = f_t * slip + fr * dot(e_dir, slip_vec) + mp * np.abs(spin)
     active = touching & (f_n > 0.0)
     return SpherePairContact(
         in_contact=active,

@@ -172,7 +172,6 @@ class SteadyStateModel:
     def _initial_state(self, scene: ContactScene, balls: BallSet, loads: FloatArray) -> SteadyState:
         """Hertz estimate of the offsets and the pure-rolling estimate of the rates."""
         geom = scene.geometry
-        assert isinstance(geom, type(self.config.screw))
         r_b, r_s = geom.ball_radius, geom.groove_radius
         clearance = r_s - r_b
         b_touch = math.sqrt(max(clearance**2 - geom.centre_offset**2, 0.0)) - geom.ogival_offset
@@ -200,7 +199,6 @@ class SteadyStateModel:
         count = len(balls.nut)
         e_ball = nut_offset[balls.nut]
         geom = scene.geometry
-        assert isinstance(geom, type(self.config.screw))
         ratio = (geom.pitch_radius + geom.ball_radius * math.cos(geom.free_contact_angle)) / (
             2.0 * geom.pitch_radius
         )
@@ -232,7 +230,7 @@ class SteadyStateModel:
         ball_res = np.concatenate(
             [ev.force[:, [1, 2, 0]] / force_scale, ev.moment / moment_scale], axis=1
         )
-        zhat = geometry.axis_direction(scene.geometry.helix_angle)  # type: ignore[attr-defined]
+        zhat = geometry.axis_direction(scene.geometry.helix_angle)
         on_nut = np.where(geometry.IS_NUT[None, :, None], ev.groove_force, 0.0).sum(axis=1)
         nut_scale = force_scale * self.config.screw.balls_per_nut
         axial = np.einsum("bi,i->b", on_nut, zhat) * balls.weight / nut_scale
@@ -243,7 +241,7 @@ class SteadyStateModel:
         per_ball = float(np.max(np.abs(loads))) / self.config.screw.balls_per_nut
         force = max(per_ball, scene.ball_mass * self.config.environment.gravity, 1e-6)
         geom = scene.geometry
-        return force, force * geom.ball_radius  # type: ignore[attr-defined]
+        return force, force * geom.ball_radius
 
     def _unknown_mask(self, scene: ContactScene, count: int) -> NDArray[np.bool_]:
         """Which of the 6 unknowns per sphere are solved: the rates are frozen at zero speed."""
@@ -282,6 +280,8 @@ class SteadyStateModel:
             jac_nut_z = np.zeros((count, 6))
             # Central differences: contact switching makes one-sided slopes unreliable.
             for j in range(6):
+                if not mask[:, j].any():  # frozen everywhere: the column becomes identity below
+                    continue
                 zp, zm = z.copy(), z.copy()
                 zp[:, j] += steps[j]
                 zm[:, j] -= steps[j]
@@ -296,7 +296,6 @@ class SteadyStateModel:
             # Frozen unknowns: identity rows/columns.
             frozen = ~mask
             jac = np.where(frozen[:, :, None] | frozen[:, None, :], 0.0, jac)
-            jac[frozen] = 0.0
             idx = np.nonzero(frozen)
             jac[idx[0], idx[1], idx[1]] = 1.0
             jac_z_e = np.where(frozen, 0.0, jac_z_e)
@@ -517,12 +516,12 @@ class SteadyStateModel:
         dominates.
         """
         geom = scene.geometry
-        lead_rate = geom.lead / (2.0 * math.pi)  # type: ignore[attr-defined]
-        zhat = geometry.axis_direction(geom.helix_angle)  # type: ignore[attr-defined]
+        lead_rate = geom.lead / (2.0 * math.pi)
+        zhat = geometry.axis_direction(geom.helix_angle)
         r_ball = np.stack(
             [
                 np.zeros(len(balls.nut)),
-                state.ball_nb[:, 0] - geom.pitch_radius,  # type: ignore[attr-defined]
+                state.ball_nb[:, 0] - geom.pitch_radius,
                 state.ball_nb[:, 1],
             ],
             axis=-1,
@@ -543,7 +542,7 @@ class SteadyStateModel:
         """Sphere-to-sphere contact is skipped when equally spaced spheres cannot touch."""
         geom = self.config.screw
         length = 2.0 * math.pi * geom.pitch_radius * geom.loaded_turns / math.cos(geom.helix_angle)
-        gap = length / geom.balls_per_nut - 2.0 * scene.geometry.ball_radius  # type: ignore[attr-defined]
+        gap = length / geom.balls_per_nut - 2.0 * scene.geometry.ball_radius
         if gap > 0.0:
             return [f"sphere-to-sphere contacts skipped: equal spacing leaves {gap * 1e3:.3f} mm"]
         return ["spheres are packed without gap: sphere-to-sphere contact not resolved here"]
