@@ -27,7 +27,7 @@ CELSIUS_ZERO = 273.15  # K
 COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
     "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
-    "bench": ("ballscrew_twin.bench", "benchmarks that print their numbers"),
+    "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
 }

@@ -132,3 +132,40 @@ class SteadyStateModel(Protocol):
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and (if resolved) contact states at ``op``."""
         ...
+
+
+class TimeSteppingModel(Protocol):
+    """A model stepped in time by the node: the commands of each tick in, one output out.
+
+    Every fidelity level the node can run (catalogue, quasi-static steady state, the real-time
+    model, ...) offers this interface, so the node can switch between them at run time.
+    """
+
+    name: str
+
+    def reset(self, op: OperatingPoint) -> None:
+        """Forget the past and start in the steady state of ``op``."""
+        ...
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        """Advance by ``dt`` [s] under the commanded ``op``; return the state at the step's end."""
+        ...
+
+
+class QuasiStaticModel:
+    """A steady-state model used as a time-stepping one: each tick is the steady state of its
+    command (no memory, no transient). Exact for slow commands; the error in transients is what
+    the accuracy benchmark measures.
+    """
+
+    def __init__(self, model: SteadyStateModel) -> None:
+        self.model = model
+        self.name = f"quasi_static_{model.name}"
+
+    def reset(self, op: OperatingPoint) -> None:
+        """Nothing to forget: the model has no state."""
+        op.validate()
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        """The steady state of ``op`` (``dt`` [s] is not used)."""
+        return self.model.evaluate(op)

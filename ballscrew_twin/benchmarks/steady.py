@@ -14,18 +14,20 @@ from typing import Literal
 
 import numpy as np
 
-from .cli import CELSIUS_ZERO, RPM
-from .kernels.contacts import evaluate_contacts_compiled
-from .models.base import OperatingPoint
-from .models.contact_forces import evaluate_contacts, make_scene
-from .models.steady import SteadyStateModel
-from .params import TwinConfig, load_config
-from .timing import median_time
+from ..cli import CELSIUS_ZERO, RPM
+from ..kernels.contacts import evaluate_contacts_compiled
+from ..models.base import OperatingPoint
+from ..models.contact_forces import evaluate_contacts, make_scene
+from ..models.steady import SteadyStateModel
+from ..params import TwinConfig, load_config
+from ..timing import median_time
+
+#: One-line help of this benchmark.
+DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solves)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``bench``."""
-    parser.add_argument("what", choices=("steady",), help="which benchmark")
+    """Arguments of ``bench steady``."""
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
 
