@@ -33,6 +33,7 @@ setup(
     entry_points={
         "console_scripts": [
             "twin_node = ballscrew_twin.ros.twin_node:main",
+            "health_node = ballscrew_twin.ros.health_node:main",
             "twin_demo_commander = ballscrew_twin.ros.demo_commander:main",
             "ballscrew-twin = ballscrew_twin.cli:main",
         ],

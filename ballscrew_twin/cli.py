@@ -30,6 +30,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
+    "scene": ("ballscrew_twin.run_scene", "run a scene with the cheapest model within tolerance"),
+    "sweep": ("ballscrew_twin.sweep", "evaluate a grid or sample of operating points"),
+    "node": ("ballscrew_twin.ros.node_command", "run the twin node (accepts --ros-args)"),
+    "launch": ("ballscrew_twin.ros.launcher", "start several nodes from a launch file"),
+    "replay": ("ballscrew_twin.ros.replay", "publish a recorded bag on its topics"),
+    "record": ("ballscrew_twin.ros.record", "record topics into a bag"),
+    "bench-data": ("ballscrew_twin.health.bench_data", "generate recorded bench data"),
+    "detect": ("ballscrew_twin.health.detect", "run the fault detector on a bag"),
+    "health-node": ("ballscrew_twin.ros.health_node", "run the health monitor node"),
 }
 
 HALF_GROOVES = ("S1", "S2", "N1", "N2")

@@ -14,6 +14,12 @@ import importlib
 #: benchmark name -> module of this package.
 BENCHMARKS: dict[str, str] = {
     "steady": "steady",
+    "protocol": "protocol",
+    "accuracy": "accuracy",
+    "stability": "stability",
+    "skips": "skips",
+    "node": "node",
+    "detection": "detection",
 }
 
 
