@@ -1,0 +1,497 @@
+"""``ballscrew-twin bench-data``: recorded bench bags generated from the twin, with sensor models
+and injected faults, and their ground truth.
+
+Subcommands:
+
+- ``generate --scene FILE --out BAG [--seed N] [--storage mcap|sqlite3] [--plot PNG]``: one bag
+  (schema of :mod:`~ballscrew_twin.health.bags`) and its side file ``BAG.truth.json``;
+- ``samples [--out DIR]``: the committed sample bags ``data/samples/<name>`` from
+  ``config/bench_scenes/<name>.yaml`` (healthy and one per fault class), deterministically
+  (also ``python -m ballscrew_twin.health.bench_data samples``);
+- ``info BAG``: channels, sample counts and rates, ground truth and reading issues of a bag.
+
+How a bag is made (:func:`generate`): the operating profile gives the true speed, temperature
+and set preload; the steady-state model, with the fault state of each instant applied
+(:mod:`~ballscrew_twin.health.fault_profiles`), gives the drag torque on a grid of spacing
+``model_step`` plus every profile corner and fault onset (a step fault is evaluated just
+before and at its onset), linearly interpolated to the torque meter's sampling instants;
+defect ripple and the screw's inertia torque I_s dw/dt (with the drive's speed ripple) are
+added at those instants; then each sensor model (:mod:`~ballscrew_twin.health.sensors`)
+samples its own signal. One ``numpy`` generator seeded with the seed draws all noise in a
+fixed order, and the bag starts at the fixed time :data:`START_NS`, so a seed reproduces a bag.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError
+from ..models.base import OperatingPoint
+from ..params import TwinConfig, load_config
+from .bags import CELSIUS_ZERO, TRUTH_KEY, BagError, BenchTopics, read_bench_bag, truth_path
+from .bench_scene import BenchScene, load_bench_scene
+from .fault_profiles import (
+    FaultedTwin,
+    defect_frequencies,
+    fault_state,
+    growth_fraction,
+    ripple_torque,
+)
+from .sensors import cumulative_angle, measure, quantise, sample_times, speed_with_ripple
+
+FloatArray = NDArray[np.float64]
+
+#: Log time of the first sample of every generated bag [ns] (2023-11-14 22:13:20 UTC).
+START_NS = 1_700_000_000 * 10**9
+#: frame_id of the header of every generated message.
+FRAME_ID = "screw"
+#: A step fault is also evaluated this long before its onset [s], so that interpolation keeps
+#: the step sharp.
+STEP_EDGE = 1e-6
+#: Names of the sample bags (scene ``config/bench_scenes/<name>.yaml``).
+SAMPLE_NAMES = (
+    "healthy",
+    "preload_loss",
+    "lubricant_degradation",
+    "raceway_defect",
+    "sphere_defect",
+    "jam_onset",
+)
+REPO_ROOT = Path(__file__).resolve().parents[2]
+SCENE_DIR = REPO_ROOT / "config" / "bench_scenes"
+SAMPLE_DIR = REPO_ROOT / "data" / "samples"
+
+
+@dataclass(frozen=True)
+class BenchData:
+    """A generated recording: the twin's truth on its grid and every sensor's samples (SI).
+
+    Attributes:
+        scene: the scene.
+        seed: seed of the noise.
+        model_time: instants of the twin's evaluations [s].
+        model_torque: drag torque of the (faulted) twin there, without ripple [N m].
+        torque_time, torque: torque-meter samples [s], [N m].
+        speed_time, speed, angle: encoder samples [s], [rad/s], [rad].
+        temperature_time, temperature, temperature_variance: thermometer [s], [K], [K^2].
+        preload_time, preload: load cell [s], [N].
+        truth: the ground truth (JSON-ready).
+    """
+
+    scene: BenchScene
+    seed: int
+    model_time: FloatArray
+    model_torque: FloatArray
+    torque_time: FloatArray
+    torque: FloatArray
+    speed_time: FloatArray
+    speed: FloatArray
+    angle: FloatArray
+    temperature_time: FloatArray
+    temperature: FloatArray
+    temperature_variance: FloatArray
+    preload_time: FloatArray
+    preload: FloatArray
+    truth: dict[str, Any]
+
+
+def model_grid(scene: BenchScene) -> FloatArray:
+    """Instants [s] where the twin is evaluated: a regular grid of ``model_step``, the profile
+    corners and fault ramp ends, and both sides of each step fault's onset."""
+    regular = np.arange(0.0, scene.duration, scene.model_step)
+    extra = [scene.breakpoints()]
+    for spec in scene.faults:
+        if spec.growth == "step" and spec.onset > STEP_EDGE:
+            extra.append(np.array([spec.onset - STEP_EDGE]))
+    return np.unique(np.concatenate([regular, *extra]))
+
+
+def _check_nyquist(scene: BenchScene, config: TwinConfig) -> None:
+    """ConfigError when a defect ripple is faster than half the torque meter's rate."""
+    top_speed = max(abs(p.speed) for p in scene.profile)
+    freqs = defect_frequencies(config, top_speed)
+    key = {"raceway_defect": "nut_raceway", "sphere_defect": "sphere_spin"}
+    nyquist = 0.5 * scene.sensors.torque.rate
+    for spec in scene.faults:
+        if spec.fault_class in key and freqs[key[spec.fault_class]] >= nyquist:
+            raise ConfigError(
+                f"{scene.source}: {spec.fault_class} ripple at {freqs[key[spec.fault_class]]:.4g}"
+                f" Hz (speed {top_speed:.4g} rad/s) is not below half the torque meter's rate "
+                f"({nyquist:.4g} Hz); raise sensors.torque.rate"
+            )
+
+
+def _model_torque(
+    scene: BenchScene, config: TwinConfig, grid: FloatArray, progress: bool
+) -> FloatArray:
+    """Drag torque of the faulted twin at the instants of ``grid`` [N m]."""
+    from tqdm import tqdm
+
+    twin = FaultedTwin(config)
+    speed, temperature, preload = scene.profile_at(grid)
+    out = np.empty_like(grid)
+    items = tqdm(
+        range(len(grid)),
+        desc=f"twin {scene.name}",
+        unit="pt",
+        file=sys.stderr,
+        disable=not progress,
+    )
+    for i in items:
+        op = OperatingPoint(
+            screw_speed=float(speed[i]),
+            temperature=float(temperature[i]),
+            preload=float(preload[i]),
+        )
+        out[i] = twin.drag_torque(op, fault_state(scene.faults, float(grid[i])))
+    return out
+
+
+def _ripple_amplitudes(scene: BenchScene, time: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Relative ripple amplitudes s g(t) of raceway and sphere defects at ``time`` [-]."""
+    raceway = np.zeros_like(time)
+    sphere = np.zeros_like(time)
+    for spec in scene.faults:
+        if spec.fault_class == "raceway_defect":
+            raceway += spec.severity * growth_fraction(spec, time)
+        elif spec.fault_class == "sphere_defect":
+            sphere += spec.severity * growth_fraction(spec, time)
+    return raceway, sphere
+
+
+def generate(scene: BenchScene, seed: int | None = None, progress: bool = False) -> BenchData:
+    """A recording of ``scene`` (see the module docstring); ``seed`` None: the scene's."""
+    config = load_config(scene.config_path())
+    _check_nyquist(scene, config)
+    seed = scene.seed if seed is None else seed
+    if seed < 0:
+        raise ConfigError(f"seed = {seed} must be >= 0")
+    rng = np.random.default_rng(seed)
+    sensors = scene.sensors
+    grid = model_grid(scene)
+    grid_torque = _model_torque(scene, config, grid, progress)
+
+    times = {
+        name: sample_times(getattr(sensors, name).rate, scene.duration)
+        for name in ("torque", "speed", "temperature", "preload")
+    }
+    # The drive's true speed and angle on the union of the torque and encoder instants.
+    fine = np.union1d(times["torque"], times["speed"])
+    nominal, _, _ = scene.profile_at(fine)
+    enc = sensors.speed
+    speed = speed_with_ripple(
+        nominal, cumulative_angle(fine, nominal), enc.ripple, enc.ripple_order
+    )
+    angle = cumulative_angle(fine, speed)
+    acceleration = np.gradient(speed, fine) if len(fine) > 1 else np.zeros_like(fine)
+
+    # Torque meter: drag (interpolated) + defect ripple + inertia torque.
+    tt = times["torque"]
+    on_torque = np.searchsorted(fine, tt)
+    drag = np.interp(tt, grid, grid_torque)
+    raceway, sphere = _ripple_amplitudes(scene, tt)
+    ripple = ripple_torque(config, tt, speed[on_torque], drag, raceway, sphere)
+    inertia = config.screw.screw_inertia * acceleration[on_torque]
+    meter = sensors.torque
+    torque = measure(drag + ripple + inertia, meter.noise, meter.bias, meter.resolution, rng)
+
+    # Encoder.
+    ts = times["speed"]
+    on_speed = np.searchsorted(fine, ts)
+    measured_speed = measure(speed[on_speed], enc.noise, 0.0, 0.0, rng)
+    measured_angle = quantise(angle[on_speed], enc.angle_resolution)
+
+    # Thermometer and load cell.
+    th = sensors.temperature
+    t_temp = times["temperature"]
+    _, true_temperature, _ = scene.profile_at(t_temp)
+    temperature = measure(true_temperature + th.drift * t_temp, th.noise, 0.0, th.resolution, rng)
+    cell = sensors.preload
+    t_pre = times["preload"]
+    _, _, set_preload = scene.profile_at(t_pre)
+    preload = measure(set_preload, cell.noise, cell.bias, cell.resolution, rng)
+
+    truth = {
+        "seed": int(seed),
+        "scene": scene.name,
+        "scene_file": Path(scene.source).name if scene.source else "",
+        "duration_s": scene.duration,
+        "start_ns": START_NS,
+        "model": "steady",
+        "config": config.name,
+        "sensors": sensors.to_dict(),
+        "faults": [spec.to_truth() for spec in scene.faults],
+    }
+    return BenchData(
+        scene=scene,
+        seed=int(seed),
+        model_time=grid,
+        model_torque=grid_torque,
+        torque_time=tt,
+        torque=torque,
+        speed_time=ts,
+        speed=measured_speed,
+        angle=measured_angle,
+        temperature_time=t_temp,
+        temperature=temperature,
+        temperature_variance=np.full_like(t_temp, th.noise**2),
+        preload_time=t_pre,
+        preload=preload,
+        truth=truth,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Writing
+
+
+def _nanoseconds(seconds: FloatArray) -> NDArray[np.int64]:
+    """Bag time [ns] of instants [s] since the start."""
+    return START_NS + np.round(np.asarray(seconds) * 1e9).astype(np.int64)
+
+
+def write_bench_bag(
+    data: BenchData, path: str | Path, storage: str = "mcap", topics: BenchTopics | None = None
+) -> Path:
+    """Write ``data`` as a rosbag2 bag (zstd-compressed mcap, or sqlite3) plus the side file
+    ``<bag>.truth.json``; the truth is also in ``metadata.yaml`` ``custom_data``.
+
+    Raises:
+        BagError: the bag folder exists already or cannot be written; unknown storage.
+    """
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
+    if storage not in plugins:
+        raise BagError(f"storage = {storage!r} must be one of {sorted(plugins)}")
+    folder = Path(path)
+    if folder.exists():
+        raise BagError(f"{folder}: bag folder exists already")
+    topics = topics or BenchTopics()
+    store = get_typestore(Stores.ROS2_JAZZY)
+    t = store.types
+    header_cls, time_cls = t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
+    vector, wrench_cls = t["geometry_msgs/msg/Vector3"], t["geometry_msgs/msg/Wrench"]
+    stamped = "geometry_msgs/msg/WrenchStamped"
+    joint = "sensor_msgs/msg/JointState"
+    temperature = "sensor_msgs/msg/Temperature"
+    zero = vector(x=0.0, y=0.0, z=0.0)
+    no_effort = np.zeros(0, dtype=np.float64)
+
+    def header(ns: int) -> Any:
+        return header_cls(stamp=time_cls(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=FRAME_ID)
+
+    def torque_msg(ns: int, v: float) -> Any:
+        z = vector(x=0.0, y=0.0, z=v)
+        return t[stamped](header=header(ns), wrench=wrench_cls(force=zero, torque=z))
+
+    def preload_msg(ns: int, v: float) -> Any:
+        z = vector(x=0.0, y=0.0, z=v)
+        return t[stamped](header=header(ns), wrench=wrench_cls(force=z, torque=zero))
+
+    def joint_msg(ns: int, w: float, a: float) -> Any:
+        return t[joint](
+            header=header(ns),
+            name=[topics.joint_name],
+            position=np.array([a]),
+            velocity=np.array([w]),
+            effort=no_effort,
+        )
+
+    def temperature_msg(ns: int, kelvin: float, var: float) -> Any:
+        return t[temperature](header=header(ns), temperature=kelvin - CELSIUS_ZERO, variance=var)
+
+    streams: list[tuple[str, str, FloatArray, Callable[..., Any], tuple[FloatArray, ...]]] = [
+        (topics.torque, stamped, data.torque_time, torque_msg, (data.torque,)),
+        (topics.speed, joint, data.speed_time, joint_msg, (data.speed, data.angle)),
+        (
+            topics.temperature,
+            temperature,
+            data.temperature_time,
+            temperature_msg,
+            (data.temperature, data.temperature_variance),
+        ),
+        (topics.preload, stamped, data.preload_time, preload_msg, (data.preload,)),
+    ]
+    truth_json = json.dumps(data.truth, sort_keys=True)
+    try:
+        writer = Writer(folder, version=9, storage_plugin=plugins[storage])
+        if storage == "mcap":
+            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer.set_custom_data(TRUTH_KEY, truth_json)
+        with writer:
+            records: list[tuple[int, int, bytes]] = []
+            connections = []
+            for k, (topic, msgtype, times, make, columns) in enumerate(streams):
+                connections.append(writer.add_connection(topic, msgtype, typestore=store))
+                rows = zip(
+                    _nanoseconds(times).tolist(), *(c.tolist() for c in columns), strict=True
+                )
+                for ns, *values in rows:
+                    payload = store.serialize_cdr(make(ns, *values), msgtype)
+                    records.append((ns, k, bytes(payload)))
+            records.sort(key=lambda r: (r[0], r[1]))
+            for ns, k, raw in records:
+                writer.write(connections[k], ns, raw)
+    except OSError as err:
+        raise BagError(f"{folder}: cannot write bag ({err.strerror})") from err
+    side = truth_path(folder)
+    side.write_text(json.dumps(data.truth, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    return folder
+
+
+def generate_bag(
+    scene_file: str | Path,
+    out: str | Path,
+    seed: int | None = None,
+    storage: str = "mcap",
+    progress: bool = False,
+) -> BenchData:
+    """Load a scene, generate it and write the bag ``out`` (+ side file); returns the data."""
+    data = generate(load_bench_scene(scene_file), seed=seed, progress=progress)
+    write_bench_bag(data, out, storage=storage)
+    return data
+
+
+def plot_bench_data(data: BenchData, path: str | Path) -> Path:
+    """PNG of the four recorded channels, the twin's drag torque and the fault onsets."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    ax = axes[0]
+    ax.plot(data.torque_time, data.torque * 1e3, lw=0.5, label="torque meter")
+    ax.plot(data.model_time, data.model_torque * 1e3, "k", lw=1, label="twin drag (faulted)")
+    ax.set_ylabel("torque [N mm]")
+    ax.legend(loc="best")
+    axes[1].plot(data.speed_time, data.speed, lw=0.7)
+    axes[1].set_ylabel("speed [rad/s]")
+    axes[2].plot(data.temperature_time, data.temperature - CELSIUS_ZERO, lw=0.7)
+    axes[2].set_ylabel("temperature [C]")
+    axes[3].plot(data.preload_time, data.preload, lw=0.7)
+    axes[3].set_ylabel("load cell [N]")
+    axes[3].set_xlabel("time [s]")
+    for spec in data.scene.faults:
+        for a in axes:
+            a.axvline(spec.onset, color="r", ls="--", lw=1)
+        axes[0].annotate(
+            spec.fault_class,
+            (spec.onset, 0.95),
+            xycoords=("data", "axes fraction"),
+            color="r",
+            fontsize=8,
+        )
+    fig.suptitle(f"bench data {data.scene.name} (seed {data.seed})")
+    fig.tight_layout()
+    file = Path(path)
+    try:
+        fig.savefig(file, dpi=100)
+    except OSError as err:
+        raise BagError(f"{file}: cannot write plot ({err.strerror})") from err
+    finally:
+        plt.close(fig)
+    return file
+
+
+def regenerate_samples(out: str | Path = SAMPLE_DIR, progress: bool = False) -> list[Path]:
+    """Write every sample bag ``<out>/<name>`` (+ side file) from its scene, replacing old ones."""
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name in SAMPLE_NAMES:
+        bag = folder / name
+        if bag.exists():
+            shutil.rmtree(bag)
+        truth_path(bag).unlink(missing_ok=True)
+        generate_bag(SCENE_DIR / f"{name}.yaml", bag, progress=progress)
+        written.append(bag)
+    return written
+
+
+# ---------------------------------------------------------------------------------------------
+# Command line
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``bench-data``."""
+    sub = parser.add_subparsers(dest="action", required=True)
+    gen = sub.add_parser("generate", help="generate one bench bag from a scene file")
+    gen.add_argument("--scene", required=True, help="bench scene YAML (config/bench_scenes/)")
+    gen.add_argument("--out", required=True, help="bag folder to create (must not exist)")
+    gen.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
+    gen.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
+    gen.add_argument("--plot", default=None, help="also write a PNG of the channels here")
+    samples = sub.add_parser("samples", help="regenerate the sample bags of data/samples")
+    samples.add_argument("--out", default=str(SAMPLE_DIR), help="folder of the sample bags")
+    info = sub.add_parser("info", help="channels, rates, truth and issues of a bag")
+    info.add_argument("bag", help="bag folder or .mcap/.db3 file")
+
+
+def _info(bag: str) -> int:
+    """Print what :func:`read_bench_bag` finds in ``bag``."""
+    rec = read_bench_bag(bag, required=())
+    print(f"{rec.path}: {rec.storage}, {rec.duration:.3f} s")
+    for name, series in rec.channels.items():
+        rate = (len(series) - 1) / (series.time[-1] - series.time[0]) if len(series) > 1 else 0.0
+        print(
+            f"  {name:<12} {series.topic:<22} {len(series):7d} samples  {rate:8.2f} Hz  "
+            f"mean {float(np.mean(series.value)):.6g} {series.unit}"
+        )
+    if rec.truth is not None:
+        faults = rec.truth.get("faults", [])
+        print(
+            f"  truth: scene {rec.truth.get('scene')}, seed {rec.truth.get('seed')}, "
+            f"faults {[(f['class'], f['onset_s'], f['severity']) for f in faults] or 'none'}"
+        )
+    for issue in rec.issues:
+        print(f"  issue: {issue}")
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
+    """``bench-data``: generate, samples or info."""
+    if args.action == "info":
+        return _info(args.bag)
+    if args.action == "samples":
+        for bag in regenerate_samples(args.out, progress=True):
+            print(f"wrote {bag} and {truth_path(bag).name}")
+        return 0
+    data = generate_bag(args.scene, args.out, seed=args.seed, storage=args.storage, progress=True)
+    print(
+        f"wrote {args.out} ({len(data.torque)} torque samples, "
+        f"{len(data.scene.faults)} fault(s)) and {truth_path(args.out)}"
+    )
+    if args.plot:
+        print(f"wrote {plot_bench_data(data, args.plot)}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m ballscrew_twin.health.bench_data``: the same as ``ballscrew-twin bench-data``."""
+    from ..errors import BallscrewTwinError
+
+    parser = argparse.ArgumentParser(prog="python -m ballscrew_twin.health.bench_data")
+    add_arguments(parser)
+    args = parser.parse_args(argv)
+    try:
+        return run(args)
+    except BallscrewTwinError as err:
+        print(f"bench-data: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,264 @@
+"""Sensor models of a ball-screw test bench: what the bench would record of the true signals.
+
+Each sensor samples at its own rate and adds what real instruments add (all SI):
+
+- torque meter (between drive and screw): measures the drive torque, i.e. the drag torque plus
+  the screw's inertia torque I_s dw/dt; constant bias, white noise, quantisation;
+- encoder: screw speed and angle; the drive's speed ripple of ``ripple_order`` periods per
+  screw revolution (relative amplitude ``ripple``) is a real speed fluctuation, seen in the
+  measured speed and in the inertia torque; white speed noise; angle quantised to the
+  encoder's counts;
+- thermometer: linear drift of the reading with time, white noise, quantisation; the variance
+  it reports is ``noise**2``;
+- load cell: the preload force of the preload device, bias, white noise, quantisation.
+
+Random numbers come from a ``numpy.random.Generator`` passed in, so a seed reproduces a bag.
+:func:`validate_fields` checks the numeric fields of any frozen dataclass against the unit and
+range in their metadata (used by the fault and scene dataclasses too).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+
+def quantity(unit: str, lo: float, hi: float, doc: str, *, default: float | None = None) -> Any:
+    """A float dataclass field with unit, closed range [lo, hi] and description as metadata."""
+    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc}
+    if default is None:
+        return field(metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+def check_number(value: Any, unit: str, lo: float, hi: float, where: str) -> float:
+    """``value`` as a float within [lo, hi]; ConfigError naming ``where`` and the unit otherwise.
+
+    Numbers written as strings (PyYAML reads ``1e-3`` as a string) are accepted.
+    """
+    if isinstance(value, bool) or not isinstance(value, int | float | str):
+        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}")
+    try:
+        number = float(value)
+    except ValueError:
+        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}") from None
+    if not math.isfinite(number):
+        raise ConfigError(f"{where}: {value!r} is not a finite number")
+    if not lo <= number <= hi:
+        hint = (
+            " (times are in s, speeds in rad/s, temperatures in K)"
+            if unit
+            in (
+                "s",
+                "rad/s",
+                "K",
+            )
+            else ""
+        )
+        raise ConfigError(f"{where} = {value!r} is outside [{lo:g}, {hi:g}] {unit}{hint}")
+    return number
+
+
+def validate_fields(obj: Any, where: str) -> None:
+    """Check every field of dataclass ``obj`` that has range metadata; ConfigError otherwise."""
+    for fld in fields(obj):
+        meta = fld.metadata
+        if "min" in meta:
+            check_number(
+                getattr(obj, fld.name),
+                meta["unit"],
+                meta["min"],
+                meta["max"],
+                f"{where}.{fld.name}",
+            )
+
+
+def from_mapping(cls: type[Any], data: Any, where: str, **extra: Any) -> Any:
+    """Build frozen dataclass ``cls`` from a YAML mapping: unknown keys and missing required
+    fields are errors naming ``where``; numbers given as strings are converted."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    known = {f.name: f for f in fields(cls) if f.init and f.name not in extra}
+    unknown = sorted(set(map(str, data)) - set(known))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
+    values: dict[str, Any] = dict(extra)
+    for name, fld in known.items():
+        if name not in data:
+            continue
+        raw = data[name]
+        meta = fld.metadata
+        values[name] = (
+            check_number(raw, meta["unit"], meta["min"], meta["max"], f"{where}.{name}")
+            if "min" in meta
+            else raw
+        )
+    try:
+        return cls(**values)
+    except TypeError as err:  # a required field is missing
+        raise ConfigError(f"{where}: {err}") from None
+    except ConfigError as err:  # a cross-field check of the dataclass
+        raise ConfigError(f"{where}: {err}") from None
+
+
+@dataclass(frozen=True, kw_only=True)
+class TorqueMeter:
+    """Rotary torque transducer between drive and screw."""
+
+    rate: float = quantity("Hz", 1.0, 1e5, "sampling rate", default=200.0)
+    noise: float = quantity("N m", 0.0, 1.0, "standard deviation of white noise", default=2e-4)
+    bias: float = quantity("N m", -1.0, 1.0, "constant offset of the reading", default=0.0)
+    resolution: float = quantity("N m", 0.0, 0.1, "quantisation step (0: none)", default=1e-5)
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "sensors.torque")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Encoder:
+    """Screw speed and angle (encoder on the drive)."""
+
+    rate: float = quantity("Hz", 1.0, 1e5, "sampling rate", default=100.0)
+    noise: float = quantity("rad/s", 0.0, 100.0, "white noise of the speed", default=0.01)
+    ripple: float = quantity("-", 0.0, 0.5, "relative speed ripple amplitude", default=0.0)
+    ripple_order: float = quantity("-", 0.0, 100.0, "ripple periods per revolution", default=1.0)
+    angle_resolution: float = quantity(
+        "rad",
+        0.0,
+        1.0,
+        "angle quantisation (one encoder count; 0: none)",
+        default=2 * math.pi / 4096,
+    )
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "sensors.speed")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Thermometer:
+    """Temperature of the nut (thermocouple or RTD)."""
+
+    rate: float = quantity("Hz", 0.01, 1e4, "sampling rate", default=10.0)
+    noise: float = quantity("K", 0.0, 10.0, "standard deviation of white noise", default=0.05)
+    drift: float = quantity("K/s", -0.1, 0.1, "drift of the reading with time", default=0.0)
+    resolution: float = quantity("K", 0.0, 1.0, "quantisation step (0: none)", default=0.01)
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "sensors.temperature")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LoadCell:
+    """Force sensor in the preload device."""
+
+    rate: float = quantity("Hz", 0.01, 1e5, "sampling rate", default=20.0)
+    noise: float = quantity("N", 0.0, 1e4, "standard deviation of white noise", default=5.0)
+    bias: float = quantity("N", -1e4, 1e4, "constant offset of the reading", default=0.0)
+    resolution: float = quantity("N", 0.0, 100.0, "quantisation step (0: none)", default=0.5)
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "sensors.preload")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorSet:
+    """The four bench sensors."""
+
+    torque: TorqueMeter = field(default_factory=TorqueMeter)
+    speed: Encoder = field(default_factory=Encoder)
+    temperature: Thermometer = field(default_factory=Thermometer)
+    preload: LoadCell = field(default_factory=LoadCell)
+
+    def to_dict(self) -> dict[str, dict[str, float]]:
+        """Every sensor parameter, SI (for the ground truth)."""
+        return {
+            f.name: {
+                g.name: float(getattr(getattr(self, f.name), g.name))
+                for g in fields(getattr(self, f.name))
+            }
+            for f in fields(self)
+        }
+
+
+SENSOR_CLASSES: dict[str, type[Any]] = {
+    "torque": TorqueMeter,
+    "speed": Encoder,
+    "temperature": Thermometer,
+    "preload": LoadCell,
+}
+
+
+def sensors_from_mapping(data: Any, where: str) -> SensorSet:
+    """Validate ``{torque: {...}, speed: {...}, temperature: {...}, preload: {...}}`` (each
+    optional, defaults otherwise) into a :class:`SensorSet`."""
+    if data is None:
+        return SensorSet()
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping of sensors, got {type(data).__name__}")
+    unknown = sorted(set(map(str, data)) - set(SENSOR_CLASSES))
+    if unknown:
+        raise ConfigError(
+            f"{where}: unknown sensor(s) {unknown}; allowed: {sorted(SENSOR_CLASSES)}"
+        )
+    return SensorSet(
+        **{
+            name: from_mapping(cls, data[name] or {}, f"{where}.{name}")
+            for name, cls in SENSOR_CLASSES.items()
+            if name in data
+        }
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure functions
+
+
+def sample_times(rate: float, duration: float) -> FloatArray:
+    """Sampling instants k / rate in [0, duration) [s] of a sensor at ``rate`` [Hz]."""
+    count = math.ceil(duration * rate - 1e-9)
+    return np.arange(max(count, 0), dtype=np.float64) / rate
+
+
+def quantise(values: ArrayLike, resolution: float) -> FloatArray:
+    """Round to the nearest multiple of ``resolution`` (same unit; 0: unchanged)."""
+    x = np.asarray(values, dtype=np.float64)
+    if resolution <= 0.0:
+        return x.copy()
+    return np.round(x / resolution) * resolution
+
+
+def speed_with_ripple(
+    speed: ArrayLike, angle: ArrayLike, ripple: float, order: float
+) -> FloatArray:
+    """Screw speed with the drive's ripple: w (1 + ripple sin(order * angle)) [rad/s]."""
+    w = np.asarray(speed, dtype=np.float64)
+    return w * (1.0 + ripple * np.sin(order * np.asarray(angle, dtype=np.float64)))
+
+
+def cumulative_angle(time: ArrayLike, speed: ArrayLike) -> FloatArray:
+    """Angle [rad] as the trapezoidal integral of ``speed`` [rad/s] over ``time`` [s], 0 at
+    the first instant."""
+    t = np.asarray(time, dtype=np.float64)
+    w = np.asarray(speed, dtype=np.float64)
+    steps = 0.5 * (w[1:] + w[:-1]) * np.diff(t)
+    return np.concatenate(([0.0], np.cumsum(steps)))
+
+
+def measure(
+    true_values: ArrayLike,
+    noise: float,
+    bias: float,
+    resolution: float,
+    rng: np.random.Generator,
+) -> FloatArray:
+    """Reading of an instrument: quantise(true + bias + N(0, noise^2)), units of the input."""
+    x = np.asarray(true_values, dtype=np.float64)
+    return quantise(x + bias + noise * rng.standard_normal(x.shape), resolution)

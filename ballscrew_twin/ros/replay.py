@@ -1,0 +1,272 @@
+"""``ballscrew-twin replay BAG [--rate X] [--topics T ...] [--loop]``: publish a recorded bag.
+
+``ros2 bag play`` is not available from PyPI; this plays a rosbag2 bag (mcap or sqlite3, read
+with ``rosbags`` through :func:`~ballscrew_twin.health.bags.open_raw_bag`, so a truncated or
+partly corrupt bag plays everything readable and says what it skipped) on its own topics:
+
+- messages are published as recorded (serialized bytes, not decoded), paced by their bag time
+  divided by ``--rate`` (1: real time, 10: ten times faster, 0: as fast as possible);
+- ``/clock`` (``rosgraph_msgs/Clock``) carries the bag time, before every message and at about
+  ``--clock-rate`` Hz while waiting, so nodes with ``use_sim_time`` follow the bag's time;
+- ``--loop`` plays the bag again and again; the clock keeps increasing (each pass is shifted by
+  the bag's length plus one mean message interval), header stamps inside messages are the
+  recorded ones;
+- publishers are reliable (depth ``--depth``): both reliable and best-effort (sensor-data)
+  subscribers receive them. ``--wait-subscribers S`` waits up to S seconds for every played
+  topic to have a subscriber before starting.
+
+Stops at the end of the bag, or cleanly on Ctrl-C / SIGTERM. Every argument after
+``--ros-args`` goes to ROS unchanged.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import sys
+import time
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import BallscrewTwinError
+from ..health.bags import RawBag, RawMessage, open_raw_bag
+
+CLOCK_TOPIC = "/clock"
+#: Longest single sleep while pacing [s], so that a stop request is seen quickly.
+MAX_SLEEP = 0.05
+
+
+class ReplayError(BallscrewTwinError, ValueError):
+    """Invalid replay request (rate, topics) or a bag that cannot be played."""
+
+
+def message_class(msgtype: str) -> Any:
+    """The rclpy message class of ``pkg/msg/Name`` (ReplayError when not importable)."""
+    parts = msgtype.split("/")
+    if len(parts) != 3 or parts[1] != "msg":
+        raise ReplayError(f"message type {msgtype!r} is not of the form pkg/msg/Name")
+    try:
+        return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
+    except (ImportError, AttributeError) as err:
+        raise ReplayError(f"message type {msgtype} is not installed ({err})") from err
+
+
+@dataclass
+class PlayStats:
+    """What a replay did: messages published per topic, passes, skipped topics, issues."""
+
+    published: dict[str, int] = field(default_factory=dict)
+    passes: int = 0
+    skipped_topics: dict[str, str] = field(default_factory=dict)
+    stopped: bool = False
+
+    @property
+    def total(self) -> int:
+        """Messages published on all topics."""
+        return sum(self.published.values())
+
+
+class BagPlayer:
+    """Publishes the messages of a :class:`RawBag` on ``node``, paced by bag time.
+
+    Args:
+        node: the rclpy node that owns the publishers.
+        bag: the opened bag.
+        topics: topics to play (None: all the bag's topics whose type is installed).
+        rate: playback speed relative to real time (> 0), or 0 for as fast as possible.
+        loop: play again and again until stopped.
+        clock: publish ``/clock``.
+        clock_rate: ``/clock`` rate while waiting between messages [Hz].
+        depth: history depth of the reliable publishers.
+    """
+
+    def __init__(
+        self,
+        node: Any,
+        bag: RawBag,
+        topics: Sequence[str] | None = None,
+        rate: float = 1.0,
+        loop: bool = False,
+        clock: bool = True,
+        clock_rate: float = 100.0,
+        depth: int = 100,
+    ) -> None:
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+        if not (math.isfinite(rate) and rate >= 0.0):
+            raise ReplayError(f"rate = {rate!r} must be a finite number >= 0 (0: no pacing)")
+        if not (math.isfinite(clock_rate) and clock_rate > 0.0):
+            raise ReplayError(f"clock_rate = {clock_rate!r} Hz must be > 0")
+        if depth < 1:
+            raise ReplayError(f"depth = {depth} must be >= 1")
+        wanted = list(bag.topics) if topics is None else list(topics)
+        missing = sorted(set(wanted) - set(bag.topics))
+        if missing:
+            raise ReplayError(
+                f"{bag.path}: topic(s) {missing} not in the bag; it has {sorted(bag.topics)}"
+            )
+        self.node = node
+        self.bag = bag
+        self.rate = rate
+        self.loop = loop
+        self.clock_period = 1.0 / clock_rate
+        self.stats = PlayStats()
+        qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+        self.publishers: dict[str, Any] = {}
+        for topic in wanted:
+            msgtype = bag.topics[topic].msgtype
+            try:
+                cls = message_class(msgtype)
+            except ReplayError as err:
+                if topics is not None:
+                    raise
+                self.stats.skipped_topics[topic] = str(err)
+                continue
+            self.publishers[topic] = node.create_publisher(cls, topic, qos)
+            self.stats.published[topic] = 0
+        if not self.publishers:
+            raise ReplayError(f"{bag.path}: no topic can be played ({self.stats.skipped_topics})")
+        self._clock_cls = message_class("rosgraph_msgs/msg/Clock")
+        self.clock_pub = node.create_publisher(self._clock_cls, CLOCK_TOPIC, QoSProfile(depth=10))
+        self.clock = clock
+        self._last_clock_ns = -1
+
+    @property
+    def period_ns(self) -> int:
+        """Bag time added per loop pass [ns]: its length plus one mean message interval."""
+        count = sum(max(info.count, 0) for t, info in self.bag.topics.items())
+        span = max(self.bag.end_ns - self.bag.start_ns, 0)
+        return span + (span // max(count - 1, 1) if count > 1 else 1_000_000)
+
+    def wait_for_subscribers(self, timeout: float, ok: Callable[[], bool]) -> bool:
+        """Wait up to ``timeout`` [s] for every played topic to have a subscriber."""
+        deadline = time.monotonic() + timeout
+        while ok() and time.monotonic() < deadline:
+            if all(p.get_subscription_count() > 0 for p in self.publishers.values()):
+                return True
+            time.sleep(MAX_SLEEP)
+        return all(p.get_subscription_count() > 0 for p in self.publishers.values())
+
+    def _publish_clock(self, bag_ns: int) -> None:
+        if self.clock and bag_ns > self._last_clock_ns:
+            msg = self._clock_cls()
+            msg.clock.sec, msg.clock.nanosec = divmod(bag_ns, 1_000_000_000)
+            self.clock_pub.publish(msg)
+            self._last_clock_ns = bag_ns
+
+    def _messages(self) -> Iterator[tuple[int, RawMessage]]:
+        """(bag time incl. loop shift [ns], message), pass after pass."""
+        shift = 0
+        while True:
+            self.stats.passes += 1
+            for m in self.bag.messages(sorted(self.publishers)):
+                yield m.log_time + shift, m
+            if not self.loop:
+                return
+            shift += self.period_ns
+
+    def play(self, ok: Callable[[], bool]) -> PlayStats:
+        """Publish until the bag ends (or forever with ``loop``) or ``ok()`` turns false."""
+        wall0 = time.monotonic()
+        last_clock_wall = wall0
+        start = self.bag.start_ns
+        for bag_ns, m in self._messages():
+            if self.rate > 0.0:
+                due = wall0 + (bag_ns - start) * 1e-9 / self.rate
+                while (now := time.monotonic()) < due:
+                    if not ok():
+                        self.stats.stopped = True
+                        return self.stats
+                    if now - last_clock_wall >= self.clock_period:
+                        self._publish_clock(start + int((now - wall0) * self.rate * 1e9))
+                        last_clock_wall = now
+                    time.sleep(min(due - now, MAX_SLEEP, self.clock_period))
+            if not ok():
+                self.stats.stopped = True
+                return self.stats
+            self._publish_clock(bag_ns)
+            self.publishers[m.topic].publish(m.data)
+            self.stats.published[m.topic] += 1
+        return self.stats
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``replay``."""
+    parser.add_argument("bag", help="bag folder, or a .mcap / .db3 file")
+    parser.add_argument(
+        "--rate", type=float, default=1.0, help="speed relative to real time (0: no pacing)"
+    )
+    parser.add_argument("--topics", nargs="+", default=None, help="topics to play (default all)")
+    parser.add_argument("--loop", action="store_true", help="play again and again until stopped")
+    parser.add_argument("--no-clock", action="store_true", help="do not publish /clock")
+    parser.add_argument("--clock-rate", type=float, default=100.0, help="/clock rate [Hz]")
+    parser.add_argument("--depth", type=int, default=100, help="publisher history depth")
+    parser.add_argument(
+        "--wait-subscribers",
+        type=float,
+        default=0.0,
+        help="wait up to this long [s] for a subscriber on every played topic",
+    )
+    parser.add_argument(
+        "--ros-args",
+        dest="ros_args",
+        nargs=argparse.REMAINDER,
+        default=[],
+        help="ROS arguments, passed on unchanged (must come last)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    """Play the bag; 0 when played (or stopped by a signal), BagError/ReplayError otherwise."""
+    import rclpy
+    from rclpy.executors import ExternalShutdownException
+
+    rclpy.init(args=["ballscrew-twin-replay", "--ros-args", *args.ros_args])
+    context = rclpy.get_default_context()
+    node = None
+    try:
+        with open_raw_bag(args.bag) as bag:
+            for issue in bag.issues:
+                print(f"replay: warning: {issue}", file=sys.stderr)
+            seen = len(bag.issues)
+            node = rclpy.create_node("bag_replay", context=context)
+            player = BagPlayer(
+                node,
+                bag,
+                topics=args.topics,
+                rate=args.rate,
+                loop=args.loop,
+                clock=not args.no_clock,
+                clock_rate=args.clock_rate,
+                depth=args.depth,
+            )
+            for topic, why in player.stats.skipped_topics.items():
+                print(f"replay: warning: {topic} not played: {why}", file=sys.stderr)
+            if args.wait_subscribers > 0.0 and not player.wait_for_subscribers(
+                args.wait_subscribers, context.ok
+            ):
+                print(
+                    "replay: warning: not every topic has a subscriber; playing anyway",
+                    file=sys.stderr,
+                )
+            print(
+                f"replay: playing {args.bag} ({len(player.publishers)} topics, rate {args.rate:g})",
+                flush=True,
+            )
+            stats = player.play(context.ok)
+            for issue in bag.issues[seen:]:
+                print(f"replay: warning: {issue}", file=sys.stderr)
+        print(
+            f"replay: published {stats.total} messages in {stats.passes} pass(es)"
+            + (" (stopped)" if stats.stopped else ""),
+            flush=True,
+        )
+        return 0
+    except (KeyboardInterrupt, ExternalShutdownException):
+        return 0
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown(context=context)
