@@ -57,6 +57,12 @@ def format_summary(result: SimulationResult) -> str:
         f"({s.get('unconverged_steps', 0)} not converged) "
         f"({s['step_cost_s'] * 1e3:.3g} ms/step), real-time factor {s['real_time_factor']:.3g}",
     ]
+    work = s.get("work_per_step", {})
+    if work.get("contact_evaluations"):
+        lines.append(
+            f"work per step: {work['contact_evaluations']:.2f} contact-law evaluations, "
+            f"{work['jacobians']:.3f} Jacobians, {work['newton_iterations']:.2f} Newton iterations"
+        )
     if not abs(s["power_balance_error_relative"]) < UNRELIABLE_BREAKDOWN:
         lines.append(
             "WARNING: the power balance does not close to 1 %: the breakdown above is not "

@@ -4,4 +4,6 @@ Each kernel mirrors a readable numpy reference elsewhere in the package and is t
 
 - :mod:`ballscrew_twin.kernels.contacts`: every ball-groove contact law, the compiled twin of
   :func:`ballscrew_twin.models.contact_forces.evaluate_contacts`.
+- :mod:`ballscrew_twin.kernels.dynamic_step`: one time step of the dynamic model, the compiled
+  twin of ``DynamicModel._step``.
 """

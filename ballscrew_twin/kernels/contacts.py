@@ -883,6 +883,12 @@ def evaluate_contacts_compiled(
         dynamic,
         *_scene_params(scene),
     )
+    return evaluation_from_buffer(active, c)
+
+
+def evaluation_from_buffer(active: NDArray[np.bool_], c: FloatArray) -> ContactEvaluation:
+    """The :class:`ContactEvaluation` view of the kernel's outputs ``active`` (B, 4) and ``c``
+    (N_ROWS, B, 4) (no copies; layout in :func:`contacts_kernel`)."""
     return ContactEvaluation(
         force=c[R_FORCE:R_MOMENT, :, 0].T,
         moment=c[R_MOMENT:N_ROWS, :, 0].T,

@@ -1,4 +1,4 @@
-"""Defects the dynamic model can carry: a defective sphere and a raceway spall.
+"""Defects the dynamic model can carry: a defective sphere, a raceway spall, a sphere jam.
 
 Both act on the interpenetration of the contacts they touch (the approach of Eq. 17): an
 oversized sphere of radius r_b + dr interferes by dr more with every half groove; a spall is a
@@ -8,6 +8,12 @@ The spall's profile along the thread is d cos^2(pi (theta - theta_0) / w) for
 the grooved body: the screw's own for S1/S2, the nut's own for N1/N2 (a nut point at nut
 parameter theta_n meets the spheres at screw parameter theta_n - phi, phi the screw angle).
 The radius change does not alter the sphere's mass or contact curvatures (second order).
+
+A jammed sphere (debris wedged against it, a damaged sphere stuck in the nut) has its rotation
+blocked from a given time on: its angular velocity is held at zero in the inertial frame, i.e.
+relative to the nut, which does not turn. It then slides on every groove instead of rolling; the
+blocking moment does no work (zero angular velocity), so the power balance is untouched except
+for the sphere's rotational energy, lost at the instant the jam begins.
 """
 
 from __future__ import annotations
@@ -45,12 +51,32 @@ class RacewaySpall:
     depth: float  # m, largest depth
 
 
+@dataclass(frozen=True, kw_only=True)
+class SphereJam:
+    """A sphere whose rotation is blocked from ``start`` on."""
+
+    nut: int  # 0 master, 1 slave
+    index: int  # sphere of that nut, 0 .. balls_per_nut - 1
+    start: float  # s, simulated time at which the rotation is blocked
+
+
 @dataclass(frozen=True)
 class Faults:
     """All defects of one scene."""
 
     spheres: tuple[SphereDefect, ...] = ()
     spalls: tuple[RacewaySpall, ...] = ()
+    jams: tuple[SphereJam, ...] = ()
+
+    def jammed(
+        self, time: float, ball_nut: NDArray[np.int64], ball_index: NDArray[np.int64]
+    ) -> NDArray[np.bool_]:
+        """(B,) True for the spheres whose rotation is blocked at ``time`` [s]."""
+        blocked = np.zeros(len(ball_nut), dtype=bool)
+        for jam in self.jams:
+            if time >= jam.start:
+                blocked |= (ball_nut == jam.nut) & (ball_index == jam.index)
+        return blocked
 
     def approach_offsets(
         self,
@@ -81,6 +107,28 @@ class Faults:
             offset[:, column] -= np.where(inside, spall.depth * np.cos(math.pi * x) ** 2, 0.0)
         return offset
 
+    def compiled_arrays(
+        self, count: int, ball_nut: NDArray[np.int64], ball_index: NDArray[np.int64]
+    ) -> tuple[FloatArray, FloatArray]:
+        """The defects as the compiled step takes them (kernels/dynamic_step.py).
+
+        Returns:
+            (B, 4) approach offsets of the defective spheres [m], and (S, 4) spalls: half-groove
+            column (0..3), centre [rad], width [rad], depth [m].
+        """
+        sphere = np.zeros((count, 4))
+        for defect in self.spheres:
+            rows = (ball_nut == defect.nut) & (ball_index == defect.index)
+            sphere[rows] += defect.radius_change
+        spalls = np.array(
+            [
+                [HALF_GROOVE_NAMES.index(s.half_groove), s.centre, s.width, s.depth]
+                for s in self.spalls
+            ],
+            dtype=np.float64,
+        ).reshape(-1, 4)
+        return sphere, spalls
+
 
 def _number(item: dict[str, Any], key: str, lo: float, hi: float, unit: str, where: str) -> float:
     """A finite number within [lo, hi] from ``item[key]``."""
@@ -107,10 +155,11 @@ def _fields(item: Any, allowed: Sequence[str], where: str) -> dict[str, Any]:
 
 
 def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
-    """Validate ``{spheres: [...], spalls: [...]}`` (both optional) into :class:`Faults`."""
+    """Validate ``{spheres: [...], spalls: [...], jams: [...]}`` (all optional) into
+    :class:`Faults`."""
     if data is None:
         return Faults()
-    data = _fields(data, ("spheres", "spalls"), where)
+    data = _fields(data, ("spheres", "spalls", "jams"), where)
     spheres = []
     for k, item in enumerate(data.get("spheres") or []):
         path = f"{where}.spheres[{k}]"
@@ -136,4 +185,14 @@ def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
                 depth=_number(item, "depth", 0.0, 1e-4, "m", path),
             )
         )
-    return Faults(spheres=tuple(spheres), spalls=tuple(spalls))
+    jams = []
+    for k, item in enumerate(data.get("jams") or []):
+        path = f"{where}.jams[{k}]"
+        item = _fields(item, ("nut", "index", "start"), path)
+        nut = _number(item, "nut", 0, 1, "-", path)
+        index = _number(item, "index", 0, balls_per_nut - 1, "-", path)
+        if nut != int(nut) or index != int(index):
+            raise ConfigError(f"{path}: nut and index must be whole numbers")
+        start = _number(item, "start", 0.0, 100.0, "s", path)
+        jams.append(SphereJam(nut=int(nut), index=int(index), start=start))
+    return Faults(spheres=tuple(spheres), spalls=tuple(spalls), jams=tuple(jams))

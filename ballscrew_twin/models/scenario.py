@@ -114,11 +114,16 @@ class Scenario:
     backend: Backend = field(
         default="compiled", metadata={"doc": "contact laws: compiled (numba) or reference"}
     )
+    sphere_contacts: bool = field(
+        default=False,
+        metadata={"doc": "contacts between neighbouring spheres (Python step, slower)"},
+    )
     faults: Any = field(
         default=None,
         metadata={
             "doc": "defects: {spheres: [{nut, index, radius_change}], spalls: "
-            "[{half_groove, centre, width, depth}]} (models/faults.py), SI units"
+            "[{half_groove, centre, width, depth}], jams: [{nut, index, start}]} "
+            "(models/faults.py), SI units"
         },
     )
     source: str = field(default="", metadata={"doc": "file read from (not a YAML key)"})
@@ -146,6 +151,10 @@ class Scenario:
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
         if self.config is not None and (not isinstance(self.config, str) or not self.config):
             raise ConfigError(f"{where}: config must be a path string, got {self.config!r}")
+        if not isinstance(self.sphere_contacts, bool):
+            raise ConfigError(
+                f"{where}: sphere_contacts must be true or false, got {self.sphere_contacts!r}"
+            )
         if self.backend not in get_args(Backend):
             raise ConfigError(
                 f"{where}: backend = {self.backend!r} is not one of {list(get_args(Backend))}"

@@ -251,6 +251,7 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
         jacobian_interval=scenario.jacobian_interval,
         controller=scenario.controller,
         backend=scenario.backend,
+        sphere_contacts=scenario.sphere_contacts,
         faults=faults_from_mapping(
             scenario.faults, config.screw.balls_per_nut, f"{scenario.source or 'scenario'}: faults"
         ),
@@ -290,10 +291,8 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
             dissipated += 0.5 * dt * (previous[1] + diss)
         previous = (power_in, diss)
         record = k % every == 0
-        per_contact = report.contacts.dissipation
-        mechanisms = np.array([float(np.sum(per_contact[name])) for name in MECHANISMS])
-        per_ball = np.sum([per_contact[name] for name in MECHANISMS], axis=(0, 2))
-        per_nut = np.array([float(per_ball[m].sum()) for m in nut_members])
+        mechanisms = report.mechanism_dissipation
+        per_nut = report.nut_dissipation
         p_grav = _gravitational_power(model, ball_mass, state)
         if k >= window_first:
             window["motor"] += motor
@@ -352,6 +351,9 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
         result, window, window_mechanisms, window_nuts, abs_input_energy, wall, steps, config
     )
     result.summary["unconverged_steps"] = model.unconverged_steps
+    result.summary["work_per_step"] = {
+        name: count / max(steps + 1, 1) for name, count in model.work.items()
+    }
     return result
 
 

@@ -36,7 +36,8 @@ class SpherePairContact:
     force_on_a: FloatArray  # (P, 3) N; sphere b receives the opposite force
     moment_on_a: FloatArray  # (P, 3) N m about a's centre
     moment_on_b: FloatArray  # (P, 3) N m about b's centre
-    dissipation: FloatArray  # (P,) W, >= 0
+    dissipation: FloatArray  # (P,) W, >= 0, normal damping included
+    elastic_energy: FloatArray  # (P,) J, 2/5 K delta^2.5: the potential of the elastic force
 
 
 def sphere_pair_contact(
@@ -126,7 +127,8 @@ def sphere_pair_contact(
     spin_moment = -(mp * np.sign(spin))[:, None] * d
     moment_a = np.cross(arm_a, on_a) + spin_moment
     moment_b = np.cross(arm_b, -on_a) - spin_moment
-    dissipation = f_t * slip + fr * dot(e_dir, slip_vec) + mp * np.abs(spin)
+    damping = f_n - hc.stiffness * delta**1.5  # saturated damping part of Eq. 18 [N]
+    dissipation = f_t * slip + fr * dot(e_dir, slip_vec) + mp * np.abs(spin) + damping * rate
     active = touching & (f_n > 0.0)
     return SpherePairContact(
         in_contact=active,
@@ -140,4 +142,5 @@ def sphere_pair_contact(
         moment_on_a=np.where(active[:, None], moment_a, 0.0),
         moment_on_b=np.where(active[:, None], moment_b, 0.0),
         dissipation=np.where(active, dissipation, 0.0),
+        elastic_energy=np.where(touching, 0.4 * hc.stiffness * delta**2.5, 0.0),
     )

@@ -11,7 +11,13 @@ from ballscrew_twin.kernels.contacts import evaluate_contacts_compiled
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.contact_forces import evaluate_contacts, make_scene
 from ballscrew_twin.models.dynamic import Commands, DynamicModel
-from ballscrew_twin.models.faults import Faults, RacewaySpall, SphereDefect, faults_from_mapping
+from ballscrew_twin.models.faults import (
+    Faults,
+    RacewaySpall,
+    SphereDefect,
+    SphereJam,
+    faults_from_mapping,
+)
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.params import load_config
 
@@ -158,3 +164,101 @@ def test_scenario_carries_faults_into_the_simulation(tmp_path) -> None:  # type:
     path.write_text(yaml.safe_dump(scene))
     with pytest.raises(ConfigError, match="index"):
         simulate(load_scenario(path))  # 1 sphere per nut: index 3 does not exist
+
+
+def _jam_run(faults: Faults) -> tuple[DynamicModel, object, object]:
+    config = dataclasses.replace(BASE, screw=dataclasses.replace(BASE.screw, balls_per_nut=2))
+    model = DynamicModel(config, temperature=293.15, time_step=1e-6, faults=faults)
+    state = model.initial_state(400.0)
+    for k in range(400):
+        ramp = min(k / 150.0, 1.0)
+        state, report = model.step(state, Commands(30.0 * ramp * ramp * (3 - 2 * ramp), 400.0))
+        if faults.jams:
+            assert np.all(state.ball_omega[1] == 0.0)  # blocked from the start
+    return model, state, report
+
+
+def test_jammed_sphere_slides_instead_of_rolling() -> None:
+    """A sphere whose rotation is blocked cannot roll: its contact points move with its centre,
+    so between its screw and nut contacts it slips by the full relative speed of the two
+    surfaces, |Omega (r_m - r_b cos alpha) e_theta - v_nut z| (kinematics; it is carried by the
+    translating nut and slides on the screw). The rolling spheres slip by a tiny fraction of
+    that, and the jam costs power."""
+    _, healthy_state, healthy = _jam_run(Faults())
+    model, state, report = _jam_run(Faults(jams=(SphereJam(nut=0, index=1, start=0.0),)))
+    ev = report.contacts  # type: ignore[attr-defined]
+    assert ev.active[1, 1] and ev.active[1, 2]  # master-nut sphere on S2 and N1
+    geom = model.geometry
+    rho = geom.pitch_radius - geom.ball_radius * math.cos(float(ev.contact_angle[1, 1]))
+    surfaces = math.hypot(state.screw_speed * rho, float(state.nut_velocity[0]))  # type: ignore[attr-defined]
+    assert float(ev.slip[1, 1] + ev.slip[1, 2]) == pytest.approx(surfaces, rel=0.03)
+    assert float(ev.slip[0, 1] + ev.slip[0, 2]) < 0.01 * surfaces  # sphere 0 rolls
+    assert report.dissipation > 1.5 * healthy.dissipation  # type: ignore[attr-defined]
+    assert np.abs(healthy_state.ball_omega[1]).max() > 1.0  # type: ignore[attr-defined]
+
+
+def test_jams_are_read_and_validated() -> None:
+    faults = faults_from_mapping({"jams": [{"nut": 1, "index": 2, "start": 0.01}]}, 3, "f")
+    nut, index = np.repeat([0, 1], 3), np.tile(np.arange(3), 2)
+    assert not faults.jammed(0.0099, nut, index).any()
+    np.testing.assert_array_equal(faults.jammed(0.01, nut, index), [0, 0, 0, 0, 0, 1])
+    with pytest.raises(ConfigError, match=r"f\.jams\[0\]\.start"):
+        faults_from_mapping({"jams": [{"nut": 1, "index": 2, "start": -1.0}]}, 3, "f")
+    with pytest.raises(ConfigError, match="index"):
+        faults_from_mapping({"jams": [{"nut": 0, "index": 3, "start": 0.0}]}, 3, "f")
+
+
+RIPPLE_SPACING = 0.5  # rad, helix parameter between neighbouring spheres
+RIPPLE_STEP = 2e-6  # s, the converged step of the time-step study (docs/model.md)
+
+
+def _screw_torque_after_ramp(faults: Faults) -> tuple[DynamicModel, np.ndarray, np.ndarray, float]:
+    """6 spheres per nut, 0.5 rad apart, 300 N, speed ramped to 4000 rpm in 1 ms, 13 ms in all:
+    the spheres' moment on the screw and the screw speed after 3 ms, and the mean contact angle."""
+    count = 6
+    screw = dataclasses.replace(
+        BASE.screw,
+        balls_per_nut=count,
+        balls_total_per_nut=count,
+        loaded_turns=count * RIPPLE_SPACING / (2.0 * math.pi),
+    )
+    model = DynamicModel(
+        dataclasses.replace(BASE, screw=screw),
+        temperature=293.15,
+        time_step=RIPPLE_STEP,
+        jacobian_interval=10,
+        faults=faults,
+    )
+    state = model.initial_state(300.0)
+    torque, speed = [], []
+    for k in range(round(13e-3 / RIPPLE_STEP)):
+        x = min(k * RIPPLE_STEP / 1e-3, 1.0)
+        state, report = model.step(state, Commands(419.0 * x * x * (3.0 - 2.0 * x), 300.0))
+        if state.time > 3e-3:
+            torque.append(report.screw_torque)
+            speed.append(state.screw_speed)
+    ev = report.contacts
+    return model, np.array(torque), np.array(speed), float(ev.contact_angle[ev.active].mean())
+
+
+def test_spall_makes_the_torque_ripple_at_the_sphere_pass_frequency() -> None:
+    """A spall on the nut flank N1 modulates the drag torque once per passing sphere. Oracle
+    (rolling kinematics, screw = rotating inner race, nut = still outer race): the sphere train
+    turns relative to the nut at Omega/2 (1 - r_b cos alpha / r_m), so spheres RIPPLE_SPACING
+    apart pass the spall with the period RIPPLE_SPACING / that rate. The ripple's
+    autocorrelation peaks at that lag; without the spall there is hardly any ripple."""
+    spall = RacewaySpall(half_groove="N1", centre=1.25, width=0.3, depth=3e-6)
+    model, torque, speed, alpha = _screw_torque_after_ramp(Faults(spalls=(spall,)))
+    _, healthy, _, _ = _screw_torque_after_ramp(Faults())
+    geom = model.geometry
+    train = (
+        0.5 * float(speed.mean()) * (1.0 - geom.ball_radius * math.cos(alpha) / geom.pitch_radius)
+    )
+    period = RIPPLE_SPACING / train  # s
+    ripple = torque - torque.mean()
+    assert ripple.std() > 5.0 * healthy.std()
+    correlation = np.correlate(ripple, ripple, "full")[len(ripple) - 1 :]
+    lags = np.arange(len(correlation)) * RIPPLE_STEP
+    window = (lags > 0.3 * period) & (lags < 1.6 * period)  # harmonics peak at period / k
+    found = float(lags[window][np.argmax(correlation[window])])
+    assert found == pytest.approx(period, rel=0.03)

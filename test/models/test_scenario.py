@@ -56,6 +56,8 @@ def test_defaults_are_the_paper_protocol(tmp_path: Path) -> None:
         ({"jacobian_interval": 0}, "jacobian_interval = 0 is outside"),
         ({"output_interval": 1.5e-6}, "output_interval = 1.5e-06 s is not a whole number"),
         ({"backend": "gpu"}, "backend = 'gpu' is not one of"),
+        ({"sphere_contacts": "yes"}, "sphere_contacts must be true or false, got 'yes'"),
+        ({"faults": {"jams": [{"nut": 0, "index": 1}]}}, "faults.jams[0].start: missing"),
         ({"controller_integral": -5.0}, "controller_integral = -5.0 is outside"),
         ({"duration": True}, "duration: expected a number in s"),
     ],
