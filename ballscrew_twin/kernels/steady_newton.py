@@ -257,7 +257,14 @@ def _residual(z, e_nut, nut, weight, gravity, loads, force_scale, moment_scale, 
     no_velocity = np.zeros((0, 3))
     no_slide = np.zeros(count)
     _, out = contacts_kernel(
-        ball_nb, kinematics, e_ball, gravity, no_velocity, no_slide, np.zeros((0, 4)), False,
+        ball_nb,
+        kinematics,
+        e_ball,
+        gravity,
+        no_velocity,
+        no_slide,
+        np.zeros((0, 4)),
+        False,
         *scene,
     )
     sin_helix = scene[_I_SIN_HELIX]
@@ -508,7 +515,13 @@ def newton_compiled(
     Raises:
         SolverError: no convergence in NEWTON_MAX_ITER iterations, or a singular sphere block
             (same messages as the reference).
+        ValueError: ``model`` drops the inertial terms, which this kernel always includes.
     """
+    if not model.inertial_terms:
+        raise ValueError(
+            "newton_compiled keeps the centrifugal and gyroscopic terms; use the model's own "
+            "Newton iteration for inertial_terms=False"
+        )
     ensure_fresh_cache()
     tolerance = float(model.tolerance)
     ball_nb, kinematics, nut_offset, iterations, worst, status = newton_kernel(

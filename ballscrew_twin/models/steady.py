@@ -13,6 +13,12 @@ kept as ``screw_torque_direct`` for the power balance check.
 When all spheres of a nut are equivalent (vertical screw, no per-sphere difference) one sphere
 stands for all of them (symmetric mode); otherwise every sphere is solved (full mode) with one
 Newton iteration over all of them at once.
+
+Two reductions serve the fidelity selection (``ballscrew_twin/fidelity.py``): the centrifugal
+force and gyroscopic moment can be dropped (``inertial_terms=False``; their drag error against
+speed is measured by ``ballscrew-twin bench skips``), and the lubricant and material state of a
+temperature (:func:`make_scene` at zero speed) is computed once per temperature and reused while
+the temperature does not change (exact: the same numbers).
 """
 
 from __future__ import annotations
@@ -49,6 +55,8 @@ KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to th
 #: Speeds below this are solved as standstill [rad/s] (1e-5 rpm: no ball screw runs there, and
 #: the film laws' groups underflow as the entrainment speed goes to zero).
 STANDSTILL_SPEED = 1e-6
+#: Temperatures whose lubricant/material state is kept (oldest dropped beyond) [-].
+SCENE_CACHE_SIZE = 64
 
 
 @dataclass(frozen=True)
@@ -95,6 +103,9 @@ class SteadyStateModel:
         tolerance: convergence limit of the scaled residual (force / load scale) [-].
         backend: ``"compiled"`` (numba kernel, default) or ``"reference"`` (the readable numpy
             implementation it is tested against); both give the same solution.
+        inertial_terms: keep the centrifugal force and the gyroscopic moment of each sphere in
+            its balance (default). ``False`` drops both (:func:`inertial_actions`): a reduction
+            whose drag error grows with the speed, measured by ``ballscrew-twin bench skips``.
     """
 
     def __init__(
@@ -103,6 +114,7 @@ class SteadyStateModel:
         mode: Mode = "auto",
         tolerance: float = 1e-10,
         backend: Backend = "compiled",
+        inertial_terms: bool = True,
     ) -> None:
         if mode not in ("auto", "symmetric", "full"):
             raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
@@ -119,8 +131,27 @@ class SteadyStateModel:
         self.config = config
         self.mode = mode
         self.tolerance = tolerance
-        self.name = "steady"
+        self.inertial_terms = bool(inertial_terms)
+        self.name = "steady" if self.inertial_terms else "steady-no-inertia"
         self._warm: SteadyState | None = None
+        self._scenes: dict[float, ContactScene] = {}
+        self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
+
+    def scene(self, temperature: float, screw_speed: float) -> ContactScene:
+        """Contact-law constants at ``temperature`` [K] and ``screw_speed`` [rad/s].
+
+        The temperature-dependent part (thermally expanded geometry, lubricant viscosity, Hertz
+        moduli) is computed once per temperature and reused: identical to :func:`make_scene`.
+        """
+        base = self._scenes.get(temperature)
+        if base is None:
+            if len(self._scenes) >= SCENE_CACHE_SIZE:
+                self._scenes.pop(next(iter(self._scenes)))
+            base = make_scene(self.config, temperature, 0.0)
+            self._scenes[temperature] = base
+        else:
+            self.scene_cache_hits += 1
+        return base if screw_speed == 0.0 else replace(base, screw_speed=screw_speed)
 
     # ------------------------------------------------------------------ set-up
 
@@ -226,9 +257,13 @@ class SteadyStateModel:
         with np.errstate(over="ignore", invalid="ignore"):
             ev = self._evaluate(scene, state.ball_nb, state.kinematics, e_ball, balls.gravity)
         force_scale, moment_scale = self._scales(scene, loads)
+        force, moment = ev.force, ev.moment
+        if not self.inertial_terms:
+            centrifugal, gyroscopic = inertial_actions(scene, state.ball_nb, state.kinematics)
+            force, moment = force - centrifugal, moment + gyroscopic
         # Rows ordered like the unknowns: (F_n, F_b) ~ (n, b) offsets, F_t ~ orbital rate.
         ball_res = np.concatenate(
-            [ev.force[:, [1, 2, 0]] / force_scale, ev.moment / moment_scale], axis=1
+            [force[:, [1, 2, 0]] / force_scale, moment / moment_scale], axis=1
         )
         zhat = geometry.axis_direction(scene.geometry.helix_angle)
         on_nut = np.where(geometry.IS_NUT[None, :, None], ev.groove_force, 0.0).sum(axis=1)
@@ -266,7 +301,8 @@ class SteadyStateModel:
             return SteadyState(z[:, :2].copy(), z[:, 2:].copy(), e.copy(), scene.screw_speed)
 
         def merit(b: FloatArray, n: FloatArray) -> float:
-            return float(np.sum(np.where(mask, b, 0.0) ** 2) + np.sum(n**2))
+            with np.errstate(over="ignore"):  # an absurd trial state squares to inf: rejected
+                return float(np.sum(np.where(mask, b, 0.0) ** 2) + np.sum(n**2))
 
         z = pack(state)
         e = state.nut_offset.copy()
@@ -369,7 +405,7 @@ class SteadyStateModel:
         if 0.0 < abs(op.screw_speed) < STANDSTILL_SPEED:
             op = replace(op, screw_speed=0.0)
         mode = self.resolved_mode()
-        scene = make_scene(self.config, op.temperature, op.screw_speed)
+        scene = self.scene(op.temperature, op.screw_speed)
         balls = self.ball_set(mode)
         loads = self.nut_axial_loads(op)
         start = warm_start if warm_start is not None else self._warm
@@ -415,7 +451,7 @@ class SteadyStateModel:
         If the direct step to full speed fails, the speed is raised in stages (continuation,
         :data:`CONTINUATION_SCHEDULES`), each stage warm-started from the previous one.
         """
-        static_scene = make_scene(self.config, op.temperature, 0.0)
+        static_scene = self.scene(op.temperature, 0.0)
         state = self._initial_state(static_scene, balls, loads)
         state, ev, total, residual = self._newton(static_scene, balls, state, loads)
         if op.screw_speed == 0.0:
@@ -426,7 +462,7 @@ class SteadyStateModel:
             try:
                 for fraction in attempt:
                     speed = op.screw_speed * fraction
-                    scene = make_scene(self.config, op.temperature, speed)
+                    scene = self.scene(op.temperature, speed)
                     current = self._rescaled(current, scene, balls, speed)
                     current, ev, iterations, residual = self._newton(scene, balls, current, loads)
                     total += iterations
@@ -470,6 +506,8 @@ class SteadyStateModel:
             for k in (0, 1)
         ]
         notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
+        if not self.inertial_terms:
+            notes.append("centrifugal force and gyroscopic moment of the spheres dropped")
         if speed == 0.0:
             notes.append("zero speed: nothing slides, drag torque 0 (breakaway not modelled)")
             breakdown = TorqueBreakdown()
@@ -489,7 +527,7 @@ class SteadyStateModel:
             drag_torque=total,
             nut_torque=nut_torque,
             breakdown=breakdown,
-            fidelity=f"steady-{mode}",
+            fidelity=f"{self.name}-{mode}",
             operating_point=op,
             contacts=contacts,
             notes=tuple(notes),
@@ -546,6 +584,39 @@ class SteadyStateModel:
         if gap > 0.0:
             return [f"sphere-to-sphere contacts skipped: equal spacing leaves {gap * 1e3:.3f} mm"]
         return ["spheres are packed without gap: sphere-to-sphere contact not resolved here"]
+
+
+def inertial_actions(
+    scene: ContactScene, ball_nb: FloatArray, kinematics: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """d'Alembert terms of the orbiting spheres that the steady contact laws add (section 7).
+
+    Centrifugal force m (Omega + w_B)^2 r_perp on the centre (r_perp its distance vector from
+    the axis) and gyroscopic moment (Omega + w_B) z x I omega_abs, omega_abs = omega + Omega z,
+    both in Frenet components; ``evaluate_contacts`` (steady use) adds the force and subtracts
+    the moment.
+
+    Args:
+        scene: constants of the operating point (screw speed Omega [rad/s], sphere mass [kg]
+            and inertia [kg m^2], geometry).
+        ball_nb: (B, 2) ball-centre offsets (n, b) from the ideal helix [m].
+        kinematics: (B, 4) orbital rate w_B and angular velocity (t, n, b) relative to the
+            screw [rad/s].
+
+    Returns:
+        (centrifugal force (B, 3) [N], gyroscopic moment (B, 3) [N m]).
+    """
+    geom = scene.geometry
+    zhat = geometry.axis_direction(geom.helix_angle)
+    r_ball = np.stack(
+        [np.zeros(len(ball_nb)), ball_nb[:, 0] - geom.pitch_radius, ball_nb[:, 1]], axis=-1
+    )
+    orbit_rate = scene.screw_speed + kinematics[:, 0]
+    r_perp = r_ball - np.einsum("bi,i->b", r_ball, zhat)[:, None] * zhat
+    centrifugal = (scene.ball_mass * orbit_rate**2)[:, None] * r_perp
+    omega_abs = kinematics[:, 1:4] + scene.screw_speed * zhat
+    gyroscopic = orbit_rate[:, None] * np.cross(zhat, scene.ball_inertia * omega_abs)
+    return np.asarray(centrifugal), np.asarray(gyroscopic)
 
 
 def _contact_states(balls: BallSet, ev: ContactEvaluation) -> ContactStates:

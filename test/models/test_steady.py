@@ -175,3 +175,75 @@ def test_horizontal_screw_solves_every_sphere(config) -> None:  # type: ignore[n
     assert sol.screw_torque_direct - sol.gravity_torque == pytest.approx(
         sol.output.drag_torque, rel=1e-7
     )
+
+
+def test_inertial_actions_are_the_terms_the_steady_contact_laws_add(config) -> None:  # type: ignore[no-untyped-def]
+    """Oracle: steady-form minus dynamic-form evaluation of the same states, and the closed
+    forms m (Omega + w_B)^2 d_axis (centrifugal) and |gyro| <= (Omega + w_B) I |omega_abs|."""
+    from ballscrew_twin.models.contact_forces import evaluate_contacts, make_scene
+    from ballscrew_twin.models.steady import inertial_actions
+    from ballscrew_twin.physics import geometry
+
+    model = SteadyStateModel(config, mode="full")
+    sol = model.solve(op(3000, 20, 500))
+    state, balls = sol.state, sol.balls
+    scene = make_scene(config, 293.15, 3000 * RPM)
+    e_ball = state.nut_offset[balls.nut]
+    steady = evaluate_contacts(scene, state.ball_nb, state.kinematics, e_ball, balls.gravity)
+    geom = scene.geometry
+    zhat = geometry.axis_direction(geom.helix_angle)
+    r_ball = np.stack(
+        [np.zeros(len(balls.nut)), state.ball_nb[:, 0] - geom.pitch_radius, state.ball_nb[:, 1]],
+        axis=-1,
+    )
+    lead_rate = geom.lead / (2 * math.pi)
+    velocity = state.kinematics[:, :1] * (np.cross(zhat, r_ball) + lead_rate * zhat)
+    dynamic = evaluate_contacts(
+        scene, state.ball_nb, state.kinematics, e_ball, balls.gravity, centre_velocity=velocity
+    )
+    centrifugal, gyroscopic = inertial_actions(scene, state.ball_nb, state.kinematics)
+    expected = steady.force - dynamic.force - scene.ball_mass * balls.gravity
+    scale = np.abs(steady.force).max() + np.abs(dynamic.force).max()
+    assert np.abs(centrifugal - expected).max() < 1e-9 * scale
+    assert (
+        np.abs(gyroscopic - (dynamic.moment - steady.moment)).max()
+        < 1e-9 * np.abs(dynamic.moment).max()
+    )
+    orbit = 3000 * RPM + state.kinematics[:, 0]
+    distance = np.linalg.norm(np.cross(r_ball, zhat), axis=1)
+    assert np.linalg.norm(centrifugal, axis=1) == pytest.approx(
+        scene.ball_mass * orbit**2 * distance, rel=1e-12
+    )
+
+
+def test_dropping_inertial_terms_matters_only_at_speed(config) -> None:  # type: ignore[no-untyped-def]
+    full = SteadyStateModel(config)
+    reduced = SteadyStateModel(config, inertial_terms=False)
+    # Standstill: no orbit, nothing to drop (exactly the same equations).
+    assert reduced.solve(op(0, 20, 1500)).state.ball_nb == pytest.approx(
+        full.solve(op(0, 20, 1500)).state.ball_nb, abs=0.0
+    )
+    # Centrifugal force ~ Omega^2: negligible at 10 rpm, not at 4000 rpm without preload.
+    slow = full.evaluate(op(10, 20, 1500)).drag_torque
+    assert reduced.evaluate(op(10, 20, 1500)).drag_torque == pytest.approx(slow, rel=1e-4)
+    fast = full.evaluate(op(4000, 20, 0)).drag_torque
+    dropped = reduced.evaluate(op(4000, 20, 0))
+    assert abs(dropped.drag_torque - fast) > 0.01 * abs(fast)
+    assert dropped.fidelity == "steady-no-inertia-symmetric"
+    assert any("dropped" in note for note in dropped.notes)
+
+
+def test_lubricant_state_is_computed_once_per_temperature(config) -> None:  # type: ignore[no-untyped-def]
+    from dataclasses import fields
+
+    from ballscrew_twin.models.contact_forces import make_scene
+
+    model = SteadyStateModel(config)
+    model.solve(op(100, 20, 1500))
+    hits = model.scene_cache_hits
+    model.solve(op(200, 20, 1000))
+    assert model.scene_cache_hits == hits + 1
+    for speed in (0.0, 3.0):
+        cached, fresh = model.scene(293.15, speed), make_scene(config, 293.15, speed)
+        for f in fields(fresh):
+            assert getattr(cached, f.name) == getattr(fresh, f.name), f.name
