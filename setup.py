@@ -10,6 +10,8 @@ setup(
     name=PACKAGE_NAME,
     version="0.1.0",
     packages=find_packages(exclude=["test", "test.*"]),
+    # Tabulated maps of the real-time model travel with the package.
+    package_data={PACKAGE_NAME: ["data/*.npz", "data/*.json"]},
     # Installed by `setup.py install` / colcon and by a regular `pip install .`. A PEP 660
     # editable install (`pip install -e .`, what tools/setup_env.sh runs) does not copy them;
     # the package then reads config/ from the source tree (ballscrew_twin.params).

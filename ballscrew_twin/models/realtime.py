@@ -1,0 +1,142 @@
+"""Real-time model for the node: the tabulated steady state, stepped quasi-statically.
+
+Each step returns the steady state of the step's command, interpolated from a
+:class:`~.steady_map.SteadyMap` of the symmetric steady-state model (tens of microseconds
+instead of milliseconds of Newton iterations). It follows speed ramps, reversals through zero
+speed, temperature drift and preload changes as a sequence of steady states and carries no
+transient state: the dynamic model's own transients after a change (sphere rattle, nut
+settling, controller overshoot; tens of milliseconds on the scenes of issue 4) are not
+reproduced. How far that and the interpolation are from the steady and the dynamic model is
+measured by ``ballscrew-twin bench accuracy`` (docs/benchmarks.md, "Work-precision").
+
+On a vertical screw every sphere of a nut is equivalent, so the per-sphere contact states are
+the map's per-nut states repeated over the nut's spheres. The external axial load enters
+through each nut's equivalent preload (:func:`~.steady_map.equivalent_preloads`). Commands
+outside the map are clamped to it and every clamping is named in ``notes``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..params import TwinConfig
+from .base import MECHANISMS, ContactStates, FloatArray, OperatingPoint, TorqueBreakdown, TwinOutput
+from .steady_map import (
+    CONTACT_FIELDS,
+    HALF_GROOVES,
+    NUTS,
+    MapError,
+    SteadyMap,
+    config_fingerprint,
+    equivalent_preloads,
+    load_map,
+)
+
+_FIELD = {name: j for j, name in enumerate(CONTACT_FIELDS)}
+#: Tabulated 0/1 contact flag read back as "in contact" above this value [-].
+IN_CONTACT_THRESHOLD = 0.5
+#: Shares that cannot exceed one (clamped after interpolation).
+_UNIT_SHARES = ("load_share", "lubricant_share")
+
+
+class RealTimeModel:
+    """Quasi-static stepping of the tabulated symmetric steady state (``TimeSteppingModel``).
+
+    Args:
+        config: parameter set; it must be the one the map was built for.
+        steady_map: the map (default: the committed ``ballscrew_twin/data/steady_map.npz``).
+
+    Raises:
+        MapError: the map is missing or corrupt, or was built for other physical parameters
+            (rebuild it with ``python -m ballscrew_twin.models.steady_map build``).
+    """
+
+    def __init__(self, config: TwinConfig, steady_map: SteadyMap | None = None) -> None:
+        table = steady_map if steady_map is not None else load_map()
+        if table.fingerprint != config_fingerprint(config):
+            raise MapError(
+                f"steady map built for other parameters than {config.name!r} "
+                "(fingerprints differ): rebuild it with 'python -m "
+                "ballscrew_twin.models.steady_map build --config YOUR.yaml --out FILE'"
+            )
+        self.config = config
+        self.map = table
+        self.name = "realtime_map"
+        count = config.screw.balls_per_nut
+        self._balls_per_nut = count
+        self._sphere = np.repeat(np.arange(NUTS * count), HALF_GROOVES)
+        self._nut = np.repeat(np.arange(NUTS), count * HALF_GROOVES)
+        self._half_groove = np.tile(np.arange(HALF_GROOVES), NUTS * count)
+        for index in (self._sphere, self._nut, self._half_groove):
+            index.flags.writeable = False  # shared by every output
+        notes = [f"real-time map of the symmetric steady state ({count} spheres per nut alike)"]
+        if config.screw.orientation != "vertical":
+            notes.append(
+                "horizontal screw: gravity differs from sphere to sphere, which the symmetric "
+                "map does not resolve (error measured by bench accuracy)"
+            )
+        self._notes = tuple(notes)
+
+    def reset(self, op: OperatingPoint) -> None:
+        """Check ``op``; the model keeps no transient state to forget."""
+        op.validate()
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        """The tabulated steady state of ``op`` after a tick of ``dt`` [s] (finite, > 0)."""
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"dt = {dt!r} s must be a finite number > 0")
+        return self.evaluate(op)
+
+    def evaluate(self, op: OperatingPoint) -> TwinOutput:
+        """The tabulated steady state of ``op`` (also a ``SteadyStateModel``)."""
+        op.validate()
+        sample = self.map.sample(op.screw_speed, op.temperature, equivalent_preloads(op))
+        per_nut = sample.torque.sum(axis=1)
+        breakdown = TorqueBreakdown(
+            **{m: float(sample.torque[:, j].sum()) for j, m in enumerate(MECHANISMS)}
+        )
+        return TwinOutput(
+            drag_torque=float(per_nut.sum()),
+            nut_torque=(float(per_nut[0]), float(per_nut[1])),
+            breakdown=breakdown,
+            fidelity="realtime-map",
+            operating_point=op,
+            contacts=self._contact_states(sample.contacts),
+            notes=(*self._notes, *sample.notes),
+        )
+
+    def _contact_states(self, per_nut: FloatArray) -> ContactStates:
+        """Repeat the (2, 4, F) per-nut states over every sphere of each nut."""
+        by_field = np.repeat(per_nut.transpose(2, 0, 1)[:, :, None, :], self._balls_per_nut, axis=2)
+        columns = by_field.reshape(len(CONTACT_FIELDS), -1)  # (F, rows), each row contiguous
+        for name in _UNIT_SHARES:
+            np.minimum(columns[_FIELD[name]], 1.0, out=columns[_FIELD[name]])
+        friction = columns[_FIELD["friction_force"]]
+        lubricant = columns[_FIELD["lubricant_share"]]
+
+        def column(name: str) -> FloatArray:
+            return columns[_FIELD[name]]
+
+        return ContactStates(
+            sphere=self._sphere,
+            nut=self._nut,
+            half_groove=self._half_groove,
+            in_contact=column("in_contact") > IN_CONTACT_THRESHOLD,
+            normal_force=column("normal_force"),
+            friction_force=friction,
+            contact_angle=column("contact_angle"),
+            approach=column("approach"),
+            stiffness=column("stiffness"),
+            max_pressure=column("max_pressure"),
+            semi_axis_x=column("semi_axis_x"),
+            semi_axis_y=column("semi_axis_y"),
+            film_thickness=column("film_thickness"),
+            tallian_parameter=column("tallian_parameter"),
+            load_share=column("load_share"),
+            shear_stress=column("shear_stress"),
+            lubricant_share=lubricant,
+            dry_share=np.where(friction > 0.0, 1.0 - lubricant, 0.0),
+            slip_speed=column("slip_speed"),
+        )

@@ -1,0 +1,729 @@
+"""Tabulated steady state: the symmetric steady-state model on a grid, interpolated.
+
+The two nuts of a preloaded double nut are independent in the steady state (the screw turns at
+the commanded speed; each nut balances its own spheres against its own axial load), and on a
+vertical screw every sphere of a nut is equivalent (symmetric mode). So one table holds, for
+each nut, the drag torque by mechanism and the states of one sphere's four half-groove contacts
+as functions of
+
+- the screw speed, for each sign separately (a reversal is not a mirror image: the slips differ
+  by a few per cent), on nodes uniform in log |speed| between ``speed_min`` and ``speed_max``;
+- the temperature, on uniform nodes;
+- the nut's *equivalent preload* (the preload that loads the nut alike with no external load:
+  preload + axial load for the master nut, the preload for the slave nut; see
+  :func:`equivalent_preloads`), on nodes uniform in its square root (the Hertz laws are
+  steepest near zero load).
+
+Between the nodes each quantity is a tensor product of Catmull-Rom cubics (C1; the edge cells
+use a linearly extrapolated ghost node). The nut's drag torque is interpolated as
+asinh(T / :data:`TORQUE_SCALE`), which is logarithmic for torques well above the scale, so the
+power laws of the film and the viscosity become nearly linear; the mechanisms are interpolated
+as they are and then corrected to add up to that torque. The contact states, which the drag
+torque does not depend on, are kept on every other node of each axis (a quarter of the
+file). Below ``speed_min`` the torque goes linearly to zero and the contact states are blended
+linearly towards the standstill solution; outside the grid the inputs are clamped;
+:meth:`SteadyMap.sample` says which. Nodes where the steady solver fails, even cold with its
+continuation, are filled from their nearest solved neighbour in speed and flagged; a sample
+that leans on a filled node says so.
+
+Build the committed table with ``python -m ballscrew_twin.models.steady_map build --out
+ballscrew_twin/data/steady_map.npz`` (progress bar; 2 worker processes by default).
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import math
+import multiprocessing
+import sys
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import BallscrewTwinError, SolverError
+from ..params import TwinConfig, load_config
+from .base import MECHANISMS, OperatingPoint
+from .steady import SteadyStateModel
+
+FloatArray = NDArray[np.float64]
+
+#: Format version of the saved file; a file of another version is refused.
+FORMAT_VERSION = 1
+#: The committed map of the default parameter set (package data).
+DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map.npz"
+#: Steady-solver tolerance of the map's nodes (scaled residual) [-].
+MAP_TOLERANCE = 1e-9
+#: Torque scale of the asinh transform of the nut torque [N m] (linear below, log above).
+TORQUE_SCALE = 1e-6
+RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
+CELSIUS_ZERO = 273.15  # K
+#: Contact quantities tabulated per half groove (names of :class:`~.base.ContactStates`);
+#: ``in_contact`` is tabulated as 0/1 and read back as "interpolated value > 0.5".
+CONTACT_FIELDS: tuple[str, ...] = (
+    "normal_force",
+    "friction_force",
+    "contact_angle",
+    "approach",
+    "stiffness",
+    "max_pressure",
+    "semi_axis_x",
+    "semi_axis_y",
+    "film_thickness",
+    "tallian_parameter",
+    "load_share",
+    "shear_stress",
+    "lubricant_share",
+    "slip_speed",
+    "in_contact",
+)
+#: Contact fields that follow power laws of speed, viscosity and load (the film and what it
+#: drives): interpolated as asinh(value / scale), logarithmic well above the scale (SI units).
+LOG_SCALES: dict[str, float] = {
+    "friction_force": 1e-9,
+    "film_thickness": 1e-12,
+    "tallian_parameter": 1e-6,
+    "shear_stress": 1e-3,
+    "slip_speed": 1e-9,
+}
+_LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])
+_LOG_SCALE_VALUES = np.array([LOG_SCALES[name] for name in CONTACT_FIELDS if name in LOG_SCALES])
+#: Lower bound of each field after interpolation: 0 except for the contact angle.
+_LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in CONTACT_FIELDS])
+HALF_GROOVES = 4
+NUTS = 2
+NUT_NAMES = ("master", "slave")
+
+
+class MapError(BallscrewTwinError, ValueError):
+    """A steady map is invalid: missing, corrupt, of another format or another parameter set."""
+
+
+def config_fingerprint(config: TwinConfig) -> str:
+    """SHA-256 of every physical parameter of ``config`` (its name and source are ignored)."""
+    text = repr(replace(config, name="", source=""))
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
+    """Preload [N] that loads the (master, slave) nut as ``op`` does, with no external load.
+
+    The external axial load acts on the master nut only (``SteadyStateModel.nut_axial_loads``),
+    so the master nut carries preload + axial load and the slave nut the preload.
+    """
+    return op.preload + op.axial_load, op.preload
+
+
+@dataclass(frozen=True)
+class MapGrid:
+    """Nodes of the map (odd node counts for a map: the contact table keeps every other node).
+
+    Attributes:
+        speed_min: lowest tabulated |screw speed| [rad/s] (> 0).
+        speed_max: highest tabulated |screw speed| [rad/s].
+        speed_nodes: nodes per speed sign, uniform in log |speed|.
+        temperature_min: lowest temperature [K].
+        temperature_max: highest temperature [K].
+        temperature_nodes: nodes uniform in temperature.
+        preload_max: highest equivalent preload [N] (the lowest is 0 N).
+        preload_nodes: nodes uniform in sqrt(preload).
+    """
+
+    speed_min: float = 0.05 * RPM
+    speed_max: float = 6000.0 * RPM
+    speed_nodes: int = 49
+    temperature_min: float = CELSIUS_ZERO - 40.0
+    temperature_max: float = CELSIUS_ZERO + 100.0
+    temperature_nodes: int = 29
+    preload_max: float = 4000.0
+    preload_nodes: int = 33
+
+    def __post_init__(self) -> None:
+        checks = (
+            ("speed_min", 0.0 < self.speed_min < self.speed_max, "rad/s, 0 < speed_min < max"),
+            ("temperature_min", 138.0 < self.temperature_min < self.temperature_max, "K, < max"),
+            ("preload_max", self.preload_max > 0.0, "N, > 0"),
+        )
+        for name, ok, unit in checks:
+            if not ok:
+                raise MapError(f"map grid: {name} = {getattr(self, name)!r} is invalid ({unit})")
+        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
+            if getattr(self, name) < 2:
+                raise MapError(f"map grid: {name} = {getattr(self, name)} must be >= 2")
+
+    def check_buildable(self) -> None:
+        """Raise :class:`MapError` unless every node count is odd and >= 5 (see :meth:`coarse`)."""
+        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
+            count = getattr(self, name)
+            if count < 5 or count % 2 == 0:
+                raise MapError(f"map grid: {name} = {count} must be odd and >= 5")
+
+    @property
+    def speeds(self) -> FloatArray:
+        """|Speed| nodes [rad/s], ascending."""
+        low, high = math.log(self.speed_min), math.log(self.speed_max)
+        return np.exp(np.linspace(low, high, self.speed_nodes))
+
+    @property
+    def temperatures(self) -> FloatArray:
+        """Temperature nodes [K]."""
+        return np.linspace(self.temperature_min, self.temperature_max, self.temperature_nodes)
+
+    @property
+    def preloads(self) -> FloatArray:
+        """Equivalent-preload nodes [N], uniform in sqrt(preload)."""
+        return np.linspace(0.0, math.sqrt(self.preload_max), self.preload_nodes) ** 2
+
+    def coarse(self) -> MapGrid:
+        """Every other node of each axis (the grid of the contact table)."""
+        return replace(
+            self,
+            speed_nodes=self.speed_nodes // 2 + 1,
+            temperature_nodes=self.temperature_nodes // 2 + 1,
+            preload_nodes=self.preload_nodes // 2 + 1,
+        )
+
+    def as_array(self) -> FloatArray:
+        """The grid as 8 numbers (for saving)."""
+        return np.array(
+            [
+                self.speed_min,
+                self.speed_max,
+                self.speed_nodes,
+                self.temperature_min,
+                self.temperature_max,
+                self.temperature_nodes,
+                self.preload_max,
+                self.preload_nodes,
+            ],
+            dtype=np.float64,
+        )
+
+    @classmethod
+    def from_array(cls, values: FloatArray) -> MapGrid:
+        """Inverse of :meth:`as_array`."""
+        v = [float(x) for x in values]
+        if len(v) != 8:
+            raise MapError(f"map grid: {len(v)} numbers, expected 8")
+        return cls(v[0], v[1], int(v[2]), v[3], v[4], int(v[5]), v[6], int(v[7]))
+
+
+@dataclass(frozen=True)
+class NodeValues:
+    """What one steady solve contributes to the table (index 0 master nut, 1 slave nut).
+
+    Attributes:
+        torque: (2, 6) drag torque per nut and mechanism [N m], :data:`~.base.MECHANISMS` order.
+        contacts: (2, 4, F) contact quantities per nut and half groove, :data:`CONTACT_FIELDS`.
+    """
+
+    torque: FloatArray
+    contacts: FloatArray
+
+
+def node_values(model: SteadyStateModel, op: OperatingPoint) -> NodeValues:
+    """Solve the symmetric steady state at ``op`` and extract the per-nut table entries.
+
+    Raises:
+        MapError: ``model`` does not solve one sphere per nut (symmetric mode).
+        SolverError: the steady solver failed.
+    """
+    solution = model.solve(op)
+    balls = solution.balls
+    if not np.array_equal(balls.nut, np.arange(NUTS)):
+        raise MapError("steady map: the steady model must run in symmetric mode (2 spheres)")
+    torque = np.zeros((NUTS, len(MECHANISMS)))
+    speed = solution.output.operating_point.screw_speed
+    if solution.output.drag_torque != 0.0:  # zero at (or solved as) standstill
+        for j, mechanism in enumerate(MECHANISMS):
+            power = solution.contacts.dissipation[mechanism].sum(axis=1) * balls.weight
+            torque[:, j] = power / speed
+    states = solution.output.contacts
+    assert states is not None  # the steady model always resolves its contacts
+    contacts = np.stack(
+        [np.asarray(getattr(states, name), dtype=np.float64) for name in CONTACT_FIELDS], axis=-1
+    ).reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
+    return NodeValues(torque=torque, contacts=contacts)
+
+
+# ---------------------------------------------------------------------------------------------
+# Building
+
+
+@dataclass(frozen=True)
+class _Line:
+    """One build task: every speed of one sign at one temperature and preload node."""
+
+    sign: int  # 0: positive speeds, 1: negative speeds
+    temperature: int
+    preload: int
+
+
+@dataclass(frozen=True)
+class _LineResult:
+    line: _Line
+    torque: FloatArray  # (S, 2, 6)
+    contacts: FloatArray  # (S, 2, 4, F)
+    failed: NDArray[np.bool_]  # (S,)
+    static: FloatArray  # (2, 4, F)
+
+
+_WORKER: dict[str, SteadyStateModel | MapGrid] = {}
+
+
+def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
+    _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
+    _WORKER["grid"] = grid
+
+
+def _solve_line(line: _Line) -> _LineResult:
+    """Standstill, then the speeds in ascending order, each warm-started from the last.
+
+    A node the warm-started solver misses is retried cold (the steady model then runs its own
+    speed continuation); if that fails too the node stays NaN and is flagged.
+    """
+    model, grid = _WORKER["model"], _WORKER["grid"]
+    assert isinstance(model, SteadyStateModel) and isinstance(grid, MapGrid)
+    temperature = float(grid.temperatures[line.temperature])
+    preload = float(grid.preloads[line.preload])
+    sign = 1.0 if line.sign == 0 else -1.0
+    speeds = grid.speeds
+    torque = np.full((len(speeds), NUTS, len(MECHANISMS)), np.nan)
+    contacts = np.full((len(speeds), NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
+    failed = np.zeros(len(speeds), dtype=bool)
+    model.forget_warm_start()
+    static_op = OperatingPoint(screw_speed=0.0, temperature=temperature, preload=preload)
+    static = node_values(model, static_op).contacts
+    for i, speed in enumerate(speeds):
+        op = OperatingPoint(screw_speed=sign * speed, temperature=temperature, preload=preload)
+        try:
+            values = node_values(model, op)
+        except SolverError:
+            model.forget_warm_start()
+            try:
+                values = node_values(model, op)
+            except SolverError:
+                failed[i] = True
+                continue
+        torque[i], contacts[i] = values.torque, values.contacts
+    return _LineResult(line, torque, contacts, failed, static)
+
+
+def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
+    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place.
+
+    Raises:
+        MapError: a whole speed line failed.
+    """
+    count = failed.shape[1]
+    for sign, i, *rest in zip(*np.nonzero(failed), strict=True):
+        for j in sorted(range(count), key=lambda k: abs(k - i)):
+            if not failed[(sign, j, *rest)]:
+                table[(sign, i, *rest)] = table[(sign, j, *rest)]
+                break
+        else:
+            raise MapError(f"steady map: the solver failed at every speed of line {sign, *rest}")
+
+
+def build_map(
+    config: TwinConfig, grid: MapGrid | None = None, workers: int = 2, progress: bool = True
+) -> SteadyMap:
+    """Solve every node of ``grid`` with the symmetric steady model.
+
+    Args:
+        config: parameter set.
+        grid: nodes (default :class:`MapGrid()`).
+        workers: worker processes (1: solve in this process).
+        progress: show a tqdm progress bar on stderr.
+    """
+    from tqdm import tqdm
+
+    grid = grid if grid is not None else MapGrid()
+    grid.check_buildable()
+    speeds, temps, preloads = grid.speeds, grid.temperatures, grid.preloads
+    shape = (2, len(speeds), len(temps), len(preloads))
+    torque = np.full((*shape, NUTS, len(MECHANISMS)), np.nan)
+    contacts = np.full((*shape, NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
+    failed = np.zeros(shape, dtype=bool)
+    static = np.full((*shape[2:], NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
+    lines = [_Line(s, t, p) for s in range(2) for t in range(shape[2]) for p in range(shape[3])]
+
+    def store(results: Iterable[_LineResult]) -> None:
+        bar = tqdm(total=len(lines), desc="steady map", unit="line", disable=not progress)
+        for res in results:
+            where = (res.line.sign, slice(None), res.line.temperature, res.line.preload)
+            torque[where], contacts[where], failed[where] = res.torque, res.contacts, res.failed
+            static[res.line.temperature, res.line.preload] = res.static
+            bar.update()
+        bar.close()
+
+    if workers <= 1:
+        _worker_init(config, grid)
+        store(_solve_line(line) for line in lines)
+    else:
+        context = multiprocessing.get_context("spawn")
+        with context.Pool(workers, initializer=_worker_init, initargs=(config, grid)) as pool:
+            store(pool.imap_unordered(_solve_line, lines, chunksize=2))
+    if failed.any():
+        _fill_failed(torque, failed)
+        _fill_failed(contacts, failed)
+    return SteadyMap(
+        grid=grid,
+        torque=torque.astype(np.float32),
+        contacts=contacts[:, ::2, ::2, ::2].astype(np.float32),
+        static=static[::2, ::2].astype(np.float32),
+        filled=failed,
+        fingerprint=config_fingerprint(config),
+        orientation=config.screw.orientation,
+    )
+
+
+# ---------------------------------------------------------------------------------------------
+# Interpolation
+
+
+def catmull_rom_weights(t: float) -> FloatArray:
+    """Weights of the four nodes i-1, i, i+1, i+2 at fraction ``t`` in [0, 1] of cell [i, i+1]."""
+    t2, t3 = t * t, t * t * t
+    return 0.5 * np.array(
+        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
+    )
+
+
+def pad_axis(table: FloatArray, axis: int) -> FloatArray:
+    """Add a linearly extrapolated ghost node at both ends of ``axis``."""
+    first, second = np.take(table, [0], axis=axis), np.take(table, [1], axis=axis)
+    last, before = np.take(table, [-1], axis=axis), np.take(table, [-2], axis=axis)
+    return np.concatenate([2.0 * first - second, table, 2.0 * last - before], axis=axis)
+
+
+@dataclass(frozen=True)
+class AxisPosition:
+    """Where a query falls on one axis: first node of its 4-node stencil in the padded table
+    (= its cell index in the unpadded one), the stencil's weights, and whether it was clamped."""
+
+    start: int
+    weights: FloatArray
+    clamped: bool
+
+
+def locate(u: float, count: int) -> AxisPosition:
+    """Position ``u`` in node units (0 .. count-1) of an axis of ``count`` nodes, clamped."""
+    clamped = not 0.0 <= u <= count - 1
+    u = min(max(u, 0.0), count - 1.0)
+    cell = min(int(u), count - 2)
+    return AxisPosition(start=cell, weights=catmull_rom_weights(u - cell), clamped=clamped)
+
+
+@dataclass(frozen=True)
+class _Positions:
+    """Stencils of one query on the three axes."""
+
+    speed: AxisPosition
+    temperature: AxisPosition
+    preload: AxisPosition
+
+
+def _speed_position(grid: MapGrid, speed: float) -> AxisPosition:
+    """Stencil of |speed| [rad/s] on ``grid`` (uniform in log |speed|)."""
+    u = math.log(max(speed, grid.speed_min) / grid.speed_min) / math.log(
+        grid.speed_max / grid.speed_min
+    )
+    return locate(u * (grid.speed_nodes - 1), grid.speed_nodes)
+
+
+def _temperature_position(grid: MapGrid, temperature: float) -> AxisPosition:
+    """Stencil of the temperature [K] on ``grid`` (uniform)."""
+    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
+    return locate(u * (grid.temperature_nodes - 1), grid.temperature_nodes)
+
+
+def _preload_position(grid: MapGrid, preload: float) -> AxisPosition:
+    """Stencil of the equivalent preload [N] on ``grid`` (uniform in sqrt(preload))."""
+    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
+    return locate(u * (grid.preload_nodes - 1), grid.preload_nodes)
+
+
+def _stencil(table: FloatArray, pos: _Positions) -> FloatArray:
+    """Interpolate a padded (S, T, P, nut, V) table at ``pos``: (nut, V)."""
+    s, t, p = pos.speed.start, pos.temperature.start, pos.preload.start
+    block = table[s : s + 4, t : t + 4, p : p + 4]
+    w = np.outer(np.outer(pos.speed.weights, pos.temperature.weights), pos.preload.weights)
+    return np.asarray(w.reshape(64) @ block.reshape(64, -1)).reshape(table.shape[3:])
+
+
+def _stencil_2d(table: FloatArray, pos: _Positions) -> FloatArray:
+    """Interpolate a padded (T, P, nut, V) table at ``pos`` (speed unused): (nut, V)."""
+    t, p = pos.temperature.start, pos.preload.start
+    w = np.outer(pos.temperature.weights, pos.preload.weights)
+    block = table[t : t + 4, p : p + 4]
+    return np.asarray(w.reshape(16) @ block.reshape(16, -1)).reshape(table.shape[2:])
+
+
+@dataclass(frozen=True)
+class MapSample:
+    """Interpolated state of both nuts at one query.
+
+    Attributes:
+        torque: (2, 6) drag torque per nut and mechanism [N m] (it has the sign of the speed).
+        contacts: (2, 4, F) contact quantities per nut and half groove, :data:`CONTACT_FIELDS`.
+        notes: clamping, standstill blending and filled nodes, in words.
+    """
+
+    torque: FloatArray
+    contacts: FloatArray
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+@dataclass(frozen=True)
+class SteadyMap:
+    """The tables and their interpolation (see the module docstring).
+
+    Attributes:
+        grid: nodes of the torque table.
+        torque: (2 signs, S, T, P, 2 nuts, 6) drag torque per mechanism [N m].
+        contacts: (2, S', T', P', 2, 4, F) contact quantities (:data:`CONTACT_FIELDS`, SI) on
+            ``grid.coarse()``.
+        static: (T', P', 2, 4, F) contact quantities at standstill on ``grid.coarse()``.
+        filled: (2, S, T, P) nodes filled from a neighbour because the solver failed there.
+        fingerprint: :func:`config_fingerprint` of the parameter set the map was built for.
+        orientation: screw orientation of that parameter set.
+    """
+
+    grid: MapGrid
+    torque: NDArray[np.floating]
+    contacts: NDArray[np.floating]
+    static: NDArray[np.floating]
+    filled: NDArray[np.bool_]
+    fingerprint: str
+    orientation: str
+    _padded: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
+    _coarse: MapGrid | None = field(default=None, compare=False, repr=False)
+    _any_filled: bool = field(default=False, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.grid.check_buildable()
+        g, c = self.grid, self.grid.coarse()
+        shape = (2, g.speed_nodes, g.temperature_nodes, g.preload_nodes)
+        coarse = (2, c.speed_nodes, c.temperature_nodes, c.preload_nodes)
+        expected = {
+            "torque": (*shape, NUTS, len(MECHANISMS)),
+            "contacts": (*coarse, NUTS, HALF_GROOVES, len(CONTACT_FIELDS)),
+            "static": (*coarse[2:], NUTS, HALF_GROOVES, len(CONTACT_FIELDS)),
+            "filled": shape,
+        }
+        for name, want in expected.items():
+            table = getattr(self, name)
+            if table.shape != want:
+                raise MapError(f"steady map: {name} has shape {table.shape}, the grid needs {want}")
+            if name != "filled" and not np.isfinite(table).all():
+                raise MapError(f"steady map: {name} holds non-finite values")
+        mechanisms = np.asarray(self.torque, dtype=np.float64)
+        total = np.arcsinh(mechanisms.sum(axis=-1, keepdims=True) / TORQUE_SCALE)
+        torque = np.concatenate([total, mechanisms], axis=-1)
+        contacts = np.asarray(self.contacts, dtype=np.float64).copy()
+        contacts[..., _LOG_FIELDS] = np.arcsinh(contacts[..., _LOG_FIELDS] / _LOG_SCALE_VALUES)
+        contacts = contacts.reshape(*coarse, NUTS, -1)
+        static = np.asarray(self.static, dtype=np.float64).reshape(*coarse[2:], NUTS, -1)
+        for axis in (1, 2, 3):
+            torque, contacts = pad_axis(torque, axis), pad_axis(contacts, axis)
+        for axis in (0, 1):
+            static = pad_axis(static, axis)
+        self._padded.update(torque=torque, contacts=contacts, static=static)
+        object.__setattr__(self, "_coarse", c)
+        object.__setattr__(self, "_any_filled", bool(self.filled.any()))
+
+    @property
+    def node_count(self) -> int:
+        """Number of speed x temperature x preload nodes of the torque table (both signs)."""
+        return int(self.filled.size)
+
+    def _clamp_notes(
+        self, speed: float, temperature: float, preloads: tuple[float, float]
+    ) -> list[str]:
+        g = self.grid
+        notes = []
+        if speed > g.speed_max:
+            notes.append(
+                f"speed {speed / RPM:.0f} rpm above the map's {g.speed_max / RPM:.0f} rpm: "
+                "clamped to it"
+            )
+        if 0.0 < speed < g.speed_min:
+            notes.append(
+                f"speed {speed / RPM:.3g} rpm below the map's {g.speed_min / RPM:.3g} rpm: "
+                "torque and contacts blended linearly to standstill"
+            )
+        if not g.temperature_min <= temperature <= g.temperature_max:
+            notes.append(
+                f"temperature {temperature - CELSIUS_ZERO:.1f} C outside the map "
+                f"[{g.temperature_min - CELSIUS_ZERO:.0f}, {g.temperature_max - CELSIUS_ZERO:.0f}]"
+                " C: clamped"
+            )
+        for name, preload in zip(NUT_NAMES, preloads, strict=True):
+            if not 0.0 <= preload <= g.preload_max:
+                notes.append(
+                    f"{name} nut equivalent preload {preload:.0f} N outside the map "
+                    f"[0, {g.preload_max:.0f}] N: clamped"
+                )
+        return notes
+
+    def _filled_near(self, sign: int, pos: _Positions) -> bool:
+        """Whether the stencil at ``pos`` uses a filled node."""
+        s, t, p = (max(a.start - 1, 0) for a in (pos.speed, pos.temperature, pos.preload))
+        return bool(self.filled[sign, s : s + 4, t : t + 4, p : p + 4].any())
+
+    def sample(
+        self, screw_speed: float, temperature: float, preloads: tuple[float, float]
+    ) -> MapSample:
+        """Interpolate both nuts.
+
+        Args:
+            screw_speed: signed screw speed [rad/s].
+            temperature: temperature [K].
+            preloads: equivalent preload of the (master, slave) nut [N],
+                :func:`equivalent_preloads`.
+        """
+        g = self.grid
+        sign = 0 if screw_speed >= 0.0 else 1
+        speed = abs(screw_speed)
+        notes = self._clamp_notes(speed, temperature, preloads)
+        blend = min(speed / g.speed_min, 1.0)  # 1 on the map, -> 0 at standstill
+        c = self._coarse
+        assert c is not None
+        fine_s, fine_t = _speed_position(g, speed), _temperature_position(g, temperature)
+        coarse_s, coarse_t = _speed_position(c, speed), _temperature_position(c, temperature)
+        values = np.empty((NUTS, len(MECHANISMS) + 1))
+        rows = np.empty((NUTS, HALF_GROOVES * len(CONTACT_FIELDS)))
+        still = np.empty_like(rows)
+        solved: dict[float, tuple[_Positions, FloatArray, FloatArray, FloatArray | None]] = {}
+        for nut, preload in enumerate(preloads):
+            if preload not in solved:  # both nuts at once; one stencil when the loads agree
+                pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
+                coarse = _Positions(coarse_s, coarse_t, _preload_position(c, preload))
+                solved[preload] = (
+                    pos,
+                    _stencil(self._padded["torque"][sign], pos),
+                    _stencil(self._padded["contacts"][sign], coarse),
+                    _stencil_2d(self._padded["static"], coarse) if blend < 1.0 else None,
+                )
+            pos, nut_values, nut_rows, nut_still = solved[preload]
+            values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
+            if nut_still is not None:
+                still[nut] = nut_still[nut]
+            if self._any_filled and self._filled_near(sign, pos):
+                notes.append(
+                    f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady solver "
+                    "failed (filled from the nearest solved speed)"
+                )
+        total = TORQUE_SCALE * np.sinh(values[:, :1])
+        mechanisms = values[:, 1:]
+        # Share the difference to the total out in proportion to each mechanism's size.
+        magnitude = np.abs(mechanisms)
+        size = magnitude.sum(axis=1, keepdims=True)
+        share = np.divide(magnitude, size, out=np.zeros_like(magnitude), where=size > 0.0)
+        torque = (mechanisms + (total - mechanisms.sum(axis=1, keepdims=True)) * share) * blend
+        contacts = rows.reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
+        contacts[..., _LOG_FIELDS] = _LOG_SCALE_VALUES * np.sinh(contacts[..., _LOG_FIELDS])
+        if blend < 1.0:
+            contacts = contacts * blend + still.reshape(contacts.shape) * (1.0 - blend)
+        np.maximum(contacts, _LOWER_BOUND, out=contacts)
+        return MapSample(torque=torque, contacts=contacts, notes=tuple(notes))
+
+    # ------------------------------------------------------------------ files
+
+    def save(self, path: str | Path) -> None:
+        """Write the map as a compressed ``.npz`` file."""
+        np.savez_compressed(
+            Path(path),
+            format_version=np.array(FORMAT_VERSION),
+            grid=self.grid.as_array(),
+            torque=np.asarray(self.torque, dtype=np.float32),
+            contacts=np.asarray(self.contacts, dtype=np.float32),
+            static=np.asarray(self.static, dtype=np.float32),
+            filled=self.filled,
+            fingerprint=np.array(self.fingerprint),
+            orientation=np.array(self.orientation),
+            contact_fields=np.array(CONTACT_FIELDS),
+            mechanisms=np.array(MECHANISMS),
+        )
+
+
+def load_map(path: str | Path | None = None) -> SteadyMap:
+    """Read a map written by :meth:`SteadyMap.save` (default: the committed one).
+
+    Raises:
+        MapError: the file is missing, unreadable, of another format version, tabulates other
+            quantities or holds inconsistent tables.
+    """
+    file = Path(path) if path is not None else DEFAULT_MAP_PATH
+    try:
+        with np.load(file, allow_pickle=False) as data:
+            version = int(data["format_version"])
+            if version != FORMAT_VERSION:
+                raise MapError(f"{file}: format_version = {version}, expected {FORMAT_VERSION}")
+            fields_ = tuple(str(x) for x in data["contact_fields"])
+            mechanisms = tuple(str(x) for x in data["mechanisms"])
+            if fields_ != CONTACT_FIELDS or mechanisms != tuple(MECHANISMS):
+                raise MapError(f"{file}: tabulates other quantities than this version reads")
+            return SteadyMap(
+                grid=MapGrid.from_array(data["grid"]),
+                torque=np.asarray(data["torque"]),
+                contacts=np.asarray(data["contacts"]),
+                static=np.asarray(data["static"]),
+                filled=np.asarray(data["filled"], dtype=bool),
+                fingerprint=str(data["fingerprint"]),
+                orientation=str(data["orientation"]),
+            )
+    except MapError as err:
+        if str(file) in str(err):
+            raise
+        raise MapError(f"{file}: {err}") from err
+    except (OSError, KeyError, ValueError, TypeError, EOFError) as err:
+        raise MapError(f"{file}: not a readable steady map ({err})") from err
+
+
+# ---------------------------------------------------------------------------------------------
+# Command line: python -m ballscrew_twin.models.steady_map build --out FILE
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``build``: solve a grid with the steady model and save the map."""
+    parser = argparse.ArgumentParser(
+        prog="python -m ballscrew_twin.models.steady_map",
+        description="tabulate the steady-state model for the real-time model",
+    )
+    sub = parser.add_subparsers(dest="command", required=True)
+    build = sub.add_parser("build", help="solve the grid with the steady model and save it")
+    build.add_argument("--out", required=True, help="output .npz file")
+    build.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
+    build.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    defaults = MapGrid()
+    build.add_argument("--speed-nodes", type=int, default=defaults.speed_nodes, help="odd")
+    build.add_argument("--temperature-nodes", type=int, default=defaults.temperature_nodes)
+    build.add_argument("--preload-nodes", type=int, default=defaults.preload_nodes, help="odd")
+    args = parser.parse_args(argv)
+    try:
+        grid = replace(
+            defaults,
+            speed_nodes=args.speed_nodes,
+            temperature_nodes=args.temperature_nodes,
+            preload_nodes=args.preload_nodes,
+        )
+        steady_map = build_map(load_config(args.config), grid, workers=args.workers)
+        steady_map.save(args.out)
+    except BallscrewTwinError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+    filled = int(steady_map.filled.sum())
+    print(
+        f"wrote {args.out}: {steady_map.node_count} nodes, {filled} filled from a neighbour "
+        "(steady solver failed there)"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

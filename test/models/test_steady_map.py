@@ -1,0 +1,221 @@
+"""The steady map: interpolation, clamping, files, building, and the committed map's freshness."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.models import steady_map as sm
+from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
+from ballscrew_twin.models.steady import SteadyStateModel
+from ballscrew_twin.params import load_config
+
+RPM = 2.0 * math.pi / 60.0
+GRID = sm.MapGrid(
+    speed_min=10 * RPM,
+    speed_max=1000 * RPM,
+    speed_nodes=5,
+    temperature_min=273.15,
+    temperature_max=333.15,
+    temperature_nodes=5,
+    preload_max=1600.0,
+    preload_nodes=5,
+)
+F = len(sm.CONTACT_FIELDS)
+
+
+def _coordinates(grid: sm.MapGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Node coordinates in which the map is uniform: log speed, temperature, sqrt preload."""
+    return np.log(grid.speeds), grid.temperatures, np.sqrt(grid.preloads)
+
+
+def _linear(
+    s: np.ndarray, t: np.ndarray, p: np.ndarray, a: float, b: float, c: float
+) -> np.ndarray:
+    return 1.0 + a * s + b * t + c * p
+
+
+def _from_interpolated(name: str, value: np.ndarray | float) -> np.ndarray:
+    """The field value whose interpolated form (asinh for LOG_SCALES fields) is ``value``."""
+    scale = sm.LOG_SCALES.get(name)
+    return np.asarray(value if scale is None else scale * np.sinh(value))
+
+
+def _synthetic_map() -> sm.SteadyMap:
+    """A map whose asinh(nut torque / scale) and contact fields are linear in the node
+    coordinates (Catmull-Rom with linear ghost nodes reproduces them exactly)."""
+    s, t, p = np.meshgrid(*_coordinates(GRID), indexing="ij")
+    torque = np.zeros((2, *s.shape, 2, len(MECHANISMS)))
+    for sign, direction in enumerate((1.0, -1.0)):
+        for nut in range(2):
+            total = direction * sm.TORQUE_SCALE * np.sinh(_linear(s, t, p, 0.9, 0.01, 0.02 + nut))
+            shares = np.linspace(0.1, 0.3, len(MECHANISMS))
+            torque[sign, ..., nut, :] = total[..., None] * shares / shares.sum()
+    coarse = GRID.coarse()
+    cs, ct, cp = np.meshgrid(*_coordinates(coarse), indexing="ij")
+    contacts = np.zeros((2, *cs.shape, 2, 4, F))
+    for j, name in enumerate(sm.CONTACT_FIELDS):
+        linear = _linear(cs, ct, cp, 1.0 + j, 0.02, 0.5)[None, ..., None, None]
+        contacts[..., j] = _from_interpolated(name, linear)
+    static = np.full((*cs.shape[1:], 2, 4, F), 7.0)
+    return sm.SteadyMap(
+        grid=GRID,
+        torque=torque,
+        contacts=contacts,
+        static=static,
+        filled=np.zeros((2, *s.shape), dtype=bool),
+        fingerprint="synthetic",
+        orientation="vertical",
+    )
+
+
+@pytest.mark.parametrize("sign", [1.0, -1.0])
+def test_interpolation_reproduces_linear_fields(sign: float) -> None:
+    table = _synthetic_map()
+    rng = np.random.default_rng(5)
+    for _ in range(10):
+        speed = math.exp(rng.uniform(math.log(GRID.speed_min), math.log(GRID.speed_max)))
+        temperature = rng.uniform(GRID.temperature_min, GRID.temperature_max)
+        preloads = (rng.uniform(0.0, GRID.preload_max), rng.uniform(0.0, GRID.preload_max))
+        sample = table.sample(sign * speed, temperature, preloads)
+        assert sample.notes == ()
+        for nut in range(2):
+            exact = (
+                sign
+                * sm.TORQUE_SCALE
+                * math.sinh(
+                    1.0
+                    + 0.9 * math.log(speed)
+                    + 0.01 * temperature
+                    + (0.02 + nut) * math.sqrt(preloads[nut])
+                )
+            )
+            assert sample.torque[nut].sum() == pytest.approx(exact, rel=1e-9)
+            expected = [
+                _from_interpolated(
+                    name,
+                    1.0
+                    + (1.0 + j) * math.log(speed)
+                    + 0.02 * temperature
+                    + 0.5 * math.sqrt(preloads[nut]),
+                )
+                for j, name in enumerate(sm.CONTACT_FIELDS)
+            ]
+            np.testing.assert_allclose(sample.contacts[nut, 2], expected, rtol=1e-9)
+
+
+def test_clamping_and_standstill_blending() -> None:
+    table = _synthetic_map()
+    inside = table.sample(100 * RPM, 300.0, (800.0, 800.0))
+    hot = table.sample(100 * RPM, 400.0, (800.0, 800.0))
+    edge = table.sample(100 * RPM, GRID.temperature_max, (800.0, 800.0))
+    assert inside.notes == ()
+    assert any("temperature" in n and "clamped" in n for n in hot.notes)
+    np.testing.assert_allclose(hot.torque, edge.torque, rtol=1e-12)
+    fast = table.sample(5000 * RPM, 300.0, (800.0, 2000.0))
+    assert any("above" in n for n in fast.notes)
+    assert any("master" not in n and "slave" in n and "clamped" in n for n in fast.notes)
+    at_min = table.sample(GRID.speed_min, 300.0, (800.0, 800.0))
+    slow = table.sample(0.25 * GRID.speed_min, 300.0, (800.0, 800.0))
+    assert any("standstill" in n for n in slow.notes)
+    np.testing.assert_allclose(slow.torque, 0.25 * at_min.torque, rtol=1e-12)
+    np.testing.assert_allclose(slow.contacts, 0.25 * at_min.contacts + 0.75 * 7.0, rtol=1e-12)
+    still = table.sample(0.0, 300.0, (800.0, 800.0))
+    assert np.all(still.torque == 0.0)
+    np.testing.assert_allclose(still.contacts, 7.0)
+
+
+def test_save_load_roundtrip_and_bad_files(tmp_path: Path) -> None:
+    table = _synthetic_map()
+    path = tmp_path / "map.npz"
+    table.save(path)
+    loaded = sm.load_map(path)
+    assert loaded.grid == GRID and loaded.fingerprint == "synthetic"
+    query = (300 * RPM, 310.0, (500.0, 900.0))
+    np.testing.assert_allclose(loaded.sample(*query).torque, table.sample(*query).torque, rtol=1e-6)
+    with pytest.raises(sm.MapError, match=r"missing\.npz"):
+        sm.load_map(tmp_path / "missing.npz")
+    corrupt = tmp_path / "corrupt.npz"
+    corrupt.write_bytes(b"not a zip file")
+    with pytest.raises(sm.MapError, match=r"corrupt\.npz"):
+        sm.load_map(corrupt)
+    with np.load(path) as data:
+        content = dict(data)
+    content["format_version"] = np.array(99)
+    np.savez(tmp_path / "future.npz", **content)
+    with pytest.raises(sm.MapError, match="format_version"):
+        sm.load_map(tmp_path / "future.npz")
+    content["format_version"] = np.array(sm.FORMAT_VERSION)
+    content["torque"] = content["torque"][:, :3]
+    np.savez(tmp_path / "short.npz", **content)
+    with pytest.raises(sm.MapError, match="torque has shape"):
+        sm.load_map(tmp_path / "short.npz")
+
+
+def test_grid_validation() -> None:
+    with pytest.raises(sm.MapError, match="speed_min"):
+        replace(GRID, speed_min=-1.0)
+    with pytest.raises(sm.MapError, match="odd"):
+        replace(GRID, preload_nodes=6).check_buildable()
+    assert sm.MapGrid.from_array(GRID.as_array()) == GRID
+
+
+def test_failed_nodes_take_the_nearest_solved_speed() -> None:
+    table = np.arange(2 * 5 * 2, dtype=float).reshape(2, 5, 2)
+    failed = np.zeros_like(table, dtype=bool)
+    failed[0, 0, 1] = failed[0, 1, 1] = failed[1, 3, 0] = True
+    filled = table.copy()
+    sm._fill_failed(filled, failed)
+    assert filled[0, 0, 1] == table[0, 2, 1] and filled[0, 1, 1] == table[0, 2, 1]
+    assert filled[1, 3, 0] == table[1, 2, 0]  # nearer below than above: ties go down
+    failed[1, :, 1] = True
+    with pytest.raises(sm.MapError, match="every speed"):
+        sm._fill_failed(table.copy(), failed)
+
+
+def test_nuts_are_independent_given_their_equivalent_preload() -> None:
+    """The premise of the map: a nut's state depends on its own load only, so the master
+    nut under (preload F, axial load A) is the master nut under preload F + A."""
+    model = SteadyStateModel(load_config(None), mode="symmetric")
+    point = OperatingPoint(
+        screw_speed=800 * RPM, temperature=300.0, preload=900.0, axial_load=400.0
+    )
+    master_alike = replace(point, preload=1300.0, axial_load=0.0)
+    slave_alike = replace(point, axial_load=0.0)
+    assert sm.equivalent_preloads(point) == (1300.0, 900.0)
+    both = sm.node_values(model, point)
+    master = sm.node_values(model, master_alike)
+    slave = sm.node_values(model, slave_alike)
+    np.testing.assert_allclose(both.torque[0], master.torque[0], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(both.torque[1], slave.torque[1], rtol=1e-6, atol=1e-12)
+    np.testing.assert_allclose(both.contacts[0], master.contacts[0], rtol=1e-6, atol=1e-12)
+    output = model.evaluate(point)
+    np.testing.assert_allclose(both.torque.sum(axis=1), output.nut_torque, rtol=1e-12)
+
+
+def test_committed_map_matches_the_current_steady_model() -> None:
+    """Catches a stale map: the committed table against the steady model (symmetric, which
+    equals full mode on the vertical paper screw) at random points between the nodes."""
+    config = load_config(None)
+    table = sm.load_map()
+    assert table.fingerprint == sm.config_fingerprint(config), "map built for other parameters"
+    model = SteadyStateModel(config, mode="symmetric")
+    rng = np.random.default_rng(2026)
+    for _ in range(6):
+        op = OperatingPoint(
+            screw_speed=float(
+                rng.choice([-1, 1]) * math.exp(rng.uniform(math.log(50), math.log(5000))) * RPM
+            ),
+            temperature=float(rng.uniform(253.15, 353.15)),
+            preload=float(rng.uniform(200.0, 3500.0)),
+        )
+        sample = table.sample(op.screw_speed, op.temperature, sm.equivalent_preloads(op))
+        reference = model.evaluate(op)
+        assert sample.torque.sum() == pytest.approx(reference.drag_torque, rel=0.01), op
+        assert reference.contacts is not None
+        force = sample.contacts[..., sm.CONTACT_FIELDS.index("normal_force")].reshape(-1)
+        np.testing.assert_allclose(force, reference.contacts.normal_force, rtol=0.02, atol=1e-6)
