@@ -1,9 +1,11 @@
-"""Demo command publisher: drives a running twin node and prints the torque it publishes.
+"""Demo command publisher: drives a running twin node through a speed/temperature/preload profile.
 
 Publishes a scripted sequence of screw speed [rad/s], temperature [deg C] and preload [N]
-commands (sensor-data QoS, 10 Hz), including one invalid (NaN) preload that the node must
-reject, subscribes ``drag_torque`` and prints the latest value once a second. Exits 0 after
-``--duration`` seconds if torque messages arrived, 1 otherwise.
+commands (sensor-data QoS, 10 Hz), including one invalid (NaN) preload and one speed sent in
+rpm instead of rad/s, which the node must reject. Prints each new command; the torque is shown
+by :mod:`ballscrew_twin.ros.console_view`. The profile starts with the twin node's first
+``drag_torque`` message and lasts ``--duration`` seconds; exit 0 then, 1 when no twin node
+showed up within a minute.
 
 Run (with a twin node on the same ROS domain): ``twin_demo_commander --duration 10``.
 """
@@ -26,11 +28,16 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
+#: Longest wait for the twin node to subscribe [s].
+STARTUP_TIMEOUT = 60.0
 #: Publish rate of the commands [Hz].
 COMMAND_RATE = 10.0
 #: Interval between two printed lines [s].
 PRINT_PERIOD = 1.0
 RPM_TO_RAD_S = 2.0 * math.pi / 60.0
+#: Speed sent once in rpm instead of rad/s: above the screw's critical speed (1885 rad/s)
+#: when read as rad/s, so the node rejects it [rpm].
+RPM_MISTAKE = 3000.0
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -67,69 +74,87 @@ def command_at(fraction: float) -> Command:
 
 
 class DemoCommander(Node):
-    """Publishes :func:`command_at` commands and prints the received drag torque.
+    """Publishes :func:`command_at` commands and a few deliberately bad ones.
 
     Args:
         duration: length of the run [s].
         inject_nan_at: fraction of the run at which one NaN preload is published (<0: never).
+        inject_rpm_at: fraction of the run at which :data:`RPM_MISTAKE` (a speed in rpm) is
+            published as rad/s (<0: never); the node must reject it as implausible.
     """
 
-    def __init__(self, duration: float, inject_nan_at: float = 0.5, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        duration: float,
+        inject_nan_at: float = 0.5,
+        inject_rpm_at: float = 0.7,
+        **kwargs: Any,
+    ) -> None:
         super().__init__("twin_demo_commander", **kwargs)
         self.duration = duration
-        self.inject_nan_at = inject_nan_at
-        self.start = time.monotonic()
-        self.received = 0
-        self.latest: DragTorque | None = None
-        self._nan_sent = False
-        self._received_at_last_print = 0
-        self._speed_pub = self.create_publisher(Float64, "speed_command", qos_profile_sensor_data)
-        self._temp_pub = self.create_publisher(
-            Temperature, "temperature", qos_profile_sensor_data)
-        self._preload_pub = self.create_publisher(
-            Float64, "preload_command", qos_profile_sensor_data)
+        self.injections = {"nan": inject_nan_at, "rpm": inject_rpm_at}
+        #: When the profile started: with the twin node's first torque message.
+        self.start: float | None = None
+        self.created = time.monotonic()
+        self.sent = 0
+        self._last_command: Command | None = None
+        qos = qos_profile_sensor_data
+        self._speed_pub = self.create_publisher(Float64, "speed_command", qos)
+        self._temp_pub = self.create_publisher(Temperature, "temperature", qos)
+        self._preload_pub = self.create_publisher(Float64, "preload_command", qos)
         self.create_subscription(DragTorque, "drag_torque", self._on_torque, 10)
         self.create_timer(1.0 / COMMAND_RATE, self._publish_commands)
-        self.create_timer(PRINT_PERIOD, self._print_status)
 
     def elapsed(self) -> float:
-        """Time since start [s]."""
-        return time.monotonic() - self.start
+        """Time since the profile started [s] (0 while waiting for the twin node)."""
+        return 0.0 if self.start is None else time.monotonic() - self.start
 
-    def _on_torque(self, msg: DragTorque) -> None:
-        self.received += 1
-        self.latest = msg
+    def waited(self) -> float:
+        """Time spent waiting for the twin node so far [s] (0 once it is there)."""
+        return time.monotonic() - self.created if self.start is None else 0.0
+
+    def _on_torque(self, _msg: DragTorque) -> None:
+        """The profile starts with the twin node's first torque message."""
+        if self.start is None:
+            self.start = time.monotonic()
+
+    def _due(self, name: str, fraction: float) -> bool:
+        """Whether the one-off bad command ``name`` is due now (then it is marked as sent)."""
+        at = self.injections[name]
+        if 0.0 <= at <= fraction:
+            self.injections[name] = -1.0
+            return True
+        return False
 
     def _publish_commands(self) -> None:
+        if self.start is None:
+            return  # the twin node is not up yet: keep the profile for when it is
         fraction = self.elapsed() / self.duration
         cmd = command_at(fraction)
-        preload = cmd.preload
-        if not self._nan_sent and 0.0 <= self.inject_nan_at <= fraction:
+        if cmd != self._last_command:
+            self._last_command = cmd
+            print(
+                f"t={self.elapsed():5.1f} s  command {cmd.screw_speed / RPM_TO_RAD_S:6.0f} rpm, "
+                f"{cmd.temperature_c:5.1f} C, {cmd.preload:6.0f} N",
+                flush=True,
+            )
+        preload, speed = cmd.preload, cmd.screw_speed
+        if self._due("nan", fraction):
             preload = math.nan
-            self._nan_sent = True
-            print(f"t={self.elapsed():5.1f} s  sending preload = NaN (the node must reject it)",
-                  flush=True)
-        self._speed_pub.publish(Float64(data=cmd.screw_speed))
+            print(f"t={self.elapsed():5.1f} s  sending preload NaN (to be rejected)", flush=True)
+        if self._due("rpm", fraction):
+            speed = RPM_MISTAKE
+            print(
+                f"t={self.elapsed():5.1f} s  sending {RPM_MISTAKE:g} rpm as {RPM_MISTAKE:g} "
+                "rad/s (unit mistake, to be rejected)",
+                flush=True,
+            )
+        self._speed_pub.publish(Float64(data=speed))
         temp = Temperature(temperature=cmd.temperature_c, variance=0.0)
         temp.header.stamp = self.get_clock().now().to_msg()
         self._temp_pub.publish(temp)
         self._preload_pub.publish(Float64(data=preload))
-
-    def _print_status(self) -> None:
-        rate = (self.received - self._received_at_last_print) / PRINT_PERIOD
-        self._received_at_last_print = self.received
-        msg = self.latest
-        if msg is None:
-            print(f"t={self.elapsed():5.1f} s  waiting for drag_torque ...", flush=True)
-            return
-        print(
-            f"t={self.elapsed():5.1f} s  speed {msg.screw_speed:7.2f} rad/s  "
-            f"T {msg.temperature:6.2f} K  preload {msg.preload:6.0f} N  ->  "
-            f"torque {msg.total * 1e3:8.3f} mN m (master {msg.nut_master * 1e3:.3f}, "
-            f"slave {msg.nut_slave * 1e3:.3f})  [{msg.fidelity}, {rate:.0f} msg/s, "
-            f"rtf {msg.real_time_factor:.4f}]",
-            flush=True,
-        )
+        self.sent += 1
 
 
 def main(args: list[str] | None = None) -> None:
@@ -137,32 +162,43 @@ def main(args: list[str] | None = None) -> None:
     argv = sys.argv if args is None else args
     parser = argparse.ArgumentParser(prog="twin_demo_commander", description=__doc__)
     parser.add_argument("--duration", type=float, default=10.0, help="run length [s]")
-    parser.add_argument("--nan-at", type=float, default=0.5,
-                        help="fraction of the run at which a NaN preload is sent (<0: never)")
+    parser.add_argument(
+        "--nan-at",
+        type=float,
+        default=0.5,
+        help="fraction of the run at which a NaN preload is sent (<0: never)",
+    )
+    parser.add_argument(
+        "--rpm-at",
+        type=float,
+        default=0.7,
+        help="fraction of the run at which a speed in rpm is sent as rad/s (<0: never)",
+    )
     opts = parser.parse_args(remove_ros_args(argv)[1:])
     if not opts.duration > 0.0:
         parser.error("--duration must be > 0")
 
     rclpy.init(args=argv)
     node: DemoCommander | None = None
-    received = 0
     try:
-        node = DemoCommander(opts.duration, inject_nan_at=opts.nan_at)
+        node = DemoCommander(opts.duration, inject_nan_at=opts.nan_at, inject_rpm_at=opts.rpm_at)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while rclpy.ok() and node.elapsed() < opts.duration:
             executor.spin_once(timeout_sec=0.05)
-        received = node.received
+            if node.waited() > STARTUP_TIMEOUT:
+                print(
+                    f"twin_demo_commander: no twin node within {STARTUP_TIMEOUT:g} s",
+                    file=sys.stderr,
+                )
+                raise SystemExit(1)
     except (KeyboardInterrupt, ExternalShutdownException):
-        received = node.received if node is not None else 0
+        pass
     finally:
         if node is not None:
+            print(f"twin_demo_commander: {node.sent} command sets sent", flush=True)
             node.destroy_node()
         rclpy.try_shutdown()
-    if received == 0:
-        print("twin_demo_commander: no drag_torque message received", file=sys.stderr)
-        raise SystemExit(1)
-    print(f"twin_demo_commander: {received} drag_torque messages received", flush=True)
 
 
 if __name__ == "__main__":

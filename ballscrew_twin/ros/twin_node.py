@@ -1,59 +1,90 @@
-"""ROS 2 node of the ball-screw twin: commanded operating point in, drag torque out.
+"""ROS 2 node of the ball-screw twin: the simulator stepped in real time on ROS topics.
 
-Subscribes (sensor-data QoS, topic names are parameters and can be remapped):
-    ``speed_command``    std_msgs/Float64      screw angular speed [rad/s]
-    ``temperature``      sensor_msgs/Temperature  bulk temperature [deg C], converted to [K]
-    ``preload_command``  std_msgs/Float64      preload between the nuts [N]
+Subscribes (topic names, message types and QoS are parameters; see ``config/twin_node.yaml``):
+    ``speed_command``       std_msgs/Float64 or sensor_msgs/JointState (velocity) [rad/s]
+    ``temperature``         sensor_msgs/Temperature [deg C], converted to [K] on arrival
+    ``preload_command``     std_msgs/Float64 [N]
+    ``axial_load_command``  std_msgs/Float64 [N], optional external axial load (default 0 N)
 
-Publishes (reliable, depth 10), at ``publish_rate_hz``:
-    ``drag_torque``      ballscrew_twin_msgs/DragTorque  [N m], with the operating point used
+Publishes:
+    ``drag_torque``      ballscrew_twin_msgs/DragTorque every simulation tick (default 1 kHz),
+                         stamped with the tick's time, with breakdown, fidelity, real-time factor
+    ``contact_states``   ballscrew_twin_msgs/ContactStateArray at ``contact_rate_hz`` (default
+                         100 Hz), every sphere the model resolves
+    ``/diagnostics``     diagnostic_msgs/DiagnosticArray at ``diagnostics_rate_hz`` (1 Hz): model
+                         in use and why, real time (late/skipped ticks, latency), each input
+                         (stale, rejected), validity notes of the model
 
-A command that is not finite or outside the limits (``limits.*`` parameters) is rejected with a
-warning and the last good value is kept; the node never publishes a non-finite number.
+The simulation keeps a fixed step locked to the node's clock (wall time, or ``/clock`` with
+``use_sim_time``): it catches up after a short stall, skips ticks (and counts them) when far
+behind, restarts on a clock jump, and under ``fidelity: auto`` steps down to a cheaper model
+when the current one does not fit into the step budget. A command that is not finite,
+implausible, out of order or stale is rejected with a log line and a diagnostic, the last good
+value stays in force; the node never publishes a non-finite number.
 
 Run: ``twin_node --ros-args --params-file config/twin_node.yaml``.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
+import signal
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
 import rclpy
-from ballscrew_twin_msgs.msg import DragTorque
+from ballscrew_twin_msgs.msg import ContactState, ContactStateArray, DragTorque
+from builtin_interfaces.msg import Time as TimeMsg
+from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import (
     FloatingPointRange,
+    IntegerRange,
     ParameterDescriptor,
     ParameterType,
     SetParametersResult,
 )
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import qos_profile_sensor_data
-from sensor_msgs.msg import Temperature
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..errors import BallscrewTwinError
-from ..models.base import OperatingPoint, SteadyStateModel, TwinOutput
-from ..models.catalog import CatalogModel
+from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..params import load_config
+from . import diagnostics, fidelity
 from .inputs import (
+    NS_PER_S,
+    InputChannel,
     InputLimits,
     celsius_to_kelvin,
+    check_axial_load,
     check_preload,
     check_screw_speed,
+    check_stamp,
     check_temperature,
 )
+from .scheduler import TickScheduler
 
 NODE_NAME = "ballscrew_twin"
-
-#: Minimum interval between two identical warnings of the publish loop [s].
-WARN_THROTTLE = 1.0
+#: Executors ``main`` can spin the node with (parameter ``executor``).
+EXECUTORS = ("single_threaded", "events")
+#: A tick published within this time of its due time is on time [ns].
+ON_TIME_NS = 1_000_000
+#: Minimum interval between two log lines about the same input or failure [s].
+LOG_THROTTLE = 1.0
+#: Windows (of one simulated second) in a row in which the model's mean step time exceeds the
+#: step budget before ``fidelity: auto`` steps down [-].
+OVER_BUDGET_WINDOWS = 2
+#: Substrings of model notes that are validity warnings (outside the validated envelope).
+VALIDITY_WORDS = ("validity:", "outside", "clamped", "blended", "failed", "not converged")
 
 
 def _float_descriptor(
@@ -68,26 +99,94 @@ def _float_descriptor(
     )
 
 
-def _string_descriptor(description: str, *, read_only: bool = True) -> ParameterDescriptor:
-    """Descriptor of a string parameter (read-only by default: used at start-up only)."""
+def _int_descriptor(description: str, low: int, high: int) -> ParameterDescriptor:
+    """Descriptor of an integer parameter restricted to [low, high]."""
     return ParameterDescriptor(
-        type=ParameterType.PARAMETER_STRING, description=description, read_only=read_only
+        type=ParameterType.PARAMETER_INTEGER,
+        description=description,
+        integer_range=[IntegerRange(from_value=low, to_value=high, step=1)],
     )
 
 
-class TwinNode(Node):
-    """Thin rclpy node around a steady-state ball-screw model (the catalogue model for now).
+def _string_descriptor(
+    description: str, *, read_only: bool = True, choices: tuple[str, ...] = ()
+) -> ParameterDescriptor:
+    """Descriptor of a string parameter (read-only by default: used at start-up only)."""
+    constraints = f"one of: {', '.join(choices)}" if choices else ""
+    return ParameterDescriptor(
+        type=ParameterType.PARAMETER_STRING,
+        description=description,
+        read_only=read_only,
+        additional_constraints=constraints,
+    )
 
-    Parameters (see ``config/twin_node.yaml``):
-        publish_rate_hz: rate of ``drag_torque`` [Hz], 1..1000, default 100.
-        config_file: screw parameter file (YAML); '' = the shipped paper screw. Read-only.
-        mu_lit: equivalent friction coefficient of the catalogue formula [-], default 0.002.
-        speed_topic, temperature_topic, preload_topic, torque_topic: topic names. Read-only.
-        frame_id: ``header.frame_id`` of published messages.
-        initial_screw_speed [rad/s], initial_temperature [K], initial_preload [N]: operating
-            point used until the first command arrives. Read-only.
-        limits.max_screw_speed [rad/s], limits.min_temperature [K], limits.max_temperature [K],
-            limits.max_preload [N]: commands outside these are rejected. Read-only.
+
+#: String parameters restricted to a set of values.
+CHOICES: dict[str, tuple[str, ...]] = {
+    "fidelity": fidelity.FIDELITY_MODES,
+    "steady_mode": ("auto", "symmetric", "full"),
+    "speed_type": ("float64", "joint_state"),
+    "input_qos": ("sensor_data", "reliable"),
+    "executor": EXECUTORS,
+}
+#: Parameters whose change rebuilds the model.
+MODEL_PARAMETERS = ("fidelity", "tolerance", "steady_mode", "mu_lit", "realtime_map")
+#: Parameters whose change restarts the tick schedule.
+RATE_PARAMETERS = ("sim_rate_hz", "contact_rate_hz", "max_catch_up_ticks")
+
+
+@dataclass
+class TickWindow:
+    """Counters of the ticks since the last diagnostics message (and since start-up)."""
+
+    ticks: int = 0
+    late: int = 0
+    skipped: int = 0
+    failures: int = 0
+    step_time_sum: float = 0.0  # s
+    step_time_max: float = 0.0  # s
+    latencies_ns: list[int] = field(default_factory=list)
+
+    def add(self, step_time: float, latency_ns: int) -> None:
+        """Book one published tick: model step time [s], publish latency [ns]."""
+        self.ticks += 1
+        self.step_time_sum += step_time
+        self.step_time_max = max(self.step_time_max, step_time)
+        self.latencies_ns.append(latency_ns)
+        if latency_ns > ON_TIME_NS:
+            self.late += 1
+
+
+def _finite_output(out: TwinOutput) -> bool:
+    """Whether every number of ``out`` that goes into the torque message is finite."""
+    b = out.breakdown
+    values = (
+        out.drag_torque,
+        *out.nut_torque,
+        b.lubricant_shear,
+        b.dry_contact,
+        b.rolling_resistance,
+        b.hysteresis,
+        b.curvature,
+        b.spin,
+    )
+    return all(math.isfinite(v) for v in values)
+
+
+class TwinNode(Node):
+    """The twin's simulator on ROS 2 topics, stepped at a fixed rate in step with the clock.
+
+    Parameters (ranges in the descriptors; see ``config/twin_node.yaml`` for all):
+        sim_rate_hz: simulation step rate and ``drag_torque`` rate [Hz], default 1000.
+        contact_rate_hz: ``contact_states`` rate [Hz] (0: off), <= sim_rate_hz, default 100.
+        diagnostics_rate_hz: ``/diagnostics`` rate [Hz], default 1.
+        fidelity: auto, realtime, quasi_static or catalog (run-time changeable).
+        tolerance, steady_mode, mu_lit: settings of the models (run-time changeable).
+        step_budget: share of the step a model may take before auto steps down [-].
+        max_catch_up_ticks: most overdue ticks run at once; more are skipped [-].
+        stale_after [s], max_stamp_age [s]: input freshness checks.
+        config_file, topics, speed_type, speed_joint, input_qos, initial_*, limits.*,
+            executor: read at start-up only.
 
     Keyword arguments are passed to :class:`rclpy.node.Node` (``context``,
     ``parameter_overrides``, ``cli_args``, ``namespace`` ...).
@@ -95,103 +194,273 @@ class TwinNode(Node):
 
     def __init__(self, node_name: str = NODE_NAME, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        defaults = InputLimits()
-        self.declare_parameter(
-            "publish_rate_hz", 100.0,
-            _float_descriptor("Publish rate of drag_torque [Hz]", 1.0, 1000.0))
-        self.declare_parameter(
-            "config_file", "",
-            _string_descriptor("Screw parameter file (YAML); empty: shipped paper screw"))
-        self.declare_parameter(
-            "mu_lit", 0.002,
-            _float_descriptor("Equivalent friction coefficient of the catalogue formula [-]",
-                              0.0, 0.5))
-        self.declare_parameter(
-            "speed_topic", "speed_command",
-            _string_descriptor("Input: screw speed, std_msgs/Float64 [rad/s]"))
-        self.declare_parameter(
-            "temperature_topic", "temperature",
-            _string_descriptor("Input: temperature, sensor_msgs/Temperature [deg C]"))
-        self.declare_parameter(
-            "preload_topic", "preload_command",
-            _string_descriptor("Input: preload, std_msgs/Float64 [N]"))
-        self.declare_parameter(
-            "torque_topic", "drag_torque",
-            _string_descriptor("Output: ballscrew_twin_msgs/DragTorque [N m]"))
-        self.declare_parameter(
-            "frame_id", "ball_screw",
-            _string_descriptor("header.frame_id of published messages", read_only=False))
-        self.declare_parameter(
-            "initial_screw_speed", 0.0,
-            _float_descriptor("Screw speed until the first command [rad/s]",
-                              -defaults.max_screw_speed, defaults.max_screw_speed,
-                              read_only=True))
-        self.declare_parameter(
-            "initial_temperature", 293.15,
-            _float_descriptor("Temperature until the first measurement [K]",
-                              defaults.min_temperature, defaults.max_temperature,
-                              read_only=True))
-        self.declare_parameter(
-            "initial_preload", 1500.0,
-            _float_descriptor("Preload until the first command [N]",
-                              0.0, defaults.max_preload, read_only=True))
-        self.declare_parameter(
-            "limits.max_screw_speed", defaults.max_screw_speed,
-            _float_descriptor("Largest accepted |screw speed| [rad/s]", 1.0, 1.0e4,
-                              read_only=True))
-        self.declare_parameter(
-            "limits.min_temperature", defaults.min_temperature,
-            _float_descriptor("Lowest accepted temperature [K]", 150.0, 400.0, read_only=True))
-        self.declare_parameter(
-            "limits.max_temperature", defaults.max_temperature,
-            _float_descriptor("Highest accepted temperature [K]", 250.0, 700.0, read_only=True))
-        self.declare_parameter(
-            "limits.max_preload", defaults.max_preload,
-            _float_descriptor("Largest accepted preload [N]", 1.0, 1.0e6, read_only=True))
-
+        self._declare_parameters()
+        self.config = load_config(self._str("config_file") or None)
+        max_speed = self._float("limits.max_screw_speed") or self.config.screw.critical_speed
         self.limits = InputLimits(
-            max_screw_speed=self._float("limits.max_screw_speed"),
+            max_screw_speed=max_speed,
             min_temperature=self._float("limits.min_temperature"),
             max_temperature=self._float("limits.max_temperature"),
             max_preload=self._float("limits.max_preload"),
+            max_axial_load=self._float("limits.max_axial_load"),
         )
-        config_file = self._str("config_file")
-        self.config = load_config(config_file or None)
-        self.model: SteadyStateModel = CatalogModel(self.config, mu_lit=self._float("mu_lit"))
-
-        self.operating_point = OperatingPoint(
-            screw_speed=self._float("initial_screw_speed"),
-            temperature=self._float("initial_temperature"),
-            preload=self._float("initial_preload"),
-        )
+        for name, check in (
+            ("initial_screw_speed", check_screw_speed),
+            ("initial_temperature", check_temperature),
+            ("initial_preload", check_preload),
+        ):
+            if (reason := check(self._float(name), self.limits)) is not None:
+                raise ValueError(f"parameter {name}: {reason}")
+        self.speed = InputChannel("screw speed", "rad/s", self._float("initial_screw_speed"))
+        self.temperature = InputChannel("temperature", "K", self._float("initial_temperature"))
+        self.preload = InputChannel("preload", "N", self._float("initial_preload"))
+        self.axial_load = InputChannel("axial load", "N", 0.0)
+        self.channels = (self.speed, self.temperature, self.preload, self.axial_load)
+        self.operating_point = self._current_op()
         self.operating_point.validate()
-        #: Number of commands rejected since start-up.
-        self.rejected_commands = 0
-        #: Number of drag_torque messages published since start-up.
+
+        settings = self._model_settings({})
+        self.choice = fidelity.choose(self._str("fidelity"), settings)
+        self.fallback = fidelity.build("catalog", settings)
+        self._pending: tuple[fidelity.ModelChoice, Any] | None = None
+        self.model_switches = 0
+        self.model_failures = 0
+        self.choice.model.reset(self.operating_point)
+        self.fallback.reset(self.operating_point)
+        self.last_output: TwinOutput | None = None
+
+        # Totals since start-up (the window counters restart with each diagnostics message).
         self.published_count = 0
+        self.contact_count = 0
+        self.rejected_commands = 0
+        self.clock_jumps_back = 0
+        self.clock_jumps_forward = 0
+        self.skipped_total = 0
+        self.late_total = 0
+        self.window = TickWindow()
+        self._window_start_ns = self._now_ns()
+        self._auto_window = TickWindow()
+        #: Consecutive review windows with the model over its step budget.
+        self._over_budget = 0
+        self._last_log: dict[str, float] = {}
+        #: Rejections per input already reported on /diagnostics.
+        self._rejected_seen: dict[str, int] = {}
+        #: Messages per input already counted on /diagnostics.
+        self._received_seen: dict[str, int] = {}
+        #: If set, every tick's publish latency [ns] is appended (benchmarks).
+        self.latency_log: list[int] | None = None
         self._frame_id = self._str("frame_id")
 
+        qos: QoSProfile | int = (
+            qos_profile_sensor_data if self._str("input_qos") == "sensor_data" else 10
+        )
         self._torque_pub = self.create_publisher(DragTorque, self._str("torque_topic"), 10)
+        self._contact_pub = self.create_publisher(ContactStateArray, self._str("contact_topic"), 5)
+        self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        if self._str("speed_type") == "joint_state":
+            self._speed_joint = self._str("speed_joint")
+            self.create_subscription(
+                JointState, self._str("speed_topic"), self._on_joint_state, qos
+            )
+        else:
+            self.create_subscription(Float64, self._str("speed_topic"), self._on_speed, qos)
         self.create_subscription(
-            Float64, self._str("speed_topic"), self._on_speed, qos_profile_sensor_data)
-        self.create_subscription(
-            Temperature, self._str("temperature_topic"), self._on_temperature,
-            qos_profile_sensor_data)
-        self.create_subscription(
-            Float64, self._str("preload_topic"), self._on_preload, qos_profile_sensor_data)
-        self._period = 1.0 / self._float("publish_rate_hz")
-        self._timer = self.create_timer(self._period, self._on_timer)
+            Temperature, self._str("temperature_topic"), self._on_temperature, qos
+        )
+        self.create_subscription(Float64, self._str("preload_topic"), self._on_preload, qos)
+        if self._str("axial_load_topic"):
+            self.create_subscription(
+                Float64, self._str("axial_load_topic"), self._on_axial_load, qos
+            )
+
+        self._timer = self.create_timer(1.0, self._on_timer)  # replaced by _start_schedule
+        self._start_schedule()
+        # On the steady clock: diagnostics go on (and say so) while a replay's /clock pauses.
+        self._diag_timer = self.create_timer(
+            1.0 / self._float("diagnostics_rate_hz"),
+            self._publish_diagnostics,
+            clock=Clock(clock_type=ClockType.STEADY_TIME),
+        )
 
         # Registered after the declarations: they validate and apply run-time changes only.
         self.add_on_set_parameters_callback(self._validate_parameters)
         self.add_post_set_parameters_callback(self._apply_parameters)
 
         self.get_logger().info(
-            f"model {self.model.name} with {self.config.source}; publishing "
-            f"{self._torque_pub.topic_name} at {1.0 / self._period:g} Hz; initial "
-            f"{self._describe(self.operating_point)}")
+            f"model {self.choice.model.name} ({self.choice.reason}) with {self.config.source}; "
+            f"publishing {self._torque_pub.topic_name} at {self.sim_rate:g} Hz, "
+            f"{self._contact_pub.topic_name} at {self._float('contact_rate_hz'):g} Hz; initial "
+            f"{self._describe(self.operating_point)}"
+        )
 
     # ------------------------------------------------------------------ parameters
+    def _declare_parameters(self) -> None:
+        """Declare every parameter with its descriptor (ranges, read-only, choices)."""
+        d = InputLimits()
+        fd = _float_descriptor
+        sd = _string_descriptor
+        params: list[tuple[str, Any, ParameterDescriptor]] = [
+            (
+                "sim_rate_hz",
+                1000.0,
+                fd("Simulation step rate and drag_torque rate [Hz]", 1.0, 2000.0),
+            ),
+            (
+                "contact_rate_hz",
+                100.0,
+                fd("contact_states rate [Hz], 0 = off, <= sim_rate_hz", 0.0, 2000.0),
+            ),
+            ("diagnostics_rate_hz", 1.0, fd("/diagnostics rate [Hz]", 0.1, 10.0, read_only=True)),
+            (
+                "fidelity",
+                "auto",
+                sd(
+                    "Model: auto, realtime, quasi_static or catalog",
+                    read_only=False,
+                    choices=CHOICES["fidelity"],
+                ),
+            ),
+            ("tolerance", 1e-10, fd("Convergence limit of the steady solve [-]", 1e-14, 1e-3)),
+            (
+                "steady_mode",
+                "auto",
+                sd(
+                    "Spheres the steady model solves",
+                    read_only=False,
+                    choices=CHOICES["steady_mode"],
+                ),
+            ),
+            ("mu_lit", 0.002, fd("Friction coefficient of the catalogue formula [-]", 0.0, 0.5)),
+            (
+                "step_budget",
+                0.5,
+                fd("Share of the step a model may take before auto steps down [-]", 0.05, 1.0),
+            ),
+            (
+                "max_catch_up_ticks",
+                20,
+                _int_descriptor("Most overdue ticks run at once; more are skipped [-]", 1, 1000),
+            ),
+            (
+                "stale_after",
+                1.0,
+                fd("An input with no message for this long is stale [s]", 0.01, 3600.0),
+            ),
+            (
+                "max_stamp_age",
+                1.0,
+                fd("Largest |clock - header stamp| accepted [s], 0 = off", 0.0, 3600.0),
+            ),
+            (
+                "realtime_map",
+                "",
+                sd(
+                    "Steady-state map of the real-time model (.npz); empty: the packaged one",
+                    read_only=False,
+                ),
+            ),
+            ("config_file", "", sd("Screw parameter file (YAML); empty: shipped paper screw")),
+            (
+                "executor",
+                "single_threaded",
+                sd("Executor of the twin_node process", choices=EXECUTORS),
+            ),
+            ("speed_topic", "speed_command", sd("Input: screw speed [rad/s]")),
+            (
+                "speed_type",
+                "float64",
+                sd("Message type of the speed input", choices=CHOICES["speed_type"]),
+            ),
+            (
+                "speed_joint",
+                "",
+                sd("JointState joint whose velocity is the screw speed; empty: the first"),
+            ),
+            ("temperature_topic", "temperature", sd("Input: sensor_msgs/Temperature [deg C]")),
+            ("preload_topic", "preload_command", sd("Input: preload, std_msgs/Float64 [N]")),
+            (
+                "axial_load_topic",
+                "axial_load_command",
+                sd("Input: external axial load, std_msgs/Float64 [N]; empty: not subscribed"),
+            ),
+            (
+                "input_qos",
+                "sensor_data",
+                sd(
+                    "QoS of the inputs: sensor_data (best effort) or reliable",
+                    choices=CHOICES["input_qos"],
+                ),
+            ),
+            ("torque_topic", "drag_torque", sd("Output: ballscrew_twin_msgs/DragTorque [N m]")),
+            (
+                "contact_topic",
+                "contact_states",
+                sd("Output: ballscrew_twin_msgs/ContactStateArray"),
+            ),
+            (
+                "frame_id",
+                "ball_screw",
+                sd("header.frame_id of published messages", read_only=False),
+            ),
+            (
+                "initial_screw_speed",
+                0.0,
+                fd("Screw speed until the first command [rad/s]", -1.0e4, 1.0e4, read_only=True),
+            ),
+            (
+                "initial_temperature",
+                293.15,
+                fd("Temperature until the first measurement [K]", 150.0, 700.0, read_only=True),
+            ),
+            (
+                "initial_preload",
+                1500.0,
+                fd("Preload until the first command [N]", 0.0, 1.0e6, read_only=True),
+            ),
+            (
+                "limits.max_screw_speed",
+                0.0,
+                fd(
+                    "Largest accepted |screw speed| [rad/s]; 0: the screw's critical speed",
+                    0.0,
+                    1.0e4,
+                    read_only=True,
+                ),
+            ),
+            (
+                "limits.min_temperature",
+                d.min_temperature,
+                fd("Lowest accepted temperature [K]", 150.0, 400.0, read_only=True),
+            ),
+            (
+                "limits.max_temperature",
+                d.max_temperature,
+                fd("Highest accepted temperature [K]", 250.0, 700.0, read_only=True),
+            ),
+            (
+                "limits.max_preload",
+                d.max_preload,
+                fd("Largest accepted preload [N]", 1.0, 1.0e6, read_only=True),
+            ),
+            (
+                "limits.max_axial_load",
+                d.max_axial_load,
+                fd("Largest accepted |axial load| [N]", 1.0, 1.0e6, read_only=True),
+            ),
+        ]
+        for name, default, descriptor in params:
+            self.declare_parameter(name, default, descriptor)
+        for name, choices in CHOICES.items():
+            if self._str(name) not in choices:
+                raise ValueError(
+                    f"parameter {name} = {self._str(name)!r} is not one of {', '.join(choices)}"
+                )
+        if self._float("contact_rate_hz") > self._float("sim_rate_hz"):
+            raise ValueError(
+                f"parameter contact_rate_hz = {self._float('contact_rate_hz'):g} Hz exceeds "
+                f"sim_rate_hz = {self._float('sim_rate_hz'):g} Hz"
+            )
+
     def _float(self, name: str) -> float:
         """Value of a double parameter."""
         return float(self.get_parameter(name).value)
@@ -200,130 +469,577 @@ class TwinNode(Node):
         """Value of a string parameter."""
         return str(self.get_parameter(name).value)
 
+    def _value(self, name: str, changes: dict[str, Any]) -> Any:
+        """Value of a parameter after a batch of ``changes`` (name -> new value)."""
+        return changes[name] if name in changes else self.get_parameter(name).value
+
+    @property
+    def sim_rate(self) -> float:
+        """Simulation step rate [Hz]."""
+        return self._float("sim_rate_hz")
+
+    def _model_settings(self, changes: dict[str, Any]) -> fidelity.ModelSettings:
+        """What the models are built from, after ``changes``."""
+        return fidelity.ModelSettings(
+            config=self.config,
+            mu_lit=float(self._value("mu_lit", changes)),
+            tolerance=float(self._value("tolerance", changes)),
+            steady_mode=self._value("steady_mode", changes),
+            realtime_map=str(self._value("realtime_map", changes)),
+        )
+
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
         """Check run-time changes beyond the descriptor ranges (which rclpy enforces)."""
-        for param in params:
-            if param.name == "mu_lit":
-                try:
-                    CatalogModel(self.config, mu_lit=float(param.value))
-                except (ValueError, BallscrewTwinError) as err:
-                    return SetParametersResult(successful=False, reason=str(err))
+        changes = {p.name: p.value for p in params}
+        for name, choices in CHOICES.items():
+            if name in changes and changes[name] not in choices:
+                return SetParametersResult(
+                    successful=False,
+                    reason=f"{name} = {changes[name]!r} is not one of {', '.join(choices)}",
+                )
+        sim_rate = float(self._value("sim_rate_hz", changes))
+        contact_rate = float(self._value("contact_rate_hz", changes))
+        if contact_rate > sim_rate:
+            return SetParametersResult(
+                successful=False,
+                reason=f"contact_rate_hz = {contact_rate:g} Hz exceeds sim_rate_hz = "
+                f"{sim_rate:g} Hz (contact states are published on simulation ticks)",
+            )
+        if any(name in changes for name in MODEL_PARAMETERS):
+            try:
+                settings = self._model_settings(changes)
+                choice = fidelity.choose(str(self._value("fidelity", changes)), settings)
+                fallback = fidelity.build("catalog", settings)
+            except (ValueError, BallscrewTwinError) as err:
+                return SetParametersResult(successful=False, reason=str(err))
+            self._pending = (choice, fallback)
         return SetParametersResult(successful=True)
 
     def _apply_parameters(self, params: list[Parameter]) -> None:
         """Apply run-time parameter changes that passed validation."""
-        for param in params:
-            if param.name == "mu_lit":
-                self.model = CatalogModel(self.config, mu_lit=float(param.value))
-                self.get_logger().info(f"mu_lit = {param.value:g}: model rebuilt")
-            elif param.name == "publish_rate_hz":
-                self._period = 1.0 / float(param.value)
-                self.destroy_timer(self._timer)
-                self._timer = self.create_timer(self._period, self._on_timer)
-                self.get_logger().info(f"publish rate now {param.value:g} Hz")
-            elif param.name == "frame_id":
-                self._frame_id = str(param.value)
+        names = {p.name for p in params}
+        if self._pending is not None and names & set(MODEL_PARAMETERS):
+            choice, fallback = self._pending
+            self._pending = None
+            self._switch_model(choice)
+            self.fallback = fallback
+            self.fallback.reset(self.operating_point)
+        if names & set(RATE_PARAMETERS):
+            self._start_schedule()
+            self.get_logger().info(
+                f"simulation now {self.sim_rate:g} Hz, contact states "
+                f"{self._float('contact_rate_hz'):g} Hz"
+            )
+        if "frame_id" in names:
+            self._frame_id = self._str("frame_id")
+
+    def _switch_model(self, choice: fidelity.ModelChoice) -> None:
+        """Run ``choice`` from the next tick on, started in the steady state of the command."""
+        previous = self.choice.model.name
+        choice.model.reset(self.operating_point)
+        self.choice = choice
+        self.model_switches += 1
+        self._auto_window = TickWindow()
+        self._over_budget = 0
+        self.get_logger().warning(f"model {previous} -> {choice.model.name}: {choice.reason}")
+
+    def _start_schedule(self) -> None:
+        """(Re)start the tick schedule and its timer at the current rates."""
+        self.period_ns = max(round(NS_PER_S / self.sim_rate), 1)
+        self.scheduler = TickScheduler(
+            self.period_ns, int(self.get_parameter("max_catch_up_ticks").value)
+        )
+        contact_rate = self._float("contact_rate_hz")
+        self.contact_every = (
+            max(round(self.sim_rate / contact_rate), 1) if contact_rate > 0.0 else 0
+        )
+        self.destroy_timer(self._timer)
+        self._timer = self.create_timer(self.period_ns / NS_PER_S, self._on_timer)
 
     # ------------------------------------------------------------------ inputs
-    def _reject(self, reason: str) -> None:
-        """Count and log a rejected command; the last good value stays in force."""
-        self.rejected_commands += 1
-        self.get_logger().warning(f"command rejected, keeping last good value: {reason}")
+    def _now_ns(self) -> int:
+        """The node's clock [ns] (wall time, or /clock under use_sim_time)."""
+        return int(self.get_clock().now().nanoseconds)
 
-    def _replace(self, **changes: float) -> None:
-        """Replace fields of the operating point (the values are already validated)."""
-        self.operating_point = dataclasses.replace(self.operating_point, **changes)
+    def _current_op(self) -> OperatingPoint:
+        """Operating point of the inputs' last good values."""
+        return OperatingPoint(
+            screw_speed=self.speed.value,
+            temperature=self.temperature.value,
+            preload=self.preload.value,
+            axial_load=self.axial_load.value,
+        )
+
+    def _take(
+        self, channel: InputChannel, value: float, reason: str | None, stamp: Any = None
+    ) -> None:
+        """Accept ``value`` into ``channel`` or reject it with ``reason`` (logged, counted)."""
+        now = self._now_ns()
+        stamp_ns = 0 if stamp is None else stamp.sec * NS_PER_S + stamp.nanosec
+        if reason is None:
+            reason = check_stamp(
+                stamp_ns,
+                last_stamp_ns=channel.last_stamp_ns,
+                now_ns=now,
+                max_age_ns=int(self._float("max_stamp_age") * NS_PER_S),
+            )
+        if reason is not None:
+            channel.reject(reason)
+            self.rejected_commands += 1
+            self._log_throttled(
+                channel.name,
+                f"{channel.name} rejected, keeping {channel.value:g} {channel.unit}: {reason}",
+            )
+            return
+        channel.accept(value, now, stamp_ns)
+        self.operating_point = self._current_op()
+
+    def _log_throttled(self, key: str, text: str) -> None:
+        """Warn at most once per :data:`LOG_THROTTLE` per ``key``."""
+        now = time.monotonic()
+        if now - self._last_log.get(key, -math.inf) >= LOG_THROTTLE:
+            self._last_log[key] = now
+            self.get_logger().warning(text)
 
     def _on_speed(self, msg: Float64) -> None:
         """Screw speed command [rad/s]."""
         value = float(msg.data)
-        reason = check_screw_speed(value, self.limits)
-        if reason is not None:
-            self._reject(reason)
+        self._take(self.speed, value, check_screw_speed(value, self.limits))
+
+    def _on_joint_state(self, msg: JointState) -> None:
+        """Screw speed from a joint's velocity [rad/s]."""
+        names = list(msg.name)
+        if self._speed_joint:
+            if self._speed_joint not in names:
+                self._take(
+                    self.speed, math.nan, f"joint {self._speed_joint!r} not in JointState {names}"
+                )
+                return
+            index = names.index(self._speed_joint)
+        else:
+            index = 0
+        if index >= len(msg.velocity):
+            self._take(self.speed, math.nan, f"JointState has no velocity for joint {index}")
             return
-        self._replace(screw_speed=value)
+        value = float(msg.velocity[index])
+        self._take(self.speed, value, check_screw_speed(value, self.limits), msg.header.stamp)
 
     def _on_temperature(self, msg: Temperature) -> None:
         """Temperature measurement [deg C], stored in [K]."""
-        value = celsius_to_kelvin(float(msg.temperature))
+        celsius = float(msg.temperature)
+        value = celsius_to_kelvin(celsius)
         reason = check_temperature(value, self.limits)
         if reason is not None:
-            self._reject(f"{reason} (received {msg.temperature!r} deg C)")
-            return
-        self._replace(temperature=value)
+            reason += f" (received {celsius!r} deg C)"
+        self._take(self.temperature, value, reason, msg.header.stamp)
 
     def _on_preload(self, msg: Float64) -> None:
         """Preload command [N]."""
         value = float(msg.data)
-        reason = check_preload(value, self.limits)
-        if reason is not None:
-            self._reject(reason)
-            return
-        self._replace(preload=value)
+        self._take(self.preload, value, check_preload(value, self.limits))
 
-    # ------------------------------------------------------------------ output
+    def _on_axial_load(self, msg: Float64) -> None:
+        """External axial load command [N]."""
+        value = float(msg.data)
+        self._take(self.axial_load, value, check_axial_load(value, self.limits))
+
+    # ------------------------------------------------------------------ simulation
     def _on_timer(self) -> None:
-        """Evaluate the model at the current operating point and publish the drag torque."""
+        """Run the ticks that are due on the node's clock (nothing once shutting down)."""
+        try:
+            self._run_due_ticks()
+        except Exception:
+            if self.context.ok():
+                raise
+            # SIGINT/SIGTERM shut the context down under a running tick: publishing failed.
+
+    def _run_due_ticks(self) -> None:
+        """Run the ticks that are due on the node's clock."""
+        now = self._now_ns()
+        if self.scheduler.origin_ns is None:
+            # First wake-up (the executor may start long after the timer was created): the
+            # timer wakes at now + k periods from here on, and so does the tick grid.
+            self._timer.reset()
+            self.scheduler.start(now)
+            return
+        plan = self.scheduler.due(now)
+        if plan.jumped_back:
+            self.clock_jumps_back += 1
+            for channel in self.channels:
+                channel.forget_times()
+            self.choice.model.reset(self.operating_point)
+            self.get_logger().warning(
+                f"clock jumped backwards to {now / NS_PER_S:.6f} s: simulation restarted there, "
+                "model reset, input stamps forgotten"
+            )
+        if plan.jumped_forward:
+            self.clock_jumps_forward += 1
+            self.get_logger().warning(
+                f"clock jumped forwards to {now / NS_PER_S:.6f} s: simulation restarted there"
+            )
+        if plan.skipped:
+            self.window.skipped += plan.skipped
+            self._auto_window.skipped += plan.skipped
+            self.skipped_total += plan.skipped
+            self._log_throttled(
+                "skipped",
+                f"{plan.skipped} ticks skipped: the node fell "
+                f"more than {self.scheduler.max_catch_up} ticks behind",
+            )
+        for index in plan.ticks:
+            self._tick(index)
+
+    def _step(self, op: OperatingPoint) -> TwinOutput:
+        """One model step at ``op``; the catalogue model stands in if the model fails."""
+        dt = self.period_ns / NS_PER_S
+        reason = ""
+        try:
+            out = self.choice.model.step(op, dt)
+            if _finite_output(out):
+                return out
+            reason = "returned a non-finite torque"
+        except Exception as err:  # a failing model must not stop the node
+            reason = f"raised {type(err).__name__}: {err}"
+        self.model_failures += 1
+        self.window.failures += 1
+        self._log_throttled(
+            "model",
+            f"model {self.choice.model.name} {reason} at "
+            f"{self._describe(op)}; catalogue value published instead",
+        )
+        if self._str("fidelity") == "auto" and self.choice.mode != "catalog":
+            # A model that fails is not used again until the fidelity parameter is set anew.
+            choice = fidelity.choose("auto", self._model_settings({}), below=self.choice.mode)
+            why = f"{self.choice.model.name} {reason}"
+            self._switch_model(
+                fidelity.ModelChoice(choice.model, choice.mode, f"{choice.reason}: {why}")
+            )
+        return self.fallback.step(op, dt)
+
+    def _tick(self, index: int) -> None:
+        """Step the model once and publish the tick's drag torque (and contact states)."""
         op = self.operating_point
         start = time.perf_counter()
-        try:
-            out = self.model.evaluate(op)
-        except (BallscrewTwinError, ValueError, ArithmeticError) as err:
-            self.get_logger().error(
-                f"model {self.model.name} failed at {self._describe(op)}: {err}",
-                throttle_duration_sec=WARN_THROTTLE)
-            return
-        elapsed = time.perf_counter() - start
-        # Simulated time per wall time (>= 1 keeps up); a compute time below the clock's
-        # resolution counts as one nanosecond.
-        msg = self.to_message(out, op, real_time_factor=self._period / max(elapsed, 1e-9))
-        if msg is None:
-            self.get_logger().error(
-                f"model {self.model.name} returned a non-finite torque at "
-                f"{self._describe(op)}; not published", throttle_duration_sec=WARN_THROTTLE)
-            return
+        out = self._step(op)
+        step_time = time.perf_counter() - start
+        tick_ns = self.scheduler.time_of(index)
+        stamp = TimeMsg(sec=tick_ns // NS_PER_S, nanosec=tick_ns % NS_PER_S)
+        period = self.period_ns / NS_PER_S
+        # Simulated time per compute time (>= 1 keeps up); below the clock's resolution it is
+        # counted as one nanosecond.
+        msg = self.to_message(out, stamp=stamp, real_time_factor=period / max(step_time, 1e-9))
         self._torque_pub.publish(msg)
         self.published_count += 1
+        self.last_output = out
+        # Tick latency: due time to torque published (contact states follow, at a lower rate).
+        latency = self._now_ns() - tick_ns
+        self.window.add(step_time, latency)
+        self._auto_window.add(step_time, latency)
+        if latency > ON_TIME_NS:
+            self.late_total += 1
+        if self.latency_log is not None:
+            self.latency_log.append(latency)
+        if self.contact_every and index % self.contact_every == 0 and out.contacts is not None:
+            contacts = self.contact_message(out, stamp)
+            if contacts is None:
+                self._log_throttled(
+                    "contacts",
+                    f"model {out.fidelity} returned non-finite contact states: not published",
+                )
+            else:
+                self._contact_pub.publish(contacts)
+                self.contact_count += 1
+        if self._auto_window.ticks >= max(int(self.sim_rate), 1):
+            self._review_fidelity()
 
-    def to_message(
-        self, out: TwinOutput, op: OperatingPoint, *, real_time_factor: float
-    ) -> DragTorque | None:
-        """Build the DragTorque message of one model output, or None if any value is not finite.
+    def _review_fidelity(self) -> None:
+        """Under ``fidelity: auto``, step down when the model does not fit into the step budget
+        for :data:`OVER_BUDGET_WINDOWS` windows of one simulated second in a row (so start-up
+        and a single hiccup of a loaded machine do not count)."""
+        w = self._auto_window
+        self._auto_window = TickWindow()
+        if self._str("fidelity") != "auto" or self.choice.mode == "catalog":
+            return
+        period = self.period_ns / NS_PER_S
+        budget = self._float("step_budget") * period
+        mean = w.step_time_sum / max(w.ticks, 1)
+        self._over_budget = self._over_budget + 1 if mean > budget else 0
+        if self._over_budget < OVER_BUDGET_WINDOWS:
+            return
+        overdue = (w.late + w.skipped) / max(w.ticks + w.skipped, 1)
+        choice = fidelity.choose("auto", self._model_settings({}), below=self.choice.mode)
+        why = (
+            f"{self.choice.model.name} took {mean * 1e3:.3f} ms per step on average "
+            f"(max {w.step_time_max * 1e3:.3f} ms; budget {budget * 1e3:.3f} ms of the "
+            f"{period * 1e3:.3f} ms step), {overdue:.1%} ticks late or skipped"
+        )
+        self._switch_model(
+            fidelity.ModelChoice(choice.model, choice.mode, f"{choice.reason}: {why}")
+        )
+
+    # ------------------------------------------------------------------ messages
+    def to_message(self, out: TwinOutput, *, stamp: Any, real_time_factor: float) -> DragTorque:
+        """The DragTorque message of one finite model output.
 
         Args:
-            out: model output [N m].
-            op: operating point the output was computed at (SI).
-            real_time_factor: publish period / model compute time, >= 1 keeps up [-].
+            out: model output [N m], finite; its ``operating_point`` (SI) is the point the
+                model computed at (inside the validity envelope).
+            stamp: ``builtin_interfaces/Time`` of the tick.
+            real_time_factor: step / model compute time, >= 1 keeps up [-].
         """
+        op = out.operating_point
         b = out.breakdown
-        values = {
-            "total": out.drag_torque,
-            "nut_master": out.nut_torque[0],
-            "nut_slave": out.nut_torque[1],
-            "lubricant_shear": b.lubricant_shear,
-            "dry_contact": b.dry_contact,
-            "rolling_resistance": b.rolling_resistance,
-            "hysteresis": b.hysteresis,
-            "curvature": b.curvature,
-            "spin": b.spin,
-            "real_time_factor": real_time_factor,
-            "screw_speed": op.screw_speed,
-            "temperature": op.temperature,
-            "preload": op.preload,
-        }
-        floats = {name: float(value) for name, value in values.items()}
-        if not all(math.isfinite(v) for v in floats.values()):
-            return None
-        msg = DragTorque(fidelity=out.fidelity, **floats)
-        msg.header.stamp = self.get_clock().now().to_msg()
+        msg = DragTorque(
+            total=float(out.drag_torque),
+            nut_master=float(out.nut_torque[0]),
+            nut_slave=float(out.nut_torque[1]),
+            lubricant_shear=float(b.lubricant_shear),
+            dry_contact=float(b.dry_contact),
+            rolling_resistance=float(b.rolling_resistance),
+            hysteresis=float(b.hysteresis),
+            curvature=float(b.curvature),
+            spin=float(b.spin),
+            fidelity=out.fidelity,
+            real_time_factor=float(real_time_factor),
+            screw_speed=float(op.screw_speed),
+            temperature=float(op.temperature),
+            preload=float(op.preload),
+        )
+        msg.header.stamp = stamp
         msg.header.frame_id = self._frame_id
         return msg
+
+    def contact_message(self, out: TwinOutput, stamp: Any) -> ContactStateArray | None:
+        """The ContactStateArray of every resolved sphere/half-groove contact of ``out``, or
+        None when a value is not finite (nothing is published then)."""
+        cs = out.contacts
+        assert cs is not None
+        columns = [
+            np.asarray(a, dtype=np.float64)
+            for a in (
+                cs.normal_force,
+                cs.friction_force,
+                cs.contact_angle,
+                cs.max_pressure,
+                cs.semi_axis_x,
+                cs.semi_axis_y,
+                cs.film_thickness,
+                cs.tallian_parameter,
+                cs.lubricant_share,
+                cs.dry_share,
+                cs.slip_speed,
+            )
+        ]
+        if not all(np.isfinite(c).all() for c in columns):
+            return None
+        msg = ContactStateArray(fidelity=out.fidelity)
+        msg.header.stamp = stamp
+        msg.header.frame_id = self._frame_id
+        rows = zip(
+            sphere_index_within_nut(cs).tolist(),
+            cs.nut.tolist(),
+            cs.half_groove.tolist(),
+            cs.in_contact.tolist(),
+            *(c.tolist() for c in columns),
+            strict=True,
+        )
+        msg.contacts = [
+            ContactState(
+                sphere_index=i,
+                nut=n,
+                half_groove=g,
+                in_contact=c,
+                normal_force=fn,
+                friction_force=ft,
+                contact_angle=a,
+                max_pressure=p,
+                semi_axis_x=ax,
+                semi_axis_y=ay,
+                film_thickness=h,
+                tallian_parameter=lam,
+                lubricant_share=ls,
+                dry_share=ds,
+                slip_speed=v,
+            )
+            for i, n, g, c, fn, ft, a, p, ax, ay, h, lam, ls, ds, v in rows
+        ]
+        return msg
+
+    # ------------------------------------------------------------------ diagnostics
+    def diagnostic_checks(self) -> list[diagnostics.Check]:
+        """The checks of the window since the last call (which restarts the window)."""
+        now = self._now_ns()
+        w, self.window = self.window, TickWindow()
+        elapsed = max((now - self._window_start_ns) / NS_PER_S, 1e-9)
+        self._window_start_ns = now
+        checks = [self._model_check(w), self._real_time_check(w, elapsed)]
+        stale_after = self._float("stale_after")
+        checks += [self._input_check(c, now, stale_after, elapsed) for c in self.channels]
+        checks.append(self._validity_check())
+        return checks
+
+    def _model_check(self, w: TickWindow) -> diagnostics.Check:
+        level = diagnostics.WARN if w.failures else diagnostics.OK
+        message = f"{self.choice.model.name}: {self.choice.reason}"
+        if w.failures:
+            message += f"; {w.failures} failed steps replaced by the catalogue model"
+        return diagnostics.Check(
+            "model",
+            level,
+            message,
+            (
+                ("fidelity parameter", self._str("fidelity")),
+                ("model", self.choice.model.name),
+                ("mode", self.choice.mode),
+                ("why", self.choice.reason),
+                ("switches", str(self.model_switches)),
+                ("failed steps (window / total)", f"{w.failures} / {self.model_failures}"),
+            ),
+        )
+
+    def _real_time_check(self, w: TickWindow, elapsed: float) -> diagnostics.Check:
+        period = self.period_ns / NS_PER_S
+        due = w.ticks + w.skipped
+        on_time = (w.ticks - w.late) / due if due else 1.0
+        mean_step = w.step_time_sum / w.ticks if w.ticks else 0.0
+        rtf = period / mean_step if mean_step > 0.0 else math.inf
+        lat = np.asarray(w.latencies_ns, dtype=np.float64) * 1e-6
+        p50, p99, pmax = (
+            (float(np.percentile(lat, 50)), float(np.percentile(lat, 99)), float(lat.max()))
+            if lat.size
+            else (0.0, 0.0, 0.0)
+        )
+        level = diagnostics.OK
+        message = f"{on_time:.2%} of ticks on time, real-time factor {rtf:.3g}"
+        if w.skipped or on_time < 0.999:
+            level = diagnostics.WARN
+            message += f"; {w.late} late (> 1 ms), {w.skipped} skipped"
+        if due == 0:
+            level, message = diagnostics.STALE, "no tick in this window (clock not advancing?)"
+        return diagnostics.Check(
+            "real time",
+            level,
+            message,
+            (
+                ("simulation rate [Hz]", f"{self.sim_rate:g}"),
+                ("use_sim_time", str(self.get_parameter("use_sim_time").value)),
+                ("ticks published (window)", str(w.ticks)),
+                ("simulated / clock time [-]", f"{w.ticks * period / elapsed:.4f}"),
+                ("on time within 1 ms [-]", f"{on_time:.5f}"),
+                ("late ticks (window / total)", f"{w.late} / {self.late_total}"),
+                ("skipped ticks (window / total)", f"{w.skipped} / {self.skipped_total}"),
+                ("latency p50 / p99 / max [ms]", f"{p50:.3f} / {p99:.3f} / {pmax:.3f}"),
+                (
+                    "model step mean / max [ms]",
+                    f"{mean_step * 1e3:.4f} / {w.step_time_max * 1e3:.4f}",
+                ),
+                ("real-time factor (step / compute) [-]", f"{rtf:.4g}"),
+                (
+                    "clock jumps back / forward",
+                    f"{self.clock_jumps_back} / {self.clock_jumps_forward}",
+                ),
+            ),
+        )
+
+    def _input_check(
+        self, c: InputChannel, now: int, stale_after: float, elapsed: float
+    ) -> diagnostics.Check:
+        age = c.age(now)
+        level, message = diagnostics.OK, f"{c.value:g} {c.unit}"
+        if age is None:
+            if c is self.axial_load:
+                message += " (not commanded)"
+            else:
+                level = diagnostics.WARN
+                message = f"no message yet: using the initial {c.value:g} {c.unit}"
+        elif age > stale_after:
+            level = diagnostics.WARN
+            message = f"stale: no message for {age:.3g} s, holding {c.value:g} {c.unit}"
+        window_rejections = c.rejected - self._rejected_seen.get(c.name, 0)
+        self._rejected_seen[c.name] = c.rejected
+        received = c.accepted + c.rejected
+        rate = (received - self._received_seen.get(c.name, 0)) / elapsed
+        self._received_seen[c.name] = received
+        if window_rejections:
+            level = max(level, diagnostics.WARN)
+            message += f"; {window_rejections} rejected, last: {c.last_rejection}"
+        return diagnostics.Check(
+            f"input {c.name}",
+            level,
+            message,
+            (
+                ("value", f"{c.value:g} {c.unit}"),
+                ("age [s]", "never" if age is None else f"{age:.3f}"),
+                ("messages per second", f"{rate:.1f}"),
+                ("accepted", str(c.accepted)),
+                ("rejected", str(c.rejected)),
+                ("last rejection", c.last_rejection),
+            ),
+        )
+
+    def _validity_check(self) -> diagnostics.Check:
+        out = self.last_output
+        notes = out.notes if out is not None else ()
+        warnings = [n for n in notes if any(w in n.lower() for w in VALIDITY_WORDS)]
+        level = diagnostics.WARN if warnings else diagnostics.OK
+        message = "; ".join(warnings) if warnings else "within the model's envelope"
+        return diagnostics.Check(
+            "validity", level, message, tuple((f"note {i}", n) for i, n in enumerate(notes))
+        )
+
+    def _publish_diagnostics(self) -> None:
+        """Publish ``/diagnostics``."""
+        self._diag_pub.publish(
+            diagnostics.to_message(
+                self.diagnostic_checks(),
+                node_name=self.get_name(),
+                hardware_id=NODE_NAME,
+                stamp=self.get_clock().now().to_msg(),
+            )
+        )
 
     @staticmethod
     def _describe(op: OperatingPoint) -> str:
         """Human-readable operating point."""
-        return (f"speed {op.screw_speed:g} rad/s, temperature {op.temperature:g} K, "
-                f"preload {op.preload:g} N")
+        return (
+            f"speed {op.screw_speed:g} rad/s, temperature {op.temperature:g} K, "
+            f"preload {op.preload:g} N, axial load {op.axial_load:g} N"
+        )
+
+
+def sphere_index_within_nut(cs: ContactStates) -> np.ndarray:
+    """Index of each contact's sphere within its own nut, 0-based [-]."""
+    index = np.asarray(cs.sphere, dtype=np.int64).copy()
+    for nut in (0, 1):
+        mask = cs.nut == nut
+        if mask.any():
+            index[mask] -= index[mask].min()
+    return index
+
+
+def make_executor(name: str, context: Any) -> Executor:
+    """The executor ``name`` (one of :data:`EXECUTORS`) on ``context``."""
+    if name == "events":
+        from rclpy.experimental import EventsExecutor
+
+        return EventsExecutor(context=context)
+    return SingleThreadedExecutor(context=context)
+
+
+def spin(executor: Executor, until: Callable[[], bool] | None = None) -> None:
+    """Spin until the context shuts down (or ``until()`` holds), one callback at a time.
+
+    A ``spin_once`` loop for both executors: ``EventsExecutor.spin()`` ignored SIGTERM in an
+    earlier check (docs ROS_NOTES), and the loop lets benchmarks stop after a fixed time.
+    """
+    context = executor.context
+    while context.ok() and (until is None or not until()):
+        try:
+            executor.spin_once(timeout_sec=0.1)
+        except Exception:
+            if context.ok():
+                raise
+            # Shut down (SIGINT/SIGTERM) while waiting: the wait set could not be built.
 
 
 def main(args: list[str] | None = None) -> None:
@@ -331,29 +1047,57 @@ def main(args: list[str] | None = None) -> None:
 
     Accepts ROS arguments, e.g. ``twin_node --ros-args --params-file config/twin_node.yaml``.
     """
-    rclpy.init(args=sys.argv if args is None else args)
+    raise SystemExit(run_node(sys.argv if args is None else args))
+
+
+def _ignore_signal(_signum: int, _frame: object) -> None:
+    """Python-level SIGINT/SIGTERM handler behind rclpy's: the context shutdown is enough."""
+
+
+def run_node(argv: list[str]) -> int:
+    """Run :class:`TwinNode` with ROS arguments ``argv`` until shut down; the exit code."""
+    # rclpy's SIGINT/SIGTERM handler shuts the context down, then calls the handler installed
+    # before it. Python's default one would raise KeyboardInterrupt at a random point of the
+    # shutdown (it killed the process with SIGINT in 1 stop of ~8): install a silent one.
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _ignore_signal)
+    try:
+        rclpy.init(args=argv)
+    except Exception as err:  # rclpy's RCLError: unreadable --params-file, bad --ros-args
+        print(f"twin_node: cannot start: {err}", file=sys.stderr)
+        return 1
     node: TwinNode | None = None
-    executor = SingleThreadedExecutor()
+    executor: Executor | None = None
     exit_code = 0
     try:
         node = TwinNode()
+        executor = make_executor(node._str("executor"), node.context)
         executor.add_node(node)
-        executor.spin()
+        spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     except (BallscrewTwinError, ParameterException, ValueError) as err:
         # Bad parameter file, screw configuration or initial operating point: say which.
-        print(f"twin_node: cannot start: {err}", file=sys.stderr)
+        hint = ""
+        if "expecting type 'DOUBLE'" in str(err):
+            hint = " (write floating-point parameters with a decimal point, e.g. 1000.0)"
+        print(f"twin_node: cannot start: {err}{hint}", file=sys.stderr)
         exit_code = 1
     finally:
-        # Stop the executor before destroying the node it waits on: destroying a node under a
-        # live executor crashed the process (SIGSEGV) in 3 of 20 SIGINT stops.
-        executor.shutdown()
+        # The executor no longer spins here. Take the node out of it before destroying the node
+        # (destroying a node under a live executor crashed with SIGSEGV in 3 of 20 stops), and
+        # release the executor before the process exits: an EventsExecutor that still holds
+        # the node's callbacks at exit aborts ("Destroying callback manager with callbacks
+        # remaining", SIGABRT in 1 of 8 SIGTERM stops).
+        if executor is not None and node is not None:
+            executor.remove_node(node)
         if node is not None:
             node.destroy_node()
+        if executor is not None:
+            executor.shutdown()
+            del executor
         rclpy.try_shutdown()
-    if exit_code:
-        raise SystemExit(exit_code)
+    return exit_code
 
 
 if __name__ == "__main__":

@@ -61,7 +61,7 @@ def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
             if "publishing" in line:
                 started = line
                 break
-        assert "catalog" in started, f"no start-up line from twin_node: {started!r}"
+        assert "model" in started, f"no start-up line from twin_node: {started!r}"
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=TIMEOUT) == 0
     finally:
@@ -70,10 +70,33 @@ def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
             proc.wait(timeout=TIMEOUT)
 
 
-def test_twin_node_refuses_out_of_range_parameter() -> None:
+@pytest.mark.parametrize("command", [["twin_node"], ["ballscrew-twin", "node"]])
+def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
     result = subprocess.run(
-        [_script("twin_node"), "--ros-args", "-p", "publish_rate_hz:=5000.0"],
+        [_script(command[0]), *command[1:], "--ros-args", "-p", "sim_rate_hz:=5000.0"],
         capture_output=True, text=True, env=_env(), timeout=TIMEOUT, stdin=subprocess.DEVNULL,
     )
     assert result.returncode == 1
-    assert "publish_rate_hz" in result.stderr
+    assert "sim_rate_hz" in result.stderr
+
+
+def test_node_refuses_unreadable_params_file(tmp_path: Path) -> None:
+    result = subprocess.run(
+        [_script("ballscrew-twin"), "node", "--params-file", str(tmp_path / "missing.yaml")],
+        capture_output=True, text=True, env=_env(), timeout=TIMEOUT, stdin=subprocess.DEVNULL,
+    )
+    assert result.returncode == 1
+    assert "missing.yaml" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_node_command_passes_ros_arguments_on() -> None:
+    import argparse
+
+    from ballscrew_twin.ros import node_command
+
+    parser = argparse.ArgumentParser()
+    node_command.add_arguments(parser)
+    args = parser.parse_args(["--params-file", "p.yaml", "--ros-args", "-p", "a:=1"])
+    assert node_command.ros_argv(args)[1:] == ["--ros-args", "--params-file", "p.yaml",
+                                               "-p", "a:=1"]
+    assert node_command.ros_argv(parser.parse_args([])) == ["ballscrew-twin-node"]

@@ -10,10 +10,14 @@ from hypothesis import strategies as st
 
 from ballscrew_twin.ros.demo_commander import RPM_TO_RAD_S, command_at
 from ballscrew_twin.ros.inputs import (
+    NS_PER_S,
+    InputChannel,
     InputLimits,
     celsius_to_kelvin,
+    check_axial_load,
     check_preload,
     check_screw_speed,
+    check_stamp,
     check_temperature,
 )
 
@@ -31,6 +35,51 @@ def test_non_finite_rejected(value: float) -> None:
     assert check_screw_speed(value, LIMITS) is not None
     assert check_temperature(value, LIMITS) is not None
     assert check_preload(value, LIMITS) is not None
+
+
+def test_axial_load_limits() -> None:
+    assert check_axial_load(-LIMITS.max_axial_load, LIMITS) is None
+    assert check_axial_load(LIMITS.max_axial_load * 1.001, LIMITS) is not None
+    assert check_axial_load(math.nan, LIMITS) is not None
+
+
+def test_rpm_sent_as_rad_s_is_named() -> None:
+    limits = InputLimits(max_screw_speed=1884.96)  # the paper screw's critical speed
+    reason = check_screw_speed(3000.0, limits)  # 3000 rpm = 314 rad/s, sent as rad/s
+    assert reason is not None and "rpm" in reason
+    assert "rpm" not in (check_screw_speed(1.0e6, limits) or "")  # too big in any unit
+
+
+def test_kelvin_sent_as_celsius_is_named() -> None:
+    reason = check_temperature(celsius_to_kelvin(293.15), LIMITS)  # 20 C sent in kelvin
+    assert reason is not None and "kelvin" in reason
+
+
+def test_stamps() -> None:
+    now = 100 * NS_PER_S
+    age = NS_PER_S
+    assert check_stamp(0, last_stamp_ns=now, now_ns=now, max_age_ns=age) is None  # unstamped
+    assert check_stamp(now - 10, last_stamp_ns=now - 20, now_ns=now, max_age_ns=age) is None
+    assert "out of order" in (check_stamp(now - 20, last_stamp_ns=now - 10, now_ns=now,
+                                          max_age_ns=age) or "")
+    assert "stale" in (check_stamp(now - 2 * age, last_stamp_ns=None, now_ns=now,
+                                   max_age_ns=age) or "")
+    assert "ahead" in (check_stamp(now + 2 * age, last_stamp_ns=None, now_ns=now,
+                                   max_age_ns=age) or "")
+    assert check_stamp(now - 50 * age, last_stamp_ns=None, now_ns=now, max_age_ns=0) is None
+
+
+def test_channel_keeps_last_good_value_and_knows_its_age() -> None:
+    channel = InputChannel("preload", "N", 1500.0)
+    assert channel.is_stale(0, 1.0) and channel.age(0) is None
+    channel.accept(2000.0, now_ns=5 * NS_PER_S, stamp_ns=4 * NS_PER_S)
+    channel.reject("bad")
+    assert channel.value == 2000.0 and channel.rejected == 1 and channel.last_rejection == "bad"
+    assert channel.age(6 * NS_PER_S) == pytest.approx(1.0)
+    assert not channel.is_stale(5 * NS_PER_S + NS_PER_S // 2, 1.0)
+    assert channel.is_stale(7 * NS_PER_S, 1.0)
+    channel.forget_times()
+    assert channel.last_stamp_ns is None and channel.age(7 * NS_PER_S) is None
 
 
 def test_limits() -> None:
@@ -53,6 +102,8 @@ def test_accepted_values_are_finite_and_in_range(value: float) -> None:
         assert math.isfinite(value) and 0.0 <= value <= LIMITS.max_preload
     if check_temperature(value, LIMITS) is None:
         assert LIMITS.min_temperature <= value <= LIMITS.max_temperature
+    if check_axial_load(value, LIMITS) is None:
+        assert math.isfinite(value) and abs(value) <= LIMITS.max_axial_load
 
 
 @pytest.mark.parametrize(
@@ -62,6 +113,7 @@ def test_accepted_values_are_finite_and_in_range(value: float) -> None:
         {"max_preload": -1.0},
         {"min_temperature": 400.0, "max_temperature": 300.0},
         {"max_preload": math.nan},
+        {"max_axial_load": 0.0},
     ],
 )
 def test_bad_limits_raise(kwargs: dict[str, float]) -> None:

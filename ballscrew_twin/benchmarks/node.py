@@ -1,0 +1,289 @@
+"""``ballscrew-twin bench node``: the twin node in real time, printed, never asserted.
+
+For each executor (``SingleThreadedExecutor`` and rclpy's ``EventsExecutor``, one after the
+other in the same run) the twin node runs in a process of its own at ``--rate`` (1 kHz) with
+contact states at ``--contact-rate`` (100 Hz), while this process publishes commands at 100 Hz
+and counts what arrives. Measured after a warm-up, over ``--duration`` seconds:
+
+- share of ticks published on time (within 1 ms of their due time; skipped ticks count as
+  late), tick latency p50/p99/max (due time to publish returned, node clock = wall time);
+- CPU share of one core of the node process (all its threads), and the machine's load;
+- torque and contact-state messages received per second by another process.
+
+Model: ``--fidelity``, by default the real-time model when it is installed, otherwise the
+quasi-static steady model of every sphere at a constant command (solved once, then cached), so
+that the per-sphere contact states (200 rows) are published at 100 Hz as they would be by the
+real-time model. Writes a PNG of the latency distributions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import multiprocessing
+import os
+import time
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import psutil  # type: ignore[import-untyped]  # no stubs installed
+from tqdm import tqdm
+
+#: One-line help of this benchmark.
+DESCRIPTION = "twin node in real time: ticks on time, latency, CPU, for both executors"
+EXECUTORS = ("single_threaded", "events")
+#: Time the node runs before measuring (imports done, discovery settled) [s].
+WARMUP = 3.0
+ON_TIME_NS = 1_000_000
+SPEED = 10.47  # rad/s (100 rpm)
+
+
+@dataclass(frozen=True)
+class NodeRun:
+    """What one run of the node measured (latencies in ns)."""
+
+    executor: str
+    model: str
+    latencies: np.ndarray
+    skipped: int
+    cpu_share: float  # of one core, node process
+    published: int
+    contacts: int
+    received_torque: int
+    received_contacts: int
+    duration: float  # s
+    load_before: tuple[float, float, float]
+    system_cpu: float  # % of all cores during the run
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``bench node``."""
+    parser.add_argument(
+        "--duration", type=float, default=60.0, help="measured time per executor [s]"
+    )
+    parser.add_argument("--rate", type=float, default=1000.0, help="simulation rate [Hz]")
+    parser.add_argument("--contact-rate", type=float, default=100.0, help="contact states [Hz]")
+    parser.add_argument(
+        "--executors", default=",".join(EXECUTORS), help="comma-separated: single_threaded,events"
+    )
+    parser.add_argument(
+        "--fidelity",
+        default="",
+        choices=("", "realtime", "quasi_static", "catalog"),
+        help="model (default: realtime if installed, else quasi_static of every sphere)",
+    )
+    parser.add_argument("--plot", default="out/bench/node_latency.png", help="PNG of latencies")
+
+
+def _model_parameters(requested: str) -> dict[str, Any]:
+    """Node parameters of the model benchmarked (see the module docstring)."""
+    from ..params import load_config
+    from ..ros.fidelity import ModelSettings, unavailable
+
+    if requested:
+        return {"fidelity": requested, "steady_mode": "full"}
+    if unavailable("realtime", ModelSettings(config=load_config(None))) is None:
+        return {"fidelity": "realtime"}
+    return {"fidelity": "quasi_static", "steady_mode": "full"}
+
+
+def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> None:
+    """Child process: run the twin node, send back what it measured."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.parameter import Parameter
+
+    from ..ros.twin_node import TwinNode, make_executor, spin
+
+    context = Context()
+    rclpy.init(context=context)
+    overrides = [Parameter(k, value=v) for k, v in params.items()]
+    node = TwinNode(context=context, parameter_overrides=overrides)
+    executor = make_executor(str(params["executor"]), context)
+    executor.add_node(node)
+    start = time.monotonic()
+    spin(executor, until=lambda: time.monotonic() - start > WARMUP)
+    node.latency_log = []
+    skipped0, published0, contacts0 = node.skipped_total, node.published_count, node.contact_count
+    cpu0, wall0 = time.process_time(), time.monotonic()
+    spin(executor, until=lambda: time.monotonic() - wall0 > measure)
+    cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
+    conn.send(
+        {
+            "model": node.choice.model.name,
+            "latencies": np.asarray(node.latency_log, dtype=np.int64),
+            "skipped": node.skipped_total - skipped0,
+            "cpu_share": cpu / wall,
+            "published": node.published_count - published0,
+            "contacts": node.contact_count - contacts0,
+            "duration": wall,
+        }
+    )
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+
+
+def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
+    """Run the node with one executor while commanding it and counting what arrives."""
+    import rclpy
+    from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.qos import qos_profile_sensor_data
+    from sensor_msgs.msg import Temperature
+    from std_msgs.msg import Float64
+
+    params: dict[str, Any] = {
+        "executor": executor_name,
+        "sim_rate_hz": args.rate,
+        "contact_rate_hz": args.contact_rate,
+        "initial_screw_speed": SPEED,
+        **_model_parameters(args.fidelity),
+    }
+    vary = params["fidelity"] != "quasi_static"  # a quasi-static command stays constant
+    spawn = multiprocessing.get_context("spawn")
+    parent_conn, child_conn = spawn.Pipe()
+    proc = spawn.Process(target=_node_process, args=(params, args.duration, child_conn))
+    proc.start()
+
+    context = Context()
+    rclpy.init(context=context)
+    node = Node("bench_node_commander", context=context)
+    counts = {"torque": 0, "contacts": 0}
+
+    def counter(key: str) -> Any:
+        def count(_msg: object) -> None:
+            counts[key] += 1
+
+        return count
+
+    node.create_subscription(DragTorque, "drag_torque", counter("torque"), 100)
+    node.create_subscription(ContactStateArray, "contact_states", counter("contacts"), 10)
+    qos = qos_profile_sensor_data
+    speed_pub = node.create_publisher(Float64, "speed_command", qos)
+    temp_pub = node.create_publisher(Temperature, "temperature", qos)
+    preload_pub = node.create_publisher(Float64, "preload_command", qos)
+
+    def command() -> None:
+        t = time.monotonic()
+        speed = SPEED * (1.0 + 0.5 * math.sin(t)) if vary else SPEED
+        speed_pub.publish(Float64(data=speed))
+        temp_pub.publish(Temperature(temperature=20.0))
+        preload_pub.publish(Float64(data=1500.0))
+
+    node.create_timer(0.01, command)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    load_before = os.getloadavg()
+    psutil.cpu_percent()
+    total = WARMUP + args.duration
+    start = time.monotonic()
+    with tqdm(total=int(total), desc=f"bench node {executor_name}", unit="s", leave=False) as bar:
+        measured_from = None
+        while not parent_conn.poll():
+            executor.spin_once(timeout_sec=0.05)
+            elapsed = time.monotonic() - start
+            bar.update(int(elapsed) - bar.n)
+            if measured_from is None and elapsed > WARMUP + 2.0:  # child start-up ~2 s
+                measured_from = dict(counts)
+            if not proc.is_alive() and not parent_conn.poll():
+                raise RuntimeError(f"node process died with exit code {proc.exitcode}")
+    system_cpu = psutil.cpu_percent()
+    result = parent_conn.recv()
+    proc.join(timeout=30.0)
+    base = measured_from or {"torque": 0, "contacts": 0}
+    executor.shutdown()
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+    return NodeRun(
+        executor=executor_name,
+        model=result["model"],
+        latencies=result["latencies"],
+        skipped=int(result["skipped"]),
+        cpu_share=float(result["cpu_share"]),
+        published=int(result["published"]),
+        contacts=int(result["contacts"]),
+        received_torque=counts["torque"] - base["torque"],
+        received_contacts=counts["contacts"] - base["contacts"],
+        duration=float(result["duration"]),
+        load_before=load_before,
+        system_cpu=system_cpu,
+    )
+
+
+def summary(run: NodeRun) -> dict[str, float]:
+    """On-time share and latency percentiles of one run (latencies in ms)."""
+    lat = run.latencies.astype(np.float64) * 1e-6
+    due = len(lat) + run.skipped
+    on_time = float(np.count_nonzero(run.latencies <= ON_TIME_NS)) / due if due else math.nan
+    return {
+        "on_time": on_time,
+        "p50": float(np.percentile(lat, 50)) if lat.size else math.nan,
+        "p99": float(np.percentile(lat, 99)) if lat.size else math.nan,
+        "max": float(lat.max()) if lat.size else math.nan,
+    }
+
+
+def _plot(runs: list[NodeRun], path: Path) -> Path:
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 5), layout="constrained")
+    ax = fig.add_subplot()
+    for run in runs:
+        lat = np.sort(run.latencies.astype(np.float64) * 1e-6)
+        if lat.size:
+            share = np.arange(1, lat.size + 1) / lat.size
+            ax.plot(lat, share, label=f"{run.executor} ({run.model})")
+    ax.axvline(1.0, color="k", ls="--", lw=0.8, label="1 ms")
+    ax.set_xscale("log")
+    ax.set_xlabel("tick latency: due time to published [ms]")
+    ax.set_ylabel("share of ticks [-]")
+    ax.set_title("twin node, tick latency distribution")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    FigureCanvasAgg(fig)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the node with each executor and print the numbers."""
+    os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    names = [n.strip() for n in args.executors.split(",") if n.strip()]
+    if not names or any(n not in EXECUTORS for n in names):
+        raise SystemExit(f"--executors must name some of {', '.join(EXECUTORS)}")
+    if not (args.duration > 0.0 and args.rate > 0.0 and 0.0 <= args.contact_rate <= args.rate):
+        raise SystemExit("need --duration > 0, --rate > 0, 0 <= --contact-rate <= --rate")
+    print(
+        f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, "
+        f"{args.duration:g} s measured per executor after {WARMUP:g} s warm-up; "
+        f"{psutil.cpu_count()} cores, load average before {os.getloadavg()[0]:.2f}"
+    )
+    runs = []
+    for name in names:
+        result = _run_one(name, args)
+        runs.append(result)
+        s = summary(result)
+        print(
+            f"  {name:<15} model {result.model}: {len(result.latencies)} ticks, "
+            f"{result.skipped} skipped; on time (<= 1 ms) {s['on_time']:.4%}; latency p50 "
+            f"{s['p50']:.3f} ms, p99 {s['p99']:.3f} ms, max {s['max']:.2f} ms; node CPU "
+            f"{result.cpu_share:.1%} of one core; received "
+            f"{result.received_torque / result.duration:.0f} torque/s, "
+            f"{result.received_contacts / result.duration:.0f} contact arrays/s "
+            f"({result.contacts / result.duration:.0f}/s published); machine: load "
+            f"{result.load_before[0]:.2f} before, {result.system_cpu:.0f} % of all cores during"
+        )
+    if len(runs) > 1:
+        best = max(runs, key=lambda r: (round(summary(r)["on_time"], 3), -r.cpu_share))
+        print(f"  chosen executor: {best.executor} (highest on-time share, then lowest CPU)")
+    print(f"  plot: {_plot(runs, Path(args.plot))}")
+    print("  goals of issue 6: >= 99.9 % of ticks on time within 1 ms, <= 50 % of one core")
+    return 0

@@ -1,0 +1,192 @@
+"""The models the twin node can step, chosen by its ``fidelity`` parameter (no rclpy here).
+
+Modes, from the most to the least detailed:
+
+- ``realtime``: :class:`ballscrew_twin.models.realtime.RealTimeModel` (time-stepping, per-sphere
+  states at >= 1 kHz), when that module is installed;
+- ``quasi_static``: the steady-state model of every loaded sphere
+  (:class:`~ballscrew_twin.models.steady.SteadyStateModel`) as a time-stepping model, solved
+  again only when the command changes (3-9 ms a solve: ticks are late after each change);
+- ``catalog``: the catalogue formula Eq. 52 (microseconds; preload only, no contact states);
+- ``auto``: the real-time model if it can be built here (its module and its steady-state map
+  for this screw), else the catalogue; the node steps down to the catalogue when the model
+  does not fit into the step budget or fails (see ``TwinNode``). ``auto`` never takes
+  ``quasi_static``: its millisecond solves do not fit a 1 kHz step.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from typing import Literal, cast
+
+from ..errors import BallscrewTwinError
+from ..models.base import (
+    OperatingPoint,
+    QuasiStaticModel,
+    SteadyStateModel,
+    TimeSteppingModel,
+    TwinOutput,
+)
+from ..models.catalog import CatalogModel
+from ..models.validity import ValidatedModel, ValidityEnvelope
+from ..params import TwinConfig
+
+#: Values of the node's ``fidelity`` parameter.
+FIDELITY_MODES: tuple[str, ...] = ("auto", "realtime", "quasi_static", "catalog")
+#: Concrete modes, most detailed first: what ``auto`` tries in turn.
+LADDER: tuple[str, ...] = ("realtime", "quasi_static", "catalog")
+#: Module and class of the real-time model.
+REALTIME_MODULE = "ballscrew_twin.models.realtime"
+REALTIME_CLASS = "RealTimeModel"
+
+SteadyMode = Literal["auto", "symmetric", "full"]
+
+
+@dataclass(frozen=True)
+class ModelSettings:
+    """What the models are built from.
+
+    Attributes:
+        config: the screw's parameter set.
+        mu_lit: friction coefficient of the catalogue formula [-].
+        tolerance: convergence limit of the steady solve (scaled residual) [-].
+        steady_mode: spheres the steady model solves: ``auto``, ``symmetric`` or ``full``.
+        realtime_map: steady-state map file of the real-time model; "" = the packaged one.
+    """
+
+    config: TwinConfig
+    mu_lit: float = 0.002
+    tolerance: float = 1e-10
+    steady_mode: SteadyMode = "auto"
+    realtime_map: str = ""
+
+
+@dataclass(frozen=True)
+class ModelChoice:
+    """A built model, the concrete mode it stands for and why it was chosen."""
+
+    model: TimeSteppingModel
+    mode: str
+    reason: str
+
+
+class CachedQuasiStatic(QuasiStaticModel):
+    """A steady model stepped in time, solved again only when the command changes.
+
+    Exact: a quasi-static output depends on the command alone, so an unchanged command gives
+    the previous output.
+    """
+
+    def __init__(self, model: SteadyStateModel) -> None:
+        super().__init__(model)
+        self._last: tuple[OperatingPoint, TwinOutput] | None = None
+
+    def reset(self, op: OperatingPoint) -> None:
+        """Forget the cached output."""
+        super().reset(op)
+        self._last = None
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        """The steady state of ``op``, from the cache when ``op`` is the last command."""
+        if self._last is not None and self._last[0] == op:
+            return self._last[1]
+        out = self.model.evaluate(op)
+        self._last = (op, out)
+        return out
+
+
+def realtime_unavailable() -> str | None:
+    """Why the real-time model cannot be used here, or None when it can."""
+    try:
+        module = importlib.import_module(REALTIME_MODULE)
+    except ImportError as err:
+        return f"{REALTIME_MODULE} not importable ({err})"
+    if not hasattr(module, REALTIME_CLASS):
+        return f"{REALTIME_MODULE} has no {REALTIME_CLASS}"
+    return None
+
+
+def build(mode: str, settings: ModelSettings) -> TimeSteppingModel:
+    """The model of one concrete mode (``realtime``, ``quasi_static`` or ``catalog``), run only
+    inside the validity envelope of the screw (a clamped input adds a ``validity:`` note)."""
+    envelope = ValidityEnvelope.for_config(settings.config)
+    return ValidatedModel(_build_raw(mode, settings), envelope)
+
+
+def _build_raw(mode: str, settings: ModelSettings) -> TimeSteppingModel:
+    """The model of one concrete mode, as it comes."""
+    if mode == "catalog":
+        return QuasiStaticModel(CatalogModel(settings.config, mu_lit=settings.mu_lit))
+    if mode == "quasi_static":
+        from ..models.steady import SteadyStateModel as SteadySolver
+
+        return CachedQuasiStatic(
+            SteadySolver(settings.config, mode=settings.steady_mode, tolerance=settings.tolerance)
+        )
+    if mode == "realtime":
+        model_class = getattr(importlib.import_module(REALTIME_MODULE), REALTIME_CLASS)
+        if settings.realtime_map:
+            from ..models.steady_map import load_map
+
+            return cast(
+                TimeSteppingModel,
+                model_class(settings.config, steady_map=load_map(settings.realtime_map)),
+            )
+        return cast(TimeSteppingModel, model_class(settings.config))
+    raise ValueError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
+
+
+def _try_build(mode: str, settings: ModelSettings) -> tuple[TimeSteppingModel | None, str]:
+    """Build ``mode``, or return None and why it cannot be built here."""
+    if mode == "realtime" and (why := realtime_unavailable()) is not None:
+        return None, why
+    try:
+        return build(mode, settings), ""
+    except (BallscrewTwinError, ValueError, OSError) as err:  # e.g. MapError: map missing/stale
+        return None, f"{type(err).__name__}: {err}"
+
+
+def unavailable(mode: str, settings: ModelSettings) -> str | None:
+    """Why ``mode`` cannot be built here (module missing, map missing or stale), or None."""
+    return _try_build(mode, settings)[1] or None
+
+
+def choose(requested: str, settings: ModelSettings, *, below: str | None = None) -> ModelChoice:
+    """Build the model for the ``fidelity`` parameter value ``requested``.
+
+    Args:
+        requested: one of :data:`FIDELITY_MODES`.
+        settings: what the models are built from.
+        below: for ``auto``, take only modes less detailed than this one (the node steps down
+            after ``below`` could not keep up).
+
+    Raises:
+        ValueError: unknown mode, or an explicitly requested mode that cannot be built.
+    """
+    if requested not in FIDELITY_MODES:
+        raise ValueError(f"fidelity {requested!r} is not one of {', '.join(FIDELITY_MODES)}")
+    if requested != "auto":
+        model, why = _try_build(requested, settings)
+        if model is None:
+            raise ValueError(f"fidelity {requested} is not available: {why}")
+        return ModelChoice(model, requested, f"requested ({requested})")
+    start = 0 if below is None else LADDER.index(below) + 1
+    skipped: list[str] = []
+    for mode in LADDER[start:]:
+        if mode == "quasi_static":
+            # A steady solve takes milliseconds per command change: at a 1 kHz step it cannot
+            # keep up, so auto never takes it (it remains available as an explicit choice).
+            skipped.append("quasi_static: a steady solve takes milliseconds per command change")
+            continue
+        model, why = _try_build(mode, settings)
+        if model is None:
+            skipped.append(f"{mode}: {why}")
+            continue
+        reason = "auto: most detailed model available"
+        if below is not None:
+            reason = f"auto: stepped down from {below}"
+        if skipped:
+            reason += " (" + "; ".join(skipped) + ")"
+        return ModelChoice(model, mode, reason)
+    raise ValueError("no model left to step down to")  # catalog is always available

@@ -1,0 +1,92 @@
+"""Fixed-step tick schedule of the twin node, in step with a clock (no rclpy here).
+
+Tick ``k`` is due at ``origin + k * period`` of the node's clock (wall time, or ``/clock``
+under ``use_sim_time``). Each time the node wakes up it asks :meth:`TickScheduler.due` which
+ticks to run: every tick that fell due since the last one (catching up after a short stall),
+only the newest one when more than ``max_catch_up`` are due (the others are counted as
+skipped), and a fresh start when the clock jumped backwards or far forwards. So the simulation
+never drifts from the clock: it either keeps up, catches up, or skips and says so.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: A forward jump of the clock larger than this is a jump (replay seek), not a stall [ns].
+FORWARD_JUMP_NS = 1_000_000_000
+
+
+@dataclass(frozen=True)
+class TickPlan:
+    """What to run now.
+
+    Attributes:
+        ticks: indices of the ticks to run, oldest first (times: :meth:`TickScheduler.time_of`).
+        skipped: ticks that fell due but are not run (too far behind) [-].
+        jumped_back: the clock went backwards: the schedule restarted at ``now`` [-].
+        jumped_forward: the clock leapt ahead by more than :data:`FORWARD_JUMP_NS`: restarted.
+    """
+
+    ticks: range
+    skipped: int = 0
+    jumped_back: bool = False
+    jumped_forward: bool = False
+
+
+class TickScheduler:
+    """Fixed simulation step locked to a clock.
+
+    Args:
+        period_ns: simulation step [ns], > 0.
+        max_catch_up: most ticks run in one wake-up; more due ticks are skipped [-], >= 1.
+    """
+
+    def __init__(self, period_ns: int, max_catch_up: int) -> None:
+        if period_ns <= 0:
+            raise ValueError(f"period_ns = {period_ns} must be > 0")
+        if max_catch_up < 1:
+            raise ValueError(f"max_catch_up = {max_catch_up} must be >= 1")
+        self.period_ns = period_ns
+        self.max_catch_up = max_catch_up
+        self.origin_ns: int | None = None
+        #: Index of the last tick handed out.
+        self.last_index = 0
+
+    def time_of(self, index: int) -> int:
+        """Clock time at which tick ``index`` is due [ns]."""
+        if self.origin_ns is None:
+            raise RuntimeError("the schedule has not started")
+        return self.origin_ns + index * self.period_ns
+
+    def start(self, origin_ns: int) -> None:
+        """Start the grid at ``origin_ns`` [ns]: tick 0 is due then and counts as run, so the
+        first tick handed out is tick 1 (align ``origin_ns`` with the waking timer's start)."""
+        self.origin_ns = origin_ns
+        self.last_index = 0
+
+    def due(self, now_ns: int) -> TickPlan:
+        """The ticks to run at clock time ``now_ns`` [ns] (and book them as handed out)."""
+        if self.origin_ns is None:
+            return self._start(now_ns)
+        if now_ns < self.time_of(self.last_index):
+            return self._start(now_ns, jumped_back=True)
+        due_index = (now_ns - self.origin_ns) // self.period_ns
+        backlog = due_index - self.last_index
+        if backlog <= 0:
+            return TickPlan(range(0))
+        if backlog > self.max_catch_up:
+            if backlog * self.period_ns > FORWARD_JUMP_NS:
+                return self._start(now_ns, jumped_forward=True)
+            self.last_index = due_index
+            return TickPlan(range(due_index, due_index + 1), skipped=backlog - 1)
+        first = self.last_index + 1
+        self.last_index = due_index
+        return TickPlan(range(first, due_index + 1))
+
+    def _start(
+        self, now_ns: int, *, jumped_back: bool = False, jumped_forward: bool = False
+    ) -> TickPlan:
+        """Restart at ``now_ns`` and hand out tick 0."""
+        self.origin_ns = now_ns
+        self.last_index = 0
+        return TickPlan(range(1), jumped_back=jumped_back, jumped_forward=jumped_forward)

@@ -1,0 +1,73 @@
+"""The node's model factory: what auto chooses and why, explicit modes, the quasi-static cache."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from ballscrew_twin.models.base import OperatingPoint, TwinOutput
+from ballscrew_twin.models.catalog import CatalogModel
+from ballscrew_twin.params import load_config
+from ballscrew_twin.ros import fidelity
+from ballscrew_twin.ros.fidelity import CachedQuasiStatic, ModelSettings, choose
+
+SETTINGS = ModelSettings(config=load_config(None))
+OP = OperatingPoint(screw_speed=10.47, temperature=293.15, preload=1500.0)
+
+
+def test_auto_without_realtime_takes_catalog_and_says_why(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(fidelity, "REALTIME_MODULE", "ballscrew_twin.models.no_such_module")
+    choice = choose("auto", SETTINGS)
+    assert choice.mode == "catalog"
+    assert "realtime" in choice.reason and "not importable" in choice.reason
+    with pytest.raises(ValueError, match="realtime"):
+        choose("realtime", SETTINGS)
+
+
+def test_stepping_down_never_goes_up() -> None:
+    choice = choose("auto", SETTINGS, below="realtime")
+    assert choice.mode == "catalog" and "stepped down from realtime" in choice.reason
+    with pytest.raises(ValueError):
+        choose("auto", SETTINGS, below="catalog")
+
+
+def test_catalog_steps_like_eq52() -> None:
+    model = choose("catalog", SETTINGS).model
+    model.reset(OP)
+    out = model.step(OP, 1e-3)
+    assert out.drag_torque == CatalogModel(SETTINGS.config).evaluate(OP).drag_torque
+
+
+def test_unknown_mode_rejected() -> None:
+    with pytest.raises(ValueError, match="psychic"):
+        choose("psychic", SETTINGS)
+
+
+class CountingModel:
+    """A steady model that counts its evaluations (torque = preload, an arbitrary law)."""
+
+    name = "counting"
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def evaluate(self, op: OperatingPoint) -> TwinOutput:
+        self.calls += 1
+        return dataclasses.replace(
+            CatalogModel(SETTINGS.config).evaluate(op), drag_torque=op.preload)
+
+
+def test_quasi_static_cache_solves_only_on_a_new_command() -> None:
+    steady = CountingModel()
+    model = CachedQuasiStatic(steady)
+    model.reset(OP)
+    first = model.step(OP, 1e-3)
+    assert model.step(dataclasses.replace(OP), 1e-3) is first and steady.calls == 1
+    other = dataclasses.replace(OP, preload=2000.0)
+    assert model.step(other, 1e-3).drag_torque == 2000.0 and steady.calls == 2
+    model.reset(OP)
+    model.step(other, 1e-3)
+    assert steady.calls == 3  # reset forgets the cache
