@@ -23,7 +23,7 @@ unexport _ROS_WHEELS_BOOTSTRAP_COMPLETE
 .PHONY: help setup test lint typecheck pytest demo node clean distclean
 
 help:
-	@echo "make demo       set up if needed, run the twin node with a command publisher ($(DEMO_DURATION) s)"
+	@echo "make demo       set up if needed, run the twin node, a command script and a console view ($(DEMO_DURATION) s)"
 	@echo "make test       set up if needed, then ruff check, mypy, pytest"
 	@echo "make setup      create/update .venv (ROS 2 Jazzy wheels, messages, editable install)"
 	@echo "make node       run the twin node with config/twin_node.yaml until Ctrl-C"

@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import psutil  # type: ignore[import-untyped]  # no stubs installed
+import psutil
 from tqdm import tqdm
 
 #: One-line help of this benchmark.

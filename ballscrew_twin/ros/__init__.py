@@ -2,8 +2,16 @@
 
 Modules:
     inputs          -- validation and unit conversion of commanded inputs (pure Python, no rclpy)
-    twin_node       -- :class:`TwinNode`, publishes ``ballscrew_twin_msgs/DragTorque``
-    demo_commander  -- command publisher and torque printer used by ``make demo``
+    scheduler       -- fixed-step tick schedule of the node (pure Python, no rclpy)
+    fidelity        -- the models the node can run, chosen by its ``fidelity`` parameter
+    diagnostics     -- ``/diagnostics`` messages of the node
+    twin_node       -- :class:`TwinNode`: commands in, DragTorque and ContactStateArray out
+    node_command    -- ``ballscrew-twin node``
+    launcher        -- ``ballscrew-twin launch FILE``: several nodes, stopped cleanly on Ctrl-C
+    demo_commander  -- command script of ``make demo``
+    console_view    -- console view and plot of ``make demo``
+    replay, record  -- ``ballscrew-twin replay BAG`` / ``record``: bags without ros2 bag
+    health_node     -- the health monitor node: bench data against the twin, fault verdicts
 
 Topics carry SI units (REP 103) except ``sensor_msgs/Temperature``, which is in degrees
 Celsius by its own convention and is converted to kelvin at the node's edge.

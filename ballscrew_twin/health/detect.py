@@ -1,0 +1,316 @@
+"""``ballscrew-twin detect BAG --out DIR``: the health monitor run offline on a recorded bag.
+
+The bag's bench topics are read with :func:`.bags.read_bench_bag` (damaged bags: everything
+readable is used, what was skipped is listed), fed to the same :class:`.monitor.HealthMonitor`
+the live node runs, in stamp order, and the result is written to ``DIR``:
+
+- ``verdict.json``: verdict (FAULT if any alarm, else OK/WARN/UNKNOWN of the last block),
+  fault class and confidence, alarm time and detector, estimated onset, the class scores, and,
+  when the bag has a ground truth (``<bag>.truth.json``), the true fault, the detection delay
+  (alarm time minus true onset [s]) and whether the class is right. Times are in seconds since
+  the bag's first message.
+- ``residuals.png``: measured and predicted torque, normalised residual and innovation.
+- ``statistics.png``: each detector's statistic over its threshold, the verdicts, the onset.
+- ``samples.csv``: the per-block results.
+
+Exit status: 0 (OK, WARN or UNKNOWN), 1 (FAULT), 2 (the bag or the settings are unusable).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import BallscrewTwinError, ConfigError
+from ..params import TwinConfig, load_config
+from .bags import BenchRecording, BenchTopics, read_bench_bag
+from .monitor import (
+    DETECTORS,
+    FAULT,
+    OK,
+    UNKNOWN,
+    VERDICT_NAMES,
+    WARN,
+    HealthMonitor,
+    HealthSample,
+    MonitorSettings,
+    feed,
+)
+from .residuals import FloatArray, TwinPredictor, shared_predictor
+
+#: Channels the monitor needs from a bag.
+CHANNELS = ("torque", "speed", "temperature", "preload")
+
+
+@dataclass(frozen=True)
+class DetectionResult:
+    """Outcome of one run of the monitor over a recording.
+
+    Attributes:
+        verdict: overall verdict (FAULT if there was an alarm) [-].
+        samples: per-block results.
+        monitor: the monitor after the run.
+        start: absolute time of the recording's first message [s].
+    """
+
+    verdict: int
+    samples: list[HealthSample]
+    monitor: HealthMonitor
+    start: float
+
+
+def overall_verdict(monitor: HealthMonitor, samples: Sequence[HealthSample]) -> int:
+    """FAULT after an alarm; else WARN if any block warned; OK if any block was compared;
+    UNKNOWN if none was."""
+    if monitor.alarm is not None:
+        return FAULT
+    verdicts = {s.verdict for s in samples}
+    if WARN in verdicts:
+        return WARN
+    return OK if OK in verdicts else UNKNOWN
+
+
+def run_monitor(
+    channels: dict[str, tuple[FloatArray, FloatArray]],
+    config: TwinConfig,
+    settings: MonitorSettings | None = None,
+    start: float = 0.0,
+    predictor: TwinPredictor | None = None,
+) -> DetectionResult:
+    """Run a fresh monitor over channels of absolute stamps [s] (see :func:`.monitor.feed`);
+    ``predictor`` shares the twin's cache between runs."""
+    monitor = HealthMonitor(config, settings, predictor=predictor)
+    samples = feed(monitor, channels)
+    return DetectionResult(overall_verdict(monitor, samples), samples, monitor, start)
+
+
+def recording_channels(recording: BenchRecording) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """The four channels of a recording with absolute stamps [s] (bag start + time)."""
+    start = recording.start_ns * 1e-9
+    out = {}
+    for name in CHANNELS:
+        if name not in recording.channels:
+            raise ConfigError(
+                f"{recording.path}: the {name} channel is missing; the monitor needs torque, "
+                "speed, temperature and preload"
+            )
+        series = recording.series(name)
+        out[name] = (start + np.asarray(series.time, float), np.asarray(series.value, float))
+    return out
+
+
+def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, Any]:
+    """JSON-ready verdict (times in seconds since the recording's start)."""
+    monitor = result.monitor
+    alarm = monitor.alarm
+    data: dict[str, Any] = {
+        "verdict": VERDICT_NAMES[result.verdict],
+        "fault_class": alarm.classification.fault_class if alarm else "",
+        "confidence": alarm.classification.confidence if alarm else None,
+        "alarm": None,
+        "blocks": len(result.samples),
+        "blocks_compared": sum(1 for s in result.samples if math.isfinite(s.innovation)),
+        "sensor_noise_Nm": math.sqrt(monitor.sensor_variance or math.nan),
+        "thresholds": {
+            "cusum": monitor.cusum.threshold,
+            "chi_square": monitor.chi_square.threshold,
+            "spectral": monitor.spectral.threshold,
+        },
+        "false_alarm_rate_per_h": monitor.settings.false_alarm_rate,
+        "model": monitor.predictor.model.name,
+        "model_evaluations": monitor.predictor.evaluations,
+    }
+    if alarm is not None:
+        data["alarm"] = {
+            "time_s": alarm.time - result.start,
+            "detector": alarm.detector,
+            "onset_estimate_s": alarm.onset - result.start,
+            "scores": alarm.classification.scores,
+            "severities": alarm.classification.severities,
+        }
+    if truth is not None:
+        faults = truth.get("faults") or []
+        data["truth"] = faults
+        if faults:
+            first = min(faults, key=lambda f: float(f["onset_s"]))
+            data["true_class"] = first["class"]
+            if alarm is not None:
+                data["detection_delay_s"] = alarm.time - result.start - float(first["onset_s"])
+                data["class_correct"] = data["fault_class"] == first["class"]
+        else:
+            data["true_class"] = ""
+            data["false_alarm"] = alarm is not None
+    return data
+
+
+def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> list[Path]:
+    """Residual and statistic plots (PNG) into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    samples = result.samples
+    t = np.array([s.time - result.start for s in samples])
+    onsets = [float(f["onset_s"]) for f in (truth or {}).get("faults") or []]
+    alarm = result.monitor.alarm
+
+    def marks(ax: Any) -> None:
+        for onset in onsets:
+            ax.axvline(onset, color="k", ls=":", lw=1, label="true onset")
+        if alarm is not None:
+            ax.axvline(alarm.time - result.start, color="r", ls="--", lw=1, label="alarm")
+
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    axes[0].plot(t, [s.measured for s in samples], lw=0.8, label="measured (block mean)")
+    axes[0].plot(t, [s.predicted for s in samples], lw=0.8, label="twin")
+    axes[0].set_ylabel("torque [N m]")
+    axes[1].plot(t, [s.normalized_residual for s in samples], lw=0.8)
+    axes[1].set_ylabel("residual / sigma [-]")
+    axes[2].plot(t, [s.innovation for s in samples], lw=0.8)
+    axes[2].set_ylabel("innovation / sigma [-]")
+    axes[2].set_xlabel("time since bag start [s]")
+    for ax in axes:
+        marks(ax)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.tight_layout()
+    residual_png = out / "residuals.png"
+    fig.savefig(residual_png, dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for name in DETECTORS:
+        ratio = [
+            s.statistics[name][0] / s.statistics[name][1] if name in s.statistics else math.nan
+            for s in samples
+        ]
+        axes[0].plot(t, ratio, lw=0.8, label=name)
+    axes[0].axhline(1.0, color="r", lw=1)
+    axes[0].set_yscale("symlog", linthresh=1.0)
+    axes[0].set_ylim(bottom=0.0)
+    axes[0].set_ylabel("statistic / threshold [-]")
+    axes[0].legend(fontsize=8)
+    axes[1].step(t, [s.verdict for s in samples], where="mid")
+    axes[1].set_yticks([OK, 1, FAULT, UNKNOWN], ["OK", "WARN", "FAULT", "UNKNOWN"])
+    axes[1].set_xlabel("time since bag start [s]")
+    for ax in axes:
+        marks(ax)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    stats_png = out / "statistics.png"
+    fig.savefig(stats_png, dpi=110)
+    plt.close(fig)
+    return [residual_png, stats_png]
+
+
+def write_csv(result: DetectionResult, path: Path) -> None:
+    """Per-block results as CSV (times since the recording's start [s], SI units)."""
+    with path.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(
+            [
+                "time_s",
+                "measured_Nm",
+                "predicted_Nm",
+                "residual_Nm",
+                "normalized_residual",
+                "innovation",
+                "test_statistic",
+                "threshold",
+                "verdict",
+                "fault_class",
+                "confidence",
+            ]
+        )
+        for s in result.samples:
+            writer.writerow(
+                [
+                    f"{s.time - result.start:.4f}",
+                    s.measured,
+                    s.predicted,
+                    s.residual,
+                    s.normalized_residual,
+                    s.innovation,
+                    s.test_statistic,
+                    s.threshold,
+                    VERDICT_NAMES[s.verdict],
+                    s.fault_class,
+                    s.confidence,
+                ]
+            )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``detect``."""
+    parser.add_argument("bag", help="bag folder or file (mcap or sqlite3)")
+    parser.add_argument("--out", required=True, help="output directory (created)")
+    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
+    parser.add_argument(
+        "--false-alarm-rate",
+        type=float,
+        default=MonitorSettings.false_alarm_rate,
+        help="target false alarms per hour [1/h]",
+    )
+    parser.add_argument(
+        "--warmup",
+        type=float,
+        default=MonitorSettings.warmup,
+        help="healthy warm-up at the start [s]",
+    )
+    parser.add_argument("--torque-topic", default=BenchTopics.torque)
+    parser.add_argument("--speed-topic", default=BenchTopics.speed)
+    parser.add_argument("--temperature-topic", default=BenchTopics.temperature)
+    parser.add_argument("--preload-topic", default=BenchTopics.preload)
+    parser.add_argument("--joint", default=BenchTopics.joint_name, help="joint of the screw")
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the detector over the bag; print the verdict; exit 0 (1 for a FAULT verdict)."""
+    topics = BenchTopics(
+        torque=args.torque_topic,
+        speed=args.speed_topic,
+        temperature=args.temperature_topic,
+        preload=args.preload_topic,
+        joint_name=args.joint,
+    )
+    recording = read_bench_bag(args.bag, topics, required=CHANNELS)
+    settings = MonitorSettings(false_alarm_rate=args.false_alarm_rate, warmup=args.warmup)
+    config = load_config(args.config)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise BallscrewTwinError(f"cannot create output directory {out}: {err}") from err
+    start = recording.start_ns * 1e-9
+    predictor = shared_predictor(config, settings.residual)
+    result = run_monitor(recording_channels(recording), config, settings, start, predictor)
+    data = summary(result, recording.truth)
+    data["bag"] = str(recording.path)
+    data["issues"] = list(recording.issues)
+    (out / "verdict.json").write_text(json.dumps(data, indent=2) + "\n")
+    write_csv(result, out / "samples.csv")
+    if not args.no_plots:
+        plot(result, out, recording.truth)
+    for issue in recording.issues:
+        print(f"note: {issue}")
+    line = f"{data['verdict']}"
+    if data["alarm"]:
+        line += (
+            f": {data['fault_class'] or 'unclassified'} (confidence {data['confidence']:.2f}), "
+            f"alarm at {data['alarm']['time_s']:.2f} s by {data['alarm']['detector']}"
+        )
+    if "detection_delay_s" in data:
+        line += f", delay {data['detection_delay_s']:.2f} s after the true onset"
+    print(line)
+    print(f"wrote {out / 'verdict.json'}")
+    return 1 if result.verdict == FAULT else 0

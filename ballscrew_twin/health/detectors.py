@@ -1,0 +1,232 @@
+"""Sequential change detectors with thresholds set from a target false-alarm rate.
+
+All detectors read standardised inputs (standard normal while the system is healthy) and are
+tuned from the false-alarm rate a user accepts, ``rate`` [1/h], and the rate at which they are
+fed, ``f`` [Hz]:
+
+* **Two-sided CUSUM** (Page 1954) on the normalised innovations e_k:
+  ``g+ = max(0, g+ + e - k)``, ``g- = max(0, g- - e - k)``, alarm when either exceeds h.
+  The reference value k = delta / 2 makes it optimal for a mean shift of delta sigma. The
+  in-control average run length (ARL0, samples between false alarms) of one side follows
+  Siegmund's approximation ``ARL0 = (exp(2 k b) - 2 k b - 1) / (2 k^2)``, b = h + 1.166 (Basseville
+  & Nikiforov 1993, Eq. 5.2.44); two sides alarm twice as often, so each side needs
+  ``ARL0 = 2 * 3600 f / rate`` and h solves that equation (:func:`cusum_threshold`).
+* **Windowed chi-square** on the same innovations: ``sum of the last W e^2`` ~ chi^2(W) when
+  healthy; a false-alarm probability per test ``p = rate / (3600 f)`` (Bonferroni over the
+  overlapping tests: conservative) gives the threshold ``chi2.isf(p, W)``. It sees a growth of
+  the scatter (intermittent contact, ripple) that leaves the mean alone.
+* **Order-tracked spectral test** on the raw torque of a window: the complex amplitude at a
+  multiple (an *order*) m of the screw angle phi, ``X = sum x_k exp(-i m phi_k)``, follows the
+  order even while the speed changes. The 2 J neighbours sit at m +- j / R, j = 2 .. J + 1, R the
+  revolutions in the window (whole multiples of the order resolution, clear of the main lobe).
+  With white noise the powers |X|^2 at these orders are independent exponentials, so the ratio
+  of the power at the order to the neighbours' mean is F(2, 4 J) distributed; its threshold
+  is ``f.isf(p, 2, 4 J)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.stats import chi2, f
+
+from ..errors import ConfigError
+from .residuals import FloatArray
+
+#: Siegmund's correction of the CUSUM threshold for the overshoot of a normal increment [-].
+SIEGMUND_OVERSHOOT = 1.166
+SECONDS_PER_HOUR = 3600.0
+
+
+def check_rate(false_alarm_rate: float, sample_rate: float) -> None:
+    """Raise ConfigError unless 0 < false_alarm_rate [1/h] and 0 < sample_rate [Hz]."""
+    if not (math.isfinite(false_alarm_rate) and false_alarm_rate > 0.0):
+        raise ConfigError(f"false_alarm_rate = {false_alarm_rate!r} 1/h must be finite and > 0")
+    if not (math.isfinite(sample_rate) and sample_rate > 0.0):
+        raise ConfigError(f"detector sample rate = {sample_rate!r} Hz must be finite and > 0")
+
+
+def arl0_from_rate(false_alarm_rate: float, sample_rate: float) -> float:
+    """In-control average run length [samples] of a test fed at ``sample_rate`` [Hz] that
+    raises ``false_alarm_rate`` [1/h] false alarms: 3600 f / rate."""
+    check_rate(false_alarm_rate, sample_rate)
+    return SECONDS_PER_HOUR * sample_rate / false_alarm_rate
+
+
+def siegmund_arl0(k: float, h: float) -> float:
+    """One-sided CUSUM in-control ARL [samples] for N(0, 1) increments (Siegmund)."""
+    b = h + SIEGMUND_OVERSHOOT
+    a = 2.0 * k * b
+    return (math.expm1(a) - a) / (2.0 * k * k)
+
+
+def cusum_threshold(k: float, arl0: float) -> float:
+    """Threshold h [-] of a one-sided CUSUM with reference ``k`` [-] and in-control ARL
+    ``arl0`` [samples] (inverse of :func:`siegmund_arl0`)."""
+    if not (math.isfinite(k) and k > 0.0):
+        raise ConfigError(f"CUSUM reference k = {k!r} must be finite and > 0")
+    if not (math.isfinite(arl0) and arl0 > 1.0):
+        raise ConfigError(f"CUSUM ARL0 = {arl0!r} samples must be > 1")
+    high = 1.0
+    while siegmund_arl0(k, high) < arl0:
+        high *= 2.0
+    return float(brentq(lambda h: siegmund_arl0(k, h) - arl0, 0.0, high, xtol=1e-9))
+
+
+@dataclass(frozen=True)
+class CusumStep:
+    """State after one CUSUM update.
+
+    Attributes:
+        statistic: max(g+, g-) [-].
+        alarm: whether the statistic exceeds the threshold.
+        direction: +1 if g+ is the larger side, else -1.
+        change_index: index of the last sample at which the larger side was zero (estimate of
+            the change time: the alarm's change starts at the next sample).
+    """
+
+    statistic: float
+    alarm: bool
+    direction: int
+    change_index: int
+
+
+class Cusum:
+    """Two-sided CUSUM on standard-normal inputs.
+
+    Args:
+        shift: mean shift it is tuned for, in sigma [-] (k = shift / 2).
+        false_alarm_rate: target false alarms per hour [1/h].
+        sample_rate: rate of the inputs [Hz].
+    """
+
+    def __init__(self, shift: float, false_alarm_rate: float, sample_rate: float) -> None:
+        if not (math.isfinite(shift) and shift > 0.0):
+            raise ConfigError(f"CUSUM shift = {shift!r} sigma must be finite and > 0")
+        self.k = 0.5 * shift
+        self.threshold = cusum_threshold(
+            self.k, 2.0 * arl0_from_rate(false_alarm_rate, sample_rate)
+        )
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to zero."""
+        self.upper = 0.0
+        self.lower = 0.0
+        self.count = 0
+        self._upper_zero = 0
+        self._lower_zero = 0
+
+    def update(self, e: float) -> CusumStep:
+        """Take one normalised input ``e`` [-]."""
+        self.upper = max(0.0, self.upper + e - self.k)
+        self.lower = max(0.0, self.lower - e - self.k)
+        if self.upper == 0.0:
+            self._upper_zero = self.count
+        if self.lower == 0.0:
+            self._lower_zero = self.count
+        self.count += 1
+        if self.upper >= self.lower:
+            stat, direction, zero = self.upper, 1, self._upper_zero
+        else:
+            stat, direction, zero = self.lower, -1, self._lower_zero
+        return CusumStep(stat, stat > self.threshold, direction, zero)
+
+
+class WindowChiSquare:
+    """Sum of the last ``window`` squared normalised inputs against chi^2(window).
+
+    Args:
+        window: number of inputs summed.
+        false_alarm_rate: target false alarms per hour [1/h].
+        sample_rate: rate of the inputs [Hz].
+    """
+
+    def __init__(self, window: int, false_alarm_rate: float, sample_rate: float) -> None:
+        if window < 1:
+            raise ConfigError(f"chi-square window = {window!r} samples must be >= 1")
+        self.window = window
+        p = 1.0 / arl0_from_rate(false_alarm_rate, sample_rate)
+        self.threshold = float(chi2.isf(p, window))
+        self._values: list[float] = []
+
+    def reset(self) -> None:
+        """Forget the window."""
+        self._values.clear()
+
+    def update(self, e: float) -> tuple[float, bool]:
+        """Take one input; return the statistic [-] (0 until the window is full) and alarm."""
+        self._values.append(e * e)
+        if len(self._values) > self.window:
+            self._values.pop(0)
+        if len(self._values) < self.window:
+            return 0.0, False
+        stat = float(sum(self._values))
+        return stat, stat > self.threshold
+
+
+def order_amplitudes(x: FloatArray, angle: FloatArray, orders: FloatArray) -> FloatArray:
+    """Complex amplitudes ``sum x_k exp(-i m angle_k)`` for each order m [-] (angle [rad])."""
+    return np.exp(-1j * np.outer(orders, angle)) @ x
+
+
+@dataclass(frozen=True)
+class OrderTestResult:
+    """Spectral test of several orders in one window.
+
+    Attributes:
+        ratios: power at each order over the mean power of its neighbours [-].
+        threshold: alarm threshold of each ratio [-].
+        amplitudes: estimated ripple amplitude at each order [N m] (2 |X| / N).
+    """
+
+    ratios: FloatArray
+    threshold: float
+    amplitudes: FloatArray
+
+
+class OrderSpectralTest:
+    """Order-tracked ripple test (see the module docstring).
+
+    Args:
+        neighbours: J, neighbouring orders on each side used for the noise floor.
+        false_alarm_rate: target false alarms per hour [1/h], over all orders tested.
+        test_rate: how often a window is tested [Hz].
+        orders_per_test: how many orders each test checks (Bonferroni).
+    """
+
+    def __init__(
+        self,
+        false_alarm_rate: float,
+        test_rate: float,
+        orders_per_test: int,
+        neighbours: int = 8,
+    ) -> None:
+        if neighbours < 1 or orders_per_test < 1:
+            raise ConfigError("order test: neighbours and orders_per_test must be >= 1")
+        self.neighbours = neighbours
+        p = 1.0 / (arl0_from_rate(false_alarm_rate, test_rate) * orders_per_test)
+        self.threshold = float(f.isf(p, 2, 4 * neighbours))
+
+    def test(self, x: FloatArray, angle: FloatArray, orders: FloatArray) -> OrderTestResult:
+        """Test ``orders`` [-] in torque ``x`` [N m] sampled at screw angles ``angle`` [rad].
+
+        ``x`` (N,) should have its mean (and slow trend) removed; an (N, K) array tests K
+        records at the same angles at once (results then have a trailing K axis). The window
+        must span enough revolutions for the neighbours not to overlap the order (checked by
+        the caller).
+        """
+        revolutions = max(abs(float(angle[-1] - angle[0])) / (2.0 * math.pi), 1e-9)
+        steps = np.arange(2, self.neighbours + 2) / revolutions
+        offsets = np.concatenate([[0.0], -steps, steps])
+        probes = (np.asarray(orders)[:, None] + offsets[None, :]).ravel()
+        values = order_amplitudes(x, angle, probes)
+        power = (np.abs(values) ** 2).reshape(len(orders), len(offsets), *np.shape(x)[1:])
+        floor = np.mean(power[:, 1:], axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratios = np.where(floor > 0.0, power[:, 0] / floor, math.inf)
+        amplitudes = 2.0 * np.sqrt(power[:, 0]) / len(x)
+        return OrderTestResult(ratios, self.threshold, amplitudes)

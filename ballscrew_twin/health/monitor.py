@@ -1,0 +1,535 @@
+"""The health-monitor pipeline shared by the live node and the offline ``detect`` command.
+
+Samples in (stamp [s], SI value) -> blocks aligned with the slow signals (:mod:`.residuals`) ->
+twin prediction and residual -> Kalman tracking of slow drift (:mod:`.tracker`) -> detectors
+on the innovations and on the raw torque (:mod:`.detectors`) -> verdict and fault class
+(:mod:`.classify`). The node calls the ``add_*`` methods as messages arrive; ``detect`` calls
+them for the bag's messages merged in stamp order (:func:`feed`), so both see the same blocks
+in the same order and reach the same verdict.
+
+Verdicts: UNKNOWN during the warm-up (the sensor noise is learnt then; the data must be healthy)
+and at standstill or an invalid operating point; OK; WARN when a detector's statistic passes
+``warn_fraction`` of its threshold; FAULT from the first alarm on (latched, the Kalman filter
+is frozen so that it does not learn the fault). The class is refined for
+``classification_window`` [s] after the alarm and then kept.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import BallscrewTwinError, ConfigError
+from ..models.base import OperatingPoint
+from ..params import TwinConfig
+from .classify import (
+    Classification,
+    classify_mean_shift,
+    classify_ripple,
+    defect_orders,
+)
+from .detectors import Cusum, OrderSpectralTest, WindowChiSquare, check_rate
+from .residuals import (
+    SIGNATURE_CHANGES,
+    Block,
+    BlockAligner,
+    FloatArray,
+    Prediction,
+    ResidualSettings,
+    TwinPredictor,
+    block_acceleration,
+    make_twin_model,
+    nearest_probe,
+    within_block_variance,
+)
+from .tracker import DriftTracker, TrackerSettings
+
+OK, WARN, FAULT, UNKNOWN = 0, 1, 2, 3
+VERDICT_NAMES = {OK: "OK", WARN: "WARN", FAULT: "FAULT", UNKNOWN: "UNKNOWN"}
+#: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
+DETECTORS: tuple[str, ...] = ("cusum", "chi_square", "spectral")
+#: Blocks of history kept for classification after an alarm.
+HISTORY_BLOCKS = 1200
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonitorSettings:
+    """Detection settings (the residual and tracker settings are nested).
+
+    Attributes:
+        false_alarm_rate: target false alarms per hour over all detectors [1/h].
+        warmup: healthy time at the start used to learn the noise and settle the filter [s].
+        cusum_shift: mean shift the CUSUM is tuned for, in innovation sigmas [-].
+        chi_square_window: blocks summed by the chi-square test [-].
+        spectral_window: length of the torque window of the order test [s].
+        spectral_period: time between two order tests [s].
+        min_revolutions: fewest screw revolutions in a window for the order test [-].
+        classification_window: time after the alarm over which the class is refined [s]; the
+            longer, the likelier the operating point moves, which separates the classes.
+        warn_fraction: statistic / threshold from which the verdict is WARN [-].
+    """
+
+    residual: ResidualSettings = field(default_factory=ResidualSettings)
+    tracker: TrackerSettings = field(default_factory=TrackerSettings)
+    false_alarm_rate: float = 0.01
+    warmup: float = 5.0
+    cusum_shift: float = 4.0
+    chi_square_window: int = 20
+    spectral_window: float = 4.0
+    spectral_period: float = 1.0
+    min_revolutions: float = 4.0
+    classification_window: float = 8.0
+    warn_fraction: float = 0.5
+
+    def __post_init__(self) -> None:
+        """Reject values outside their meaning."""
+        check_rate(self.false_alarm_rate, 1.0 / self.residual.block_duration)
+        for name, unit in (
+            ("warmup", "s"),
+            ("cusum_shift", "-"),
+            ("spectral_window", "s"),
+            ("spectral_period", "s"),
+            ("min_revolutions", "-"),
+            ("classification_window", "s"),
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
+        if self.chi_square_window < 2:
+            raise ConfigError(
+                f"health settings: chi_square_window = {self.chi_square_window!r} must be >= 2"
+            )
+        if not 0.0 < self.warn_fraction < 1.0:
+            raise ConfigError(
+                f"health settings: warn_fraction = {self.warn_fraction!r} must be in (0, 1)"
+            )
+
+
+@dataclass(frozen=True)
+class HealthSample:
+    """Result of one block (what the node publishes as a HealthResidual).
+
+    Attributes:
+        time: block mid time [s] (the stamps' clock).
+        measured: block mean torque [N m].
+        predicted: twin torque at the block's operating point [N m] (nan if none).
+        residual: measured - predicted [N m].
+        normalized_residual: residual / sqrt(sigma_s^2 / n + sigma_m^2) [-].
+        innovation: normalised Kalman innovation [-] (nan before the filter runs).
+        statistics: detector -> (statistic, threshold) [-].
+        test_statistic: statistic of the detector closest to its threshold [-].
+        threshold: that detector's threshold [-].
+        verdict: OK, WARN, FAULT or UNKNOWN.
+        fault_class: likely class (FAULT only), else "".
+        confidence: 0..1, see :meth:`HealthMonitor._verdict`.
+        operating_point: measured operating point of the block, None if none.
+        state: tracked (bias [N m], friction scale [-], preload change [N]).
+        note: why the verdict is UNKNOWN, or which detector alarmed.
+    """
+
+    time: float
+    measured: float
+    predicted: float
+    residual: float
+    normalized_residual: float
+    innovation: float
+    statistics: dict[str, tuple[float, float]]
+    test_statistic: float
+    threshold: float
+    verdict: int
+    fault_class: str
+    confidence: float
+    operating_point: OperatingPoint | None
+    state: tuple[float, float, float]
+    note: str = ""
+
+
+@dataclass
+class Alarm:
+    """The first alarm of a run.
+
+    Attributes:
+        time: time of the alarm: stamp of the last sample of the block that raised it [s].
+        detector: which detector fired.
+        onset: estimated change time [s].
+        classification: the class and its confidence (refined until ``final``).
+        final: whether the classification window has passed.
+    """
+
+    time: float
+    detector: str
+    onset: float
+    classification: Classification
+    final: bool = False
+
+
+@dataclass(frozen=True)
+class _Record:
+    """What a block leaves behind for a later classification."""
+
+    time: float
+    measured: float
+    predicted: float
+    prediction: Prediction
+    operating_point: OperatingPoint
+    noise_variance: float
+    state: FloatArray
+    covariance: FloatArray
+
+
+class HealthMonitor:
+    """Live/offline fault detector of one ball screw (see the module docstring).
+
+    Args:
+        config: the screw's parameter set.
+        settings: detection settings.
+        model_factory: builds the twin (default :func:`.residuals.make_twin_model`).
+        predictor: a predictor to share (its cache) between monitors of the same screw and
+            residual settings, e.g. over many recordings; default: a new one.
+    """
+
+    def __init__(
+        self,
+        config: TwinConfig,
+        settings: MonitorSettings | None = None,
+        model_factory: object = make_twin_model,
+        predictor: TwinPredictor | None = None,
+    ) -> None:
+        self.config = config
+        self.settings = settings or MonitorSettings()
+        s = self.settings
+        if predictor is not None and (
+            predictor.config != config or predictor.settings != s.residual
+        ):
+            raise ConfigError("health monitor: the shared predictor has another config/settings")
+        self.predictor = predictor or TwinPredictor(config, s.residual, model_factory)
+        self.aligner = BlockAligner(s.residual)
+        self.tracker = DriftTracker(s.tracker)
+        block_rate = 1.0 / s.residual.block_duration
+        share = s.false_alarm_rate / len(DETECTORS)
+        self.cusum = Cusum(s.cusum_shift, share, block_rate)
+        self.chi_square = WindowChiSquare(s.chi_square_window, share, block_rate)
+        self.orders = defect_orders(config)
+        self.spectral = OrderSpectralTest(share, 1.0 / s.spectral_period, len(self.orders))
+        self.alarm: Alarm | None = None
+        self.samples: list[HealthSample] = []
+        self._start: float | None = None
+        self._last_index: int | None = None
+        self._noise_sum = 0.0
+        self._noise_count = 0
+        self._history: deque[_Record] = deque(maxlen=HISTORY_BLOCKS)
+        self._raw: deque[tuple[FloatArray, FloatArray, FloatArray]] = deque()
+        self._next_spectral = -math.inf
+        self._spectral_stat = 0.0
+        self._spectral_ratios: dict[str, float] = {}
+        self._ripple_alarm = False
+
+    # ------------------------------------------------------------------ inputs
+    def add_torque(self, stamp: float, value: float) -> list[HealthSample]:
+        """A measured torque sample (stamp [s], torque [N m]); returns new block results."""
+        return self._run(self.aligner.add_torque(stamp, value))
+
+    def add_speed(self, stamp: float, value: float) -> list[HealthSample]:
+        """A screw-speed sample [s, rad/s]."""
+        return self._run(self.aligner.add_speed(stamp, value))
+
+    def add_temperature(self, stamp: float, value: float) -> list[HealthSample]:
+        """A temperature sample [s, K]."""
+        return self._run(self.aligner.add_temperature(stamp, value))
+
+    def add_preload(self, stamp: float, value: float) -> list[HealthSample]:
+        """A load-cell preload sample [s, N]."""
+        return self._run(self.aligner.add_preload(stamp, value))
+
+    def flush(self) -> list[HealthSample]:
+        """Process what is still pending (end of a recording)."""
+        return self._run(self.aligner.flush())
+
+    def _run(self, blocks: list[Block]) -> list[HealthSample]:
+        out = [self._process(b) for b in blocks]
+        self.samples.extend(out)
+        return out
+
+    # ------------------------------------------------------------------ noise
+    @property
+    def sensor_variance(self) -> float | None:
+        """Variance of one torque sample [N m^2]: given, or learnt in the warm-up (None yet)."""
+        given = self.settings.residual.sensor_noise
+        if given is not None:
+            return given * given
+        if self._noise_count == 0:
+            return None
+        return self._noise_sum / self._noise_count
+
+    # ------------------------------------------------------------------ one block
+    def _unknown(self, block: Block, note: str, op: OperatingPoint | None) -> HealthSample:
+        self._raw.clear()
+        return HealthSample(
+            time=block.time,
+            measured=float(np.mean(block.torque)),
+            predicted=math.nan,
+            residual=math.nan,
+            normalized_residual=math.nan,
+            innovation=math.nan,
+            statistics={},
+            test_statistic=0.0,
+            threshold=0.0,
+            verdict=FAULT if self.alarm else UNKNOWN,
+            fault_class=self.alarm.classification.fault_class if self.alarm else "",
+            confidence=self.alarm.classification.confidence if self.alarm else 0.0,
+            operating_point=op,
+            state=tuple(self.tracker.state.tolist()),
+            note=note,
+        )
+
+    def _process(self, block: Block) -> HealthSample:
+        s = self.settings
+        if self._start is None:
+            self._start = block.time
+        in_warmup = block.time - self._start < s.warmup
+        speed = float(np.mean(block.speed))
+        op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
+        if abs(speed) < s.residual.min_speed:
+            return self._unknown(block, f"standstill (|speed| {abs(speed):.3g} rad/s)", op)
+        try:
+            prediction = self.predictor.predict(op)
+        except BallscrewTwinError as err:  # invalid operating point, solver failure
+            return self._unknown(block, f"no prediction: {err}", None)
+
+        n = len(block.torque)
+        measured = float(np.mean(block.torque))
+        if in_warmup and s.residual.sensor_noise is None:
+            variance = within_block_variance(block)
+            if variance is not None:
+                self._noise_sum += variance
+                self._noise_count += 1
+        sensor_var = self.sensor_variance
+        if sensor_var is None:
+            return self._unknown(block, "warm-up: sensor noise not known yet", op)
+
+        predicted = prediction.at(op) + self.config.screw.screw_inertia * block_acceleration(block)
+        residual = measured - predicted
+        model_error = s.residual.model_error(predicted)
+        normalized = residual / math.sqrt(sensor_var / n + model_error**2)
+        noise_var = sensor_var / n + (s.residual.model_noise_relative * predicted) ** 2
+        gap = 1 if self._last_index is None else max(block.index - self._last_index, 1)
+        self._last_index = block.index
+        prior_state = self.tracker.state
+        prior_cov = np.array(self.tracker.kf.P, dtype=float)
+        step = self.tracker.step(
+            measured,
+            predicted,
+            prediction.preload_sensitivity,
+            noise_var,
+            gap * s.residual.block_duration,
+        )
+        self._history.append(
+            _Record(
+                block.time, measured, predicted, prediction, op, noise_var, prior_state, prior_cov
+            )
+        )
+        self._buffer_raw(block)
+        e = step.normalized
+        if in_warmup:
+            return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
+
+        cusum = self.cusum.update(e)
+        chi_stat, chi_alarm = self.chi_square.update(e)
+        self._spectral(block.time)
+        stats = {
+            "cusum": (cusum.statistic, self.cusum.threshold),
+            "chi_square": (chi_stat, self.chi_square.threshold),
+            "spectral": (self._spectral_stat, self.spectral.threshold),
+        }
+        if self.alarm is None:
+            fired = [
+                name
+                for name, hit in (
+                    ("spectral", self._ripple_alarm),
+                    ("cusum", cusum.alarm),
+                    ("chi_square", chi_alarm),
+                )
+                if hit
+            ]
+            if fired:
+                detector = fired[0]
+                blocks_back = self.cusum.count - cusum.change_index - 1
+                if detector == "cusum":
+                    onset = block.time - blocks_back * s.residual.block_duration
+                elif detector == "chi_square":
+                    onset = block.time - s.chi_square_window * s.residual.block_duration
+                else:
+                    onset = block.time - s.spectral_window
+                self.alarm = Alarm(
+                    float(block.stamps[-1]), detector, onset, Classification("", 0.0, {}, {})
+                )
+                self.tracker.frozen = True
+        if self.alarm is not None and not self.alarm.final:
+            self.alarm.classification = self._classify()
+            if block.stamps[-1] - self.alarm.time >= s.classification_window:
+                self.alarm.final = True
+        return self._sample(block, measured, predicted, residual, normalized, e, stats, op)
+
+    def _sample(
+        self,
+        block: Block,
+        measured: float,
+        predicted: float,
+        residual: float,
+        normalized: float,
+        innovation: float,
+        stats: dict[str, tuple[float, float]],
+        op: OperatingPoint,
+    ) -> HealthSample:
+        """Assemble a result and its verdict."""
+        s = self.settings
+        if stats:
+            name = max(stats, key=lambda k: stats[k][0] / stats[k][1])
+            stat, threshold = stats[name]
+        else:
+            name, stat, threshold = "", 0.0, 0.0
+        ratio = stat / threshold if threshold > 0.0 else 0.0
+        note = f"held: {', '.join(block.held)}" if block.held else ""
+        if self.alarm is not None:
+            verdict = FAULT
+            fault_class = self.alarm.classification.fault_class
+            confidence = self.alarm.classification.confidence
+            note = f"alarm by {self.alarm.detector} at {self.alarm.time:.3f} s"
+        elif not stats:
+            verdict, fault_class, confidence = UNKNOWN, "", 0.0
+            note = "warm-up"
+        elif ratio >= s.warn_fraction:
+            verdict, fault_class, confidence = WARN, "", min(ratio, 1.0)
+            note = f"{name} at {ratio:.0%} of its threshold"
+        else:
+            verdict, fault_class, confidence = OK, "", 1.0 - ratio
+        return HealthSample(
+            time=block.time,
+            measured=measured,
+            predicted=predicted,
+            residual=residual,
+            normalized_residual=normalized,
+            innovation=innovation,
+            statistics=stats,
+            test_statistic=stat,
+            threshold=threshold,
+            verdict=verdict,
+            fault_class=fault_class,
+            confidence=confidence,
+            operating_point=op,
+            state=tuple(self.tracker.state.tolist()),
+            note=note,
+        )
+
+    # ------------------------------------------------------------------ spectral test
+    def _buffer_raw(self, block: Block) -> None:
+        self._raw.append((block.stamps, block.torque, block.speed))
+        while self._raw and self._raw[0][0][0] < block.stamps[-1] - self.settings.spectral_window:
+            self._raw.popleft()
+
+    def _spectral(self, now: float) -> None:
+        """Run the order test when due (updates the spectral statistic and alarm flag)."""
+        s = self.settings
+        if now < self._next_spectral or not self._raw:
+            return
+        self._next_spectral = now + s.spectral_period
+        t = np.concatenate([r[0] for r in self._raw])
+        x = np.concatenate([r[1] for r in self._raw])
+        w = np.concatenate([r[2] for r in self._raw])
+        if len(t) < 16 or t[-1] - t[0] < 0.9 * s.spectral_window:
+            return
+        angle = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
+        if abs(angle[-1]) < 2.0 * math.pi * s.min_revolutions:
+            self._spectral_stat = 0.0
+            return
+        nyquist = 0.5 / float(np.median(np.diff(t)))
+        rotation = float(np.max(np.abs(w))) / (2.0 * math.pi)
+        names = [n for n, m in self.orders.items() if m * rotation < 0.9 * nyquist]
+        if not names:
+            self._spectral_stat = 0.0
+            return
+        centred = t - t.mean()
+        x = x - np.polyval(np.polyfit(centred, x, 1), centred)
+        result = self.spectral.test(x, angle, np.array([self.orders[n] for n in names]))
+        self._spectral_ratios = dict(zip(names, result.ratios.tolist(), strict=True))
+        self._spectral_stat = float(np.max(result.ratios))
+        if self._spectral_stat > self.spectral.threshold:
+            self._ripple_alarm = True
+
+    # ------------------------------------------------------------------ classification
+    def _classify(self) -> Classification:
+        """Class of the current alarm from the evidence since its onset."""
+        assert self.alarm is not None
+        if self._ripple_alarm:
+            return classify_ripple(self._spectral_ratios, self.spectral.threshold)
+        records = [r for r in self._history if r.time >= self.alarm.onset]
+        if not records:
+            return Classification("", 0.0, {}, {})
+        base = records[0]
+        residuals, sigmas, preload = [], [], []
+        for r in records:
+            p = r.prediction
+            expected = self.tracker.expected(r.predicted, p.preload_sensitivity, base.state)
+            h = np.array([1.0, r.predicted, p.preload_sensitivity])
+            residuals.append(r.measured - expected)
+            sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
+            preload.append(-r.operating_point.preload * p.preload_sensitivity)
+
+        def twin_signature(name: str, probe: float | None) -> FloatArray:
+            return np.array(
+                [self.predictor.signature(name, r.operating_point, probe) for r in records]
+            )
+
+        signatures = {
+            "preload_loss": np.array(preload),
+            **{name: twin_signature(name, None) for name in SIGNATURE_CHANGES},
+        }
+        r_arr, s_arr = np.array(residuals), np.array(sigmas)
+        elapsed = np.array([r.time - self.alarm.onset for r in records])
+        first = classify_mean_shift(r_arr, s_arr, signatures, elapsed)
+        # The twin's response is not linear in the severity: take its secants again near the
+        # severities just fitted, and fit once more.
+        for name in SIGNATURE_CHANGES:
+            probe = nearest_probe(name, first.severities.get(name, math.nan))
+            if probe != SIGNATURE_CHANGES[name][2]:
+                signatures[name] = twin_signature(name, probe)
+        return classify_mean_shift(r_arr, s_arr, signatures, elapsed)
+
+
+def feed(
+    monitor: HealthMonitor, channels: Mapping[str, tuple[FloatArray, FloatArray]]
+) -> list[HealthSample]:
+    """Feed recorded channels to ``monitor`` merged in stamp order, then flush.
+
+    Args:
+        channels: "torque" [N m], "speed" [rad/s], "temperature" [K], "preload" [N] ->
+            (stamps [s], values); torque and speed are required.
+
+    Returns:
+        Every block result, in time order (also in ``monitor.samples``).
+    """
+    adders = {
+        "torque": monitor.add_torque,
+        "speed": monitor.add_speed,
+        "temperature": monitor.add_temperature,
+        "preload": monitor.add_preload,
+    }
+    for required in ("torque", "speed", "temperature", "preload"):
+        if required not in channels:
+            raise ConfigError(f"health monitor: channel {required!r} is missing")
+    # Slow channels before torque at equal stamps: the order a live node most likely sees.
+    priority = {"speed": 0, "temperature": 1, "preload": 2, "torque": 3}
+    stamps = np.concatenate([np.asarray(channels[c][0], float) for c in adders])
+    which = np.concatenate([np.full(len(channels[c][0]), priority[c]) for c in adders])
+    values = np.concatenate([np.asarray(channels[c][1], float) for c in adders])
+    order = np.lexsort((which, stamps))
+    by_priority = [adders[c] for c in sorted(adders, key=priority.__getitem__)]
+    start = len(monitor.samples)
+    for i in order:
+        by_priority[which[i]](float(stamps[i]), float(values[i]))
+    monitor.flush()
+    return monitor.samples[start:]

@@ -1,0 +1,515 @@
+"""Residuals: measured drive torque minus the twin's prediction at the measured operating point.
+
+The bench streams arrive at different rates: the torque fast (typically 1 kHz), speed, preload
+and temperature slower. Torque samples are grouped into blocks of fixed length on the absolute
+time axis (``floor(t / block_duration)``); a block is compared with the twin when it is closed
+and every slow signal has a sample at or after its end, so the slow signals are *interpolated*
+linearly at the torque stamps, never extrapolated. If a slow signal is late by more than
+``max_wait`` [s] of torque time, its last value is held instead (stated in the result). The
+rule uses stamps only, so a live node that receives messages in stamp order and an offline run
+over the same bag see the same blocks and the same numbers (no look-ahead in either).
+
+Normalisation: the block mean of ``n`` torque samples has the standard deviation
+``sqrt(sigma_s^2 / n + sigma_m^2)``, ``sigma_s`` the torque-sensor noise of one sample [N m]
+(given, or learnt from the first blocks) and ``sigma_m`` the model error at the operating
+point: ``model_error_relative * |T_pred| + model_error_absolute`` [N m] (1 sigma; the default
+is the size of the accuracy benchmark's error of the quasi-static twin; replace by the bound
+stated for the real-time model when it is used).
+
+Predictions come from a :class:`TwinPredictor`: the model from :func:`make_twin_model` (one
+line to switch), evaluated on a quantised operating point and cached, so a steady solve
+(milliseconds) is paid once per grid cell, not per sample.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections import deque
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import BallscrewTwinError, ConfigError, OperatingPointError
+from ..models.base import OperatingPoint, SteadyStateModel
+from ..params import TwinConfig
+
+FloatArray = NDArray[np.float64]
+
+#: Relative preload step of the finite-difference sensitivity d T / d F_pr [-].
+PRELOAD_PROBE = 0.05
+#: Relative speed step of the finite-difference sensitivity d T / d omega [-].
+SPEED_PROBE = 0.05
+#: Temperature step of the finite-difference sensitivity d T / d theta [K].
+TEMPERATURE_PROBE = 2.0
+
+
+class SampleError(BallscrewTwinError, ValueError):
+    """A bench sample is not finite."""
+
+
+class StampOrderError(SampleError):
+    """A sample's stamp is earlier than the last one of its signal (clock jump, restart)."""
+
+
+def make_twin_model(config: TwinConfig) -> SteadyStateModel:
+    """The twin the health monitor compares with (switch to the real-time model here).
+
+    The quasi-static steady-state model of Bertolino et al. (2021) for now; the steady state is
+    what a bench at constant speed measures after the transients.
+    """
+    from ..models.steady import SteadyStateModel as Steady
+
+    return Steady(config)
+
+
+def thinner_lubricant(config: TwinConfig, loss: float) -> TwinConfig:
+    """``config`` with both viscosity points scaled by ``1 - loss`` [-] (viscosity loss)."""
+    lub = config.lubricant
+    return replace(
+        config,
+        lubricant=replace(
+            lub,
+            viscosity_reference=lub.viscosity_reference * (1.0 - loss),
+            viscosity_second=lub.viscosity_second * (1.0 - loss),
+        ),
+    )
+
+
+def debris(config: TwinConfig, rise: float) -> TwinConfig:
+    """``config`` with the dry (boundary) friction coefficient mu_dry (Eq. 36) and both RMS
+    roughnesses (Eq. 38) scaled by ``1 + rise`` [-]: particles between the surfaces, the usual
+    start of a jam (the fault model of :mod:`.fault_profiles`)."""
+    contact = config.contact
+    screw = config.screw
+    return replace(
+        config,
+        contact=replace(
+            contact, dry_friction_coefficient=contact.dry_friction_coefficient * (1.0 + rise)
+        ),
+        screw=replace(
+            screw,
+            ball_roughness=screw.ball_roughness * (1.0 + rise),
+            groove_roughness=screw.groove_roughness * (1.0 + rise),
+        ),
+    )
+
+
+#: Fault signatures from a changed twin: class -> (config change taking the severity [-],
+#: severities at which the secant is taken [-], the first guess among them).
+SIGNATURE_CHANGES: dict[str, tuple[Any, tuple[float, ...], float]] = {
+    "lubricant_degradation": (thinner_lubricant, (0.1, 0.3, 0.6, 0.9), 0.3),
+    "jam_onset": (debris, (0.25, 0.5, 1.0, 2.0, 4.0, 8.0), 1.0),
+}
+
+
+def nearest_probe(name: str, severity: float) -> float:
+    """The secant severity of :data:`SIGNATURE_CHANGES` closest (in ratio) to ``severity``."""
+    _, probes, first = SIGNATURE_CHANGES[name]
+    if not (math.isfinite(severity) and severity > 0.0):
+        return first
+    return min(probes, key=lambda p: abs(math.log(p / severity)))
+
+
+def _positive(value: float, name: str, unit: str, *, allow_zero: bool = False) -> None:
+    """Raise ConfigError unless ``value`` is finite and > 0 (>= 0 with ``allow_zero``)."""
+    ok = math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
+    if not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ConfigError(f"health settings: {name} = {value!r} {unit} must be finite and {bound}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class ResidualSettings:
+    """How torque samples are grouped, aligned and normalised.
+
+    Attributes:
+        block_duration: length of one comparison block [s].
+        max_wait: how long (torque time) a block waits for a late slow signal before its last
+            value is held [s].
+        sensor_noise: standard deviation of one torque sample [N m]; None: learnt during the
+            warm-up from the scatter of the samples within each block.
+        model_error_relative: model error relative to the predicted torque, 1 sigma [-].
+        model_error_absolute: model error floor, 1 sigma [N m].
+        model_noise_relative: the part of the model error that changes from block to block
+            (operating-point grid of the cache, interpolation), relative to the torque [-]; the
+            rest is systematic and tracked by the Kalman filter (:mod:`.tracker`).
+        speed_step: relative step of the speed grid of the prediction cache [-].
+        temperature_step: temperature step of the prediction cache [K].
+        preload_step: preload step of the prediction cache [N].
+        min_speed: below this |speed| the drag torque is not compared (standstill) [rad/s].
+        slow_smoothing: causal moving average of temperature and preload [s]: both change
+            slowly, their sensor noise would otherwise go into the prediction.
+    """
+
+    block_duration: float = 0.1
+    max_wait: float = 0.25
+    sensor_noise: float | None = None
+    model_error_relative: float = 0.03
+    model_error_absolute: float = 1.0e-4
+    model_noise_relative: float = 0.002
+    speed_step: float = 0.01
+    temperature_step: float = 0.5
+    preload_step: float = 10.0
+    min_speed: float = 0.5
+    slow_smoothing: float = 1.0
+
+    def __post_init__(self) -> None:
+        """Reject non-finite, negative or zero values where they make no sense."""
+        _positive(self.block_duration, "block_duration", "s")
+        _positive(self.max_wait, "max_wait", "s", allow_zero=True)
+        if self.sensor_noise is not None:
+            _positive(self.sensor_noise, "sensor_noise", "N m")
+        _positive(self.model_error_relative, "model_error_relative", "-", allow_zero=True)
+        _positive(self.model_error_absolute, "model_error_absolute", "N m", allow_zero=True)
+        _positive(self.model_noise_relative, "model_noise_relative", "-", allow_zero=True)
+        _positive(self.speed_step, "speed_step", "-")
+        _positive(self.temperature_step, "temperature_step", "K")
+        _positive(self.preload_step, "preload_step", "N")
+        _positive(self.min_speed, "min_speed", "rad/s", allow_zero=True)
+        _positive(self.slow_smoothing, "slow_smoothing", "s", allow_zero=True)
+
+    def model_error(self, predicted: float) -> float:
+        """1-sigma model error at a predicted torque [N m]."""
+        return self.model_error_relative * abs(predicted) + self.model_error_absolute
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The twin at one grid point of the cache, with its local slopes.
+
+    Attributes:
+        torque: predicted drag torque at the grid point [N m], with the sign of the speed.
+        speed_sensitivity: d torque / d screw speed [N m s / rad].
+        temperature_sensitivity: d torque / d temperature [N m / K].
+        preload_sensitivity: d torque / d preload [N m / N].
+        operating_point: the grid point evaluated.
+    """
+
+    torque: float
+    speed_sensitivity: float
+    temperature_sensitivity: float
+    preload_sensitivity: float
+    operating_point: OperatingPoint
+
+    def at(self, op: OperatingPoint) -> float:
+        """Torque at ``op`` near the grid point, first order (linear in each input) [N m]."""
+        grid = self.operating_point
+        return (
+            self.torque
+            + self.speed_sensitivity * (op.screw_speed - grid.screw_speed)
+            + self.temperature_sensitivity * (op.temperature - grid.temperature)
+            + self.preload_sensitivity * (op.preload - grid.preload)
+        )
+
+
+class TwinPredictor:
+    """Cached predictions of the twin on a quantised operating-point grid.
+
+    Args:
+        config: the screw's parameter set.
+        settings: grid steps (``speed_step``, ``temperature_step``, ``preload_step``).
+        model_factory: builds the twin from a config (default :func:`make_twin_model`).
+    """
+
+    def __init__(
+        self,
+        config: TwinConfig,
+        settings: ResidualSettings,
+        model_factory: Any = make_twin_model,
+    ) -> None:
+        self.config = config
+        self.settings = settings
+        self._factory = model_factory
+        self.model: SteadyStateModel = model_factory(config)
+        self._changed: dict[tuple[str, float], SteadyStateModel] = {}
+        self._cache: dict[tuple[int, int, int, int], Prediction] = {}
+        self._signature_cache: dict[tuple[str, float, tuple[int, int, int, int]], float] = {}
+        #: Number of model evaluations so far (four per new grid cell, one more for each
+        #: fault signature asked for).
+        self.evaluations = 0
+
+    def _key(self, op: OperatingPoint) -> tuple[int, int, int, int]:
+        s = self.settings
+        sign = 1 if op.screw_speed >= 0.0 else -1
+        speed = max(abs(op.screw_speed), 1e-9)
+        return (
+            sign,
+            round(math.log(speed) / math.log1p(s.speed_step)),
+            round(op.temperature / s.temperature_step),
+            round(op.preload / s.preload_step),
+        )
+
+    def _grid_point(self, key: tuple[int, int, int, int]) -> OperatingPoint:
+        s = self.settings
+        return OperatingPoint(
+            screw_speed=key[0] * math.exp(key[1] * math.log1p(s.speed_step)),
+            temperature=key[2] * s.temperature_step,
+            preload=key[3] * s.preload_step,
+        )
+
+    def _torque(self, model: SteadyStateModel, op: OperatingPoint) -> float:
+        self.evaluations += 1
+        value = float(model.evaluate(op).drag_torque)
+        if not math.isfinite(value):
+            raise OperatingPointError(f"the twin returned a non-finite torque at {op}")
+        return value
+
+    def predict(self, op: OperatingPoint) -> Prediction:
+        """Torque and its slopes at the grid point nearest to ``op`` (``.at(op)`` corrects
+        for the distance to the grid point).
+
+        Raises:
+            OperatingPointError: ``op`` is invalid (NaN, temperature in deg C, ...).
+        """
+        op.validate()
+        key = self._key(op)
+        hit = self._cache.get(key)
+        if hit is not None:
+            return hit
+        grid = self._grid_point(key)
+        torque = self._torque(self.model, grid)
+
+        def slope(changed: OperatingPoint, delta: float) -> float:
+            return (self._torque(self.model, changed) - torque) / delta
+
+        dw = SPEED_PROBE * grid.screw_speed
+        df = -PRELOAD_PROBE * max(grid.preload, self.settings.preload_step)
+        df = max(df, -grid.preload)
+        prediction = Prediction(
+            torque,
+            slope(replace(grid, screw_speed=grid.screw_speed + dw), dw),
+            slope(
+                replace(grid, temperature=grid.temperature + TEMPERATURE_PROBE), TEMPERATURE_PROBE
+            ),
+            slope(replace(grid, preload=grid.preload + df), df) if df < 0.0 else 0.0,
+            grid,
+        )
+        self._cache[key] = prediction
+        return prediction
+
+    def signature(self, name: str, op: OperatingPoint, probe: float | None = None) -> float:
+        """Torque change per unit severity of fault ``name`` at ``op`` [N m]: the secant
+        ``(T(severity = probe) - T) / probe`` of the twin changed as :data:`SIGNATURE_CHANGES`
+        says (``lubricant_degradation``: relative viscosity loss; ``jam_onset``: relative rise
+        of mu_dry and roughness). ``probe`` is one of that class's secant severities (default:
+        its first guess); the response is non-linear, so the secant is taken near the fitted
+        severity (:func:`nearest_probe`)."""
+        change_config, _, first = SIGNATURE_CHANGES[name]
+        probe = first if probe is None else probe
+        key = self._key(op)
+        hit = self._signature_cache.get((name, probe, key))
+        if hit is not None:
+            return hit
+        if (name, probe) not in self._changed:
+            self._changed[(name, probe)] = self._factory(change_config(self.config, probe))
+        grid = self._grid_point(key)
+        changed = self._torque(self._changed[(name, probe)], grid)
+        change = (changed - self.predict(grid).torque) / probe
+        self._signature_cache[(name, probe, key)] = change
+        return change
+
+
+@functools.lru_cache(maxsize=4)
+def shared_predictor(config: TwinConfig, settings: ResidualSettings) -> TwinPredictor:
+    """One :class:`TwinPredictor` (with the default twin) per screw and residual settings in
+    this process, so that runs over many recordings pay each grid cell's solve once."""
+    return TwinPredictor(config, settings)
+
+
+@dataclass
+class SlowSignal:
+    """Recent samples of one slowly sampled signal (stamps [s], values in SI units)."""
+
+    name: str
+    unit: str
+    smoothing: float = 0.0  # s, length of the causal moving average (0: none)
+    horizon: float = 30.0  # s of history kept
+    stamps: deque[float] = field(default_factory=deque)
+    values: deque[float] = field(default_factory=deque)
+
+    def add(self, stamp: float, value: float) -> None:
+        """Append a sample; non-finite (:class:`SampleError`) or out-of-order
+        (:class:`StampOrderError`) samples raise."""
+        if not (math.isfinite(stamp) and math.isfinite(value)):
+            raise SampleError(
+                f"{self.name}: sample ({stamp!r} s, {value!r} {self.unit}) not finite"
+            )
+        if self.stamps and stamp < self.stamps[-1]:
+            raise StampOrderError(
+                f"{self.name}: stamp {stamp:.6f} s is earlier than the last one "
+                f"{self.stamps[-1]:.6f} s (clock jump?)"
+            )
+        self.stamps.append(stamp)
+        self.values.append(value)
+        while len(self.stamps) > 2 and self.stamps[1] < stamp - self.horizon:
+            self.stamps.popleft()
+            self.values.popleft()
+
+    @property
+    def latest(self) -> float:
+        """Stamp of the newest sample [s], -inf without samples."""
+        return self.stamps[-1] if self.stamps else -math.inf
+
+    def at(self, times: FloatArray) -> FloatArray:
+        """Linear interpolation at ``times`` [s]; the last value is held beyond the newest
+        sample and the first before the oldest (never extrapolated). With ``smoothing`` > 0
+        the interpolated signal is first averaged over the ``smoothing`` seconds before each
+        time (causal moving average of the samples in that span, plus the interpolated end)."""
+        stamps = np.fromiter(self.stamps, float)
+        values = np.fromiter(self.values, float)
+        now = np.interp(times, stamps, values)
+        if self.smoothing <= 0.0:
+            return now
+        out = np.empty_like(now)
+        for i, t in enumerate(times):
+            inside = values[(stamps > t - self.smoothing) & (stamps < t)]
+            out[i] = (float(np.sum(inside)) + now[i]) / (len(inside) + 1)
+        return out
+
+
+@dataclass(frozen=True)
+class Block:
+    """One block of torque samples with the slow signals at its stamps.
+
+    Attributes:
+        index: ``floor(t / block_duration)`` of its samples.
+        stamps: torque stamps [s].
+        torque: measured torque [N m].
+        speed: screw speed at the stamps [rad/s].
+        temperature: temperature at the block's mid time [K].
+        preload: measured preload at the block's mid time [N].
+        held: names of slow signals whose last value was held (late beyond ``max_wait``).
+    """
+
+    index: int
+    stamps: FloatArray
+    torque: FloatArray
+    speed: FloatArray
+    temperature: float
+    preload: float
+    held: tuple[str, ...]
+
+    @property
+    def time(self) -> float:
+        """Mid time of the block's samples [s]."""
+        return 0.5 * float(self.stamps[0] + self.stamps[-1])
+
+
+class BlockAligner:
+    """Groups torque samples into blocks and aligns the slow signals at their stamps.
+
+    ``add_*`` methods take one sample each (stamp [s], value in SI units) and return the blocks
+    that became complete; :meth:`flush` returns the rest at the end of a recording.
+    """
+
+    def __init__(self, settings: ResidualSettings) -> None:
+        self.settings = settings
+        self.speed = SlowSignal("speed", "rad/s")
+        self.temperature = SlowSignal("temperature", "K", settings.slow_smoothing)
+        self.preload = SlowSignal("preload", "N", settings.slow_smoothing)
+        self._pending: dict[int, tuple[list[float], list[float]]] = {}
+        self._last_torque_stamp = -math.inf
+
+    def _index(self, stamp: float) -> int:
+        return math.floor(stamp / self.settings.block_duration)
+
+    def add_torque(self, stamp: float, value: float) -> list[Block]:
+        """Add a torque sample [s, N m]."""
+        if not (math.isfinite(stamp) and math.isfinite(value)):
+            raise SampleError(f"torque: sample ({stamp!r} s, {value!r} N m) not finite")
+        if stamp < self._last_torque_stamp:
+            raise StampOrderError(
+                f"torque: stamp {stamp:.6f} s is earlier than the last one "
+                f"{self._last_torque_stamp:.6f} s (clock jump?)"
+            )
+        self._last_torque_stamp = stamp
+        stamps, values = self._pending.setdefault(self._index(stamp), ([], []))
+        stamps.append(stamp)
+        values.append(value)
+        return self._ready(flush=False)
+
+    def add_speed(self, stamp: float, value: float) -> list[Block]:
+        """Add a speed sample [s, rad/s]."""
+        self.speed.add(stamp, value)
+        return self._ready(flush=False)
+
+    def add_temperature(self, stamp: float, value: float) -> list[Block]:
+        """Add a temperature sample [s, K]."""
+        self.temperature.add(stamp, value)
+        return self._ready(flush=False)
+
+    def add_preload(self, stamp: float, value: float) -> list[Block]:
+        """Add a preload sample [s, N]."""
+        self.preload.add(stamp, value)
+        return self._ready(flush=False)
+
+    def flush(self) -> list[Block]:
+        """Every pending block (end of a recording), slow signals held where missing."""
+        return self._ready(flush=True)
+
+    def _signals(self) -> tuple[SlowSignal, SlowSignal, SlowSignal]:
+        return self.speed, self.temperature, self.preload
+
+    def _ready(self, *, flush: bool) -> list[Block]:
+        out: list[Block] = []
+        current = self._index(self._last_torque_stamp) if self._pending else 0
+        for index in sorted(self._pending):
+            end = (index + 1) * self.settings.block_duration
+            closed = index < current or flush
+            if not closed:
+                break
+            if any(not s.stamps for s in self._signals()):
+                if flush or self._last_torque_stamp >= end + self.settings.max_wait:
+                    del self._pending[index]  # no operating point yet: cannot be compared
+                    continue
+                break
+            late = tuple(s.name for s in self._signals() if s.latest < end)
+            timed_out = self._last_torque_stamp >= end + self.settings.max_wait
+            if late and not (timed_out or flush):
+                break
+            stamps, values = self._pending.pop(index)
+            t = np.asarray(stamps)
+            mid = np.array([0.5 * (t[0] + t[-1])])
+            out.append(
+                Block(
+                    index=index,
+                    stamps=t,
+                    torque=np.asarray(values),
+                    speed=self.speed.at(t),
+                    temperature=float(self.temperature.at(mid)[0]),
+                    preload=float(self.preload.at(mid)[0]),
+                    held=late,
+                )
+            )
+        return out
+
+
+def within_block_variance(block: Block) -> float | None:
+    """Scatter of a block's torque about a straight line in time [N m^2], None if < 4 samples.
+
+    An estimate of the sensor noise variance of one sample when the torque is steady within
+    the block (the line removes a slow trend).
+    """
+    n = len(block.torque)
+    if n < 4:
+        return None
+    t = block.stamps - block.stamps.mean()
+    if np.ptp(t) > 0.0:
+        slope, offset = np.polyfit(t, block.torque, 1)
+        scatter = block.torque - (slope * t + offset)
+    else:
+        scatter = block.torque - block.torque.mean()
+    return float(np.sum(scatter**2) / (n - 2))
+
+
+def block_acceleration(block: Block) -> float:
+    """Mean angular acceleration of the screw over a block [rad/s^2] (slope of a straight
+    line through the speed at the torque stamps; 0 with fewer than 3 samples). The drive
+    torque includes the screw's inertia torque I_s dw/dt on top of the drag torque."""
+    if len(block.stamps) < 3 or np.ptp(block.stamps) <= 0.0:
+        return 0.0
+    t = block.stamps - block.stamps.mean()
+    return float(np.polyfit(t, block.speed, 1)[0])

@@ -1,0 +1,154 @@
+"""Kalman filter of slowly drifting quantities between the twin and the bench.
+
+State x = (b, s, dF):
+    b   torque-sensor bias [N m],
+    s   friction scale factor minus one [-] (all friction mechanisms scaled by 1 + s),
+    dF  change of the effective preload from the measured one [N].
+Measurement (one torque block mean z [N m] at a predicted torque T and preload sensitivity
+dT/dF of the twin at the measured operating point):
+
+    z = b + (1 + s) T + (dT/dF) dF + v,   so   z - T = H x + v,   H = [1, T, dT/dF],
+
+v of variance R = sigma_s^2 / n + sigma_r^2 (sensor noise of the block mean plus the random
+part of the model error). Each state is a random walk whose spectral density is set from the
+drift rate it must follow (``*_drift`` [unit / sqrt(s)]): drift that slow is absorbed into the
+state and leaves white innovations; a sudden fault is much faster than the walk and shows in the
+innovations ``nu = z - T - H x-`` with variance ``S = H P- H' + R`` until the filter catches up
+(time constant of hours with the defaults). The filter can be frozen (after an alarm) so that it
+does not learn a fault as normal.
+
+The three states are told apart only when the operating point moves (T and dT/dF change in
+different proportions); at one constant operating point only their sum is observed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.kalman import KalmanFilter
+
+from ..errors import ConfigError
+from .residuals import FloatArray
+
+STATE_NAMES: tuple[str, ...] = ("bias", "friction_scale", "preload_change")
+STATE_UNITS: tuple[str, ...] = ("N m", "-", "N")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackerSettings:
+    """Prior uncertainty and drift rates of the tracked quantities (1 sigma).
+
+    Attributes:
+        bias_prior: initial uncertainty of the sensor bias [N m].
+        scale_prior: initial uncertainty of the friction scale factor [-] (the model error).
+        preload_prior: initial uncertainty of the effective preload change [N].
+        bias_drift: random-walk density of the bias [N m / sqrt(s)].
+        scale_drift: random-walk density of the scale factor [1 / sqrt(s)].
+        preload_drift: random-walk density of the preload change [N / sqrt(s)].
+    """
+
+    bias_prior: float = 2.0e-3
+    scale_prior: float = 0.05
+    preload_prior: float = 20.0
+    bias_drift: float = 2.0e-6
+    scale_drift: float = 2.0e-4
+    preload_drift: float = 0.05
+
+    def __post_init__(self) -> None:
+        """All values finite and > 0."""
+        for name in (
+            "bias_prior",
+            "scale_prior",
+            "preload_prior",
+            "bias_drift",
+            "scale_drift",
+            "preload_drift",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ConfigError(f"tracker settings: {name} = {value!r} must be finite and > 0")
+
+
+@dataclass(frozen=True)
+class Innovation:
+    """One filter step.
+
+    Attributes:
+        innovation: nu, measured minus predicted by the twin and the tracked state [N m].
+        variance: S, its predicted variance [N m^2].
+        state: posterior state (b [N m], s [-], dF [N]) after the step (prior when frozen).
+    """
+
+    innovation: float
+    variance: float
+    state: FloatArray
+
+    @property
+    def normalized(self) -> float:
+        """nu / sqrt(S) [-], standard normal while the model holds."""
+        return self.innovation / math.sqrt(self.variance)
+
+
+class DriftTracker:
+    """Linear Kalman filter (filterpy) of bias, friction scale and effective preload change."""
+
+    def __init__(self, settings: TrackerSettings) -> None:
+        self.settings = settings
+        self.kf = KalmanFilter(dim_x=3, dim_z=1)
+        self.kf.x = np.zeros((3, 1))
+        self.kf.P = np.diag([settings.bias_prior, settings.scale_prior, settings.preload_prior])
+        self.kf.P = self.kf.P**2
+        self.kf.F = np.eye(3)
+        self._density = (
+            np.array([settings.bias_drift, settings.scale_drift, settings.preload_drift]) ** 2
+        )
+        #: While True the state is not updated (predictions and innovations still computed).
+        self.frozen = False
+
+    @property
+    def state(self) -> FloatArray:
+        """Current state (b [N m], s [-], dF [N])."""
+        return np.asarray(self.kf.x[:, 0], dtype=float).copy()
+
+    @property
+    def std(self) -> FloatArray:
+        """Current 1-sigma uncertainty of each state, same units as :attr:`state`."""
+        return np.sqrt(np.diag(self.kf.P))
+
+    def step(
+        self,
+        measured: float,
+        predicted: float,
+        preload_sensitivity: float,
+        noise_variance: float,
+        dt: float,
+    ) -> Innovation:
+        """Advance by ``dt`` [s] and take one measurement.
+
+        Args:
+            measured: block mean torque z [N m].
+            predicted: twin torque T at the measured operating point [N m].
+            preload_sensitivity: dT/dF there [N m / N].
+            noise_variance: R [N m^2].
+            dt: time since the previous step [s] (> 0).
+        """
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ValueError(f"tracker step: dt = {dt!r} s must be finite and > 0")
+        if not (math.isfinite(noise_variance) and noise_variance > 0.0):
+            raise ValueError(f"tracker step: R = {noise_variance!r} N m^2 must be > 0")
+        self.kf.Q = np.diag(self._density * dt)
+        self.kf.predict()
+        h = np.array([[1.0, predicted, preload_sensitivity]])
+        self.kf.H = h
+        self.kf.R = np.array([[noise_variance]])
+        innovation = float(measured - predicted - (h @ self.kf.x)[0, 0])
+        variance = float((h @ self.kf.P @ h.T)[0, 0] + noise_variance)
+        if not self.frozen:
+            self.kf.update(np.array([[measured - predicted]]))
+        return Innovation(innovation, variance, self.state)
+
+    def expected(self, predicted: float, preload_sensitivity: float, state: FloatArray) -> float:
+        """Torque the twin plus a tracked ``state`` expect [N m]."""
+        return float(predicted + state[0] + state[1] * predicted + state[2] * preload_sensitivity)

@@ -1,0 +1,130 @@
+"""Fault classification: sphere-pass orders (bearing identities) and signature fits."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.health.classify import classify_mean_shift, classify_ripple, defect_orders
+from ballscrew_twin.health.fault_profiles import defect_frequencies
+from ballscrew_twin.params import load_config
+
+
+def test_raceway_pass_orders_add_up_to_spheres_per_turn() -> None:
+    # Classical rolling-bearing identity: BPFO + BPFI = Z x shaft frequency (here per turn).
+    config = load_config(None)
+    orders = defect_orders(config)
+    per_turn = config.screw.balls_per_nut / config.screw.loaded_turns
+    assert orders["nut_raceway"] + orders["screw_raceway"] == pytest.approx(per_turn)
+    assert orders["nut_raceway"] < orders["screw_raceway"]
+
+
+def test_orders_in_the_limit_of_a_point_sphere_contact_at_ninety_degrees() -> None:
+    # cos(alpha) = 0: cage at half the shaft speed, sphere spin order r_m / r_b.
+    config = load_config(None)
+    flat = replace(config, screw=replace(config.screw, nominal_contact_angle=math.pi / 2))
+    orders = defect_orders(flat)
+    per_turn = config.screw.balls_per_nut / config.screw.loaded_turns
+    assert orders["nut_raceway"] == pytest.approx(per_turn / 2)
+    assert orders["screw_raceway"] == pytest.approx(per_turn / 2)
+    assert orders["sphere_spin"] == pytest.approx(
+        config.screw.pitch_radius / config.screw.ball_radius
+    )
+
+
+def test_orders_are_the_frequencies_per_rotation_at_any_speed() -> None:
+    config = load_config(None)
+    for speed in (10.0, -20.0):
+        freqs = defect_frequencies(config, speed)
+        for name, order in defect_orders(config).items():
+            assert freqs[name] == pytest.approx(order * abs(speed) / (2 * math.pi))
+
+
+def _signatures() -> dict[str, np.ndarray]:
+    """Per-block signatures over an operating profile with a low and a high speed."""
+    low = np.arange(60) < 30
+    return {
+        "preload_loss": np.where(low, -0.015, -0.020),  # falls everywhere
+        "lubricant_degradation": np.where(low, 0.003, -0.006),  # rises slow, falls fast
+        "jam_onset": np.where(low, 0.004, 0.001),
+    }
+
+
+@pytest.mark.parametrize("true_class", ["preload_loss", "lubricant_degradation", "jam_onset"])
+def test_mean_shift_classes_are_recovered_when_the_speed_moves(true_class: str) -> None:
+    signatures = _signatures()
+    rng = np.random.default_rng(11)
+    sigma = np.full(60, 1e-4)
+    severity = 0.2
+    residuals = severity * signatures[true_class] + rng.normal(0, 1e-4, 60)
+    result = classify_mean_shift(residuals, sigma, signatures)
+    assert result.fault_class == true_class
+    assert result.confidence > 0.99
+    assert result.severities[true_class] == pytest.approx(severity, rel=0.1)
+
+
+def test_two_classes_with_the_same_signature_shape_are_not_separable() -> None:
+    constant = np.full(40, 1.0)
+    signatures = {"preload_loss": -0.01 * constant, "lubricant_degradation": -0.004 * constant}
+    residuals = np.full(40, -2e-3)
+    result = classify_mean_shift(residuals, np.full(40, 1e-4), signatures)
+    assert result.confidence == pytest.approx(0.5, abs=1e-6)
+
+
+def test_a_change_no_class_can_make_is_left_unclassified() -> None:
+    signatures = {"preload_loss": np.full(10, -0.01)}  # can only lower the torque
+    result = classify_mean_shift(np.full(10, 1e-3), np.full(10, 1e-4), signatures)
+    assert result.fault_class == ""
+    assert result.confidence == 0.0
+
+
+def test_ripple_class_follows_the_order_that_fired() -> None:
+    result = classify_ripple({"nut_raceway": 3.0, "screw_raceway": 40.0, "sphere_spin": 1.0}, 20.0)
+    assert result.fault_class == "raceway_defect" and result.confidence == 1.0
+    result = classify_ripple({"nut_raceway": 30.0, "sphere_spin": 50.0}, 20.0)
+    assert result.fault_class == "sphere_defect"
+    assert result.confidence == pytest.approx(30.0 / 40.0)
+    assert classify_ripple({"sphere_spin": 5.0}, 20.0).fault_class == ""
+
+
+def test_a_fraction_lost_beyond_one_is_not_a_valid_explanation() -> None:
+    # The lubricant signature would need a 150 % viscosity loss; the jam fits within range.
+    n = 20
+    signatures = {"lubricant_degradation": np.full(n, 0.002), "jam_onset": np.full(n, 0.0008)}
+    residuals = np.full(n, 0.003)
+    result = classify_mean_shift(residuals, np.full(n, 1e-4), signatures)
+    assert result.severities["lubricant_degradation"] == pytest.approx(1.5)
+    assert result.fault_class == "jam_onset"
+
+
+def test_a_misfit_beyond_the_noise_tempers_the_confidence() -> None:
+    # Two shapes that differ by 10 %; the residual has the first shape plus an unexplained
+    # pattern 20 sigma large: the reduced chi-square of the best fit scales the comparison.
+    n = 40
+    low = np.arange(n) < n // 2
+    signatures = {
+        "preload_loss": np.where(low, -0.010, -0.020),
+        "lubricant_degradation": np.where(low, -0.011, -0.020),
+    }
+    unexplained = 2e-3 * np.sin(np.arange(n))
+    residuals = 0.2 * signatures["preload_loss"] + unexplained
+    clean = classify_mean_shift(0.2 * signatures["preload_loss"], np.full(n, 1e-4), signatures)
+    muddy = classify_mean_shift(residuals, np.full(n, 1e-4), signatures)
+    assert clean.fault_class == "preload_loss" and clean.confidence > 0.999
+    assert 0.5 <= muddy.confidence < 0.9
+
+
+def test_a_growing_fault_at_one_operating_point_stays_unseparable() -> None:
+    # A fault ramping up at one constant operating point, with a slow 2 % drift of one
+    # signature (temperature): the fit of a growing severity must not turn the drift and the
+    # ramp into a confident choice between two classes that move the torque the same way.
+    n = 60
+    elapsed = np.arange(n) * 0.1
+    drift = 1.0 + 0.02 * elapsed / elapsed[-1]
+    signatures = {"lubricant_degradation": 0.004 * drift, "jam_onset": np.full(n, 0.008)}
+    residuals = 0.3 * (elapsed / elapsed[-1]) * signatures["lubricant_degradation"]
+    result = classify_mean_shift(residuals, np.full(n, 1e-5), signatures, elapsed)
+    assert result.confidence < 0.9  # torque alone at one operating point: not separable

@@ -1,0 +1,140 @@
+"""Detectors: thresholds from a false-alarm rate, checked against tables and by simulation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import binom
+
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.detectors import (
+    Cusum,
+    OrderSpectralTest,
+    WindowChiSquare,
+    arl0_from_rate,
+    cusum_threshold,
+    siegmund_arl0,
+)
+
+
+def test_siegmund_matches_the_textbook_arl_of_k_half_h_four() -> None:
+    # Montgomery, Introduction to Statistical Quality Control, Table 9.3: one-sided
+    # ARL0 of k = 0.5, h = 4 is 336 (two-sided 168).
+    assert siegmund_arl0(0.5, 4.0) == pytest.approx(336.0, rel=0.02)
+    assert cusum_threshold(0.5, 336.0) == pytest.approx(4.0, abs=0.02)
+
+
+def test_arl0_is_the_expected_samples_between_false_alarms() -> None:
+    # 10 Hz, one false alarm per hour -> 36000 samples between false alarms.
+    assert arl0_from_rate(1.0, 10.0) == pytest.approx(36000.0)
+
+
+def _run_lengths(cusum: Cusum, chains: int, rng: np.random.Generator) -> np.ndarray:
+    """Samples to the first alarm of ``chains`` independent in-control runs (vectorised)."""
+    upper = np.zeros(chains)
+    lower = np.zeros(chains)
+    length = np.zeros(chains)
+    alive = np.ones(chains, dtype=bool)
+    step = 0
+    while alive.any():
+        step += 1
+        e = rng.standard_normal(chains)
+        upper = np.maximum(0.0, upper + e - cusum.k)
+        lower = np.maximum(0.0, lower - e - cusum.k)
+        fired = alive & ((upper > cusum.threshold) | (lower > cusum.threshold))
+        length[fired] = step
+        alive &= ~fired
+    return length
+
+
+def test_two_sided_cusum_false_alarm_rate_is_verified_by_simulation() -> None:
+    # Target: 72 false alarms per hour at 10 Hz -> ARL0 = 500 samples (both sides together).
+    cusum = Cusum(shift=1.0, false_alarm_rate=72.0, sample_rate=10.0)
+    lengths = _run_lengths(cusum, 3000, np.random.default_rng(1))
+    # Siegmund's approximation is accurate to a few per cent; the mean of 3000 geometric-like
+    # run lengths has a relative standard error of ~2 %.
+    assert np.mean(lengths) == pytest.approx(500.0, rel=0.1)
+
+
+def test_cusum_class_matches_the_vectorised_recursion_and_finds_the_change() -> None:
+    cusum = Cusum(shift=2.0, false_alarm_rate=1.0, sample_rate=10.0)
+    rng = np.random.default_rng(2)
+    data = np.concatenate([rng.standard_normal(300), rng.standard_normal(100) - 2.0])
+    alarm_at = None
+    for i, e in enumerate(data):
+        step = cusum.update(float(e))
+        if step.alarm:
+            alarm_at, change = i, step.change_index
+            assert step.direction == -1
+            break
+    assert alarm_at is not None and 300 <= alarm_at < 330
+    # The change-point estimate of the CUSUM is within a few samples of the true change.
+    assert abs(change + 1 - 300) <= 5
+
+
+def test_chi_square_false_alarm_probability_by_simulation() -> None:
+    # p per test = rate / (3600 f) = 0.02 at rate 72/h, f = 1 Hz.
+    test = WindowChiSquare(window=10, false_alarm_rate=72.0, sample_rate=1.0)
+    rng = np.random.default_rng(3)
+    sums = np.sum(rng.standard_normal((20000, 10)) ** 2, axis=1)
+    hits = int(np.sum(sums > test.threshold))
+    low, high = binom.interval(0.999, 20000, 0.02)
+    assert low <= hits <= high
+
+
+def test_chi_square_window_fills_before_testing() -> None:
+    test = WindowChiSquare(window=3, false_alarm_rate=1.0, sample_rate=1.0)
+    assert test.update(100.0) == (0.0, False)
+    assert test.update(0.0) == (0.0, False)
+    stat, alarm = test.update(0.0)
+    assert stat == pytest.approx(1e4) and alarm
+
+
+def _angles(n: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Sample times [s] at 200 Hz and screw angles of a speed ramp 10 -> 20 rad/s."""
+    t = np.arange(n) / 200.0
+    speed = 10.0 + 10.0 * t / t[-1]
+    angle = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
+    return t, angle + rng.uniform(0, 2 * math.pi)
+
+
+def test_order_test_false_alarm_rate_on_white_noise_by_simulation() -> None:
+    # p = 0.05 per order: 1 test per second of 3 orders -> rate = 0.05 * 3600 * 3 per hour.
+    test = OrderSpectralTest(false_alarm_rate=0.05 * 3600 * 3, test_rate=1.0, orders_per_test=3)
+    rng = np.random.default_rng(4)
+    t, angle = _angles(800, rng)
+    orders = np.array([4.94, 6.14, 8.14])
+    trials = 1000
+    ratios = test.test(rng.standard_normal((len(t), trials)), angle, orders).ratios
+    hits = int(np.sum(ratios > test.threshold))
+    low, high = binom.interval(0.999, trials * 3, 0.05)
+    assert low <= hits <= high
+
+
+def test_order_test_finds_a_ripple_that_follows_the_speed() -> None:
+    test = OrderSpectralTest(false_alarm_rate=0.01, test_rate=1.0, orders_per_test=3)
+    rng = np.random.default_rng(5)
+    t, angle = _angles(800, rng)
+    amplitude = 0.5  # sigma of the noise is 1: expected power ratio A^2 N / 2 = 100
+    x = rng.standard_normal(len(t)) + amplitude * np.cos(6.14 * angle + 0.4)
+    result = test.test(x, angle, np.array([4.94, 6.14, 8.14]))
+    assert result.ratios[1] > test.threshold
+    assert result.ratios[0] < test.threshold and result.ratios[2] < test.threshold
+    # 2 |X| / N estimates the amplitude (noise contributes ~ 2 / sqrt(N) = 0.07).
+    assert result.amplitudes[1] == pytest.approx(amplitude, abs=0.15)
+
+
+@pytest.mark.parametrize(
+    ("factory", "match"),
+    [
+        (lambda: Cusum(shift=0.0, false_alarm_rate=1.0, sample_rate=1.0), "shift"),
+        (lambda: Cusum(shift=1.0, false_alarm_rate=-1.0, sample_rate=1.0), "false_alarm_rate"),
+        (lambda: Cusum(shift=1.0, false_alarm_rate=1.0, sample_rate=math.nan), "sample rate"),
+        (lambda: WindowChiSquare(window=0, false_alarm_rate=1.0, sample_rate=1.0), "window"),
+    ],
+)
+def test_bad_detector_settings_are_named(factory: object, match: str) -> None:
+    with pytest.raises(ConfigError, match=match):
+        factory()  # type: ignore[operator]
