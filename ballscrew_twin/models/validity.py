@@ -1,0 +1,236 @@
+"""Validity envelope of the models: outside it the answer is a clamped value plus a warning.
+
+The envelope bounds the operating point (temperature, speed, preload, external axial load) to
+where the models of this package have been checked to give admissible answers
+(docs/model.md, "Validity envelope"). :func:`clamp_operating_point` moves a point into it and
+says what it moved; :class:`ValidatedModel` wraps any model (steady-state or time-stepping),
+evaluates it at the clamped point, appends the warnings to the output's notes and refuses to
+return a non-finite output. Inputs that are not a physical operating point at all (NaN, a
+temperature at or below 138 K, which is most likely given in degrees Celsius, a negative
+preload) are not clamped: they raise :class:`~ballscrew_twin.errors.OperatingPointError`.
+
+All quantities SI: K, rad/s, N.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+
+from ..errors import ConfigError, OperatingPointError, SolverError
+from ..params import TwinConfig
+from .base import OperatingPoint, SteadyStateModel, TimeSteppingModel, TwinOutput
+
+#: Lower temperature bound [K] (-40 C): coldest temperature of the steady model's property test
+#: and solver-coverage grid (docs/model.md section 9); Roelands (Eq. 24) is extrapolated below
+#: the Table A.2 data (25 and 80 C) on both sides.
+DEFAULT_MIN_TEMPERATURE = 233.15
+#: Upper temperature bound [K] (100 C): hottest temperature of the same checks.
+DEFAULT_MAX_TEMPERATURE = 373.15
+#: Largest preload [N]: top of the steady model's property test (0-5000 N); the paper covers
+#: 0-3000 N. At 5000 N preload plus 5000 N axial load the highest Hertz pressure is 3.9 GPa
+#: (steady model), below the 4.2 GPa on which static load ratings are based (ISO 76).
+DEFAULT_MAX_PRELOAD = 5000.0
+#: Largest external axial load magnitude [N]: the same bound as the preload (see above).
+DEFAULT_MAX_AXIAL_LOAD = 5000.0
+#: Relative distance beyond a bound still counted as on it [-]: -40 C entered as
+#: -40 + 273.15 = 233.14999999999998 K is not a clamp worth a warning.
+BOUND_TOLERANCE = 1e-9
+
+
+class NonFiniteOutputError(SolverError):
+    """A model returned a NaN or infinite number; the message names the quantity."""
+
+
+def _bound(unit: str, doc: str, *, default: float | None = None) -> Any:
+    """A float field with its unit and description as metadata (``default`` None: required)."""
+    meta = {"unit": unit, "doc": doc}
+    if default is None:
+        return field(metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+@dataclass(frozen=True, kw_only=True)
+class ValidityEnvelope:
+    """Where the models' answers are valid (SI units); see the module constants for sources.
+
+    Attributes:
+        max_speed: largest screw speed magnitude [rad/s]; :meth:`for_config` takes the screw's
+            critical speed (paper Table A.1: 1884.96 rad/s = 18000 rpm), beyond which shaft
+            whirl, not modelled here, takes over.
+        min_temperature: lowest bulk temperature [K].
+        max_temperature: highest bulk temperature [K].
+        max_preload: largest preload [N] (the smallest is 0, a valid point).
+        max_axial_load: largest magnitude of the external axial load [N].
+    """
+
+    max_speed: float = _bound("rad/s", "largest |screw speed|")
+    min_temperature: float = _bound("K", "lowest temperature", default=DEFAULT_MIN_TEMPERATURE)
+    max_temperature: float = _bound("K", "highest temperature", default=DEFAULT_MAX_TEMPERATURE)
+    max_preload: float = _bound("N", "largest preload", default=DEFAULT_MAX_PRELOAD)
+    max_axial_load: float = _bound("N", "largest |axial load|", default=DEFAULT_MAX_AXIAL_LOAD)
+
+    def __post_init__(self) -> None:
+        for fld in fields(self):
+            value = getattr(self, fld.name)
+            unit = fld.metadata["unit"]
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ConfigError(f"validity envelope: {fld.name} = {value!r} is not a number")
+            if not math.isfinite(value) or value <= 0.0:
+                raise ConfigError(
+                    f"validity envelope: {fld.name} = {value!r} {unit} must be finite and > 0"
+                )
+        if self.min_temperature <= 138.0:
+            raise ConfigError(
+                f"validity envelope: min_temperature = {self.min_temperature} K must be above "
+                "138 K, where the Roelands law is undefined (temperatures are in kelvin)"
+            )
+        if self.min_temperature >= self.max_temperature:
+            raise ConfigError(
+                f"validity envelope: min_temperature = {self.min_temperature} K must be below "
+                f"max_temperature = {self.max_temperature} K"
+            )
+
+    @classmethod
+    def for_config(cls, config: TwinConfig, **overrides: float) -> ValidityEnvelope:
+        """The default envelope of ``config``'s screw: speed up to its critical speed [rad/s].
+
+        Args:
+            config: the parameter set (its ``screw.critical_speed`` bounds the speed).
+            overrides: any field of the envelope, in its SI unit.
+        """
+        values: dict[str, float] = {"max_speed": config.screw.critical_speed}
+        values.update(overrides)
+        return cls(**values)
+
+
+def clamp_operating_point(
+    op: OperatingPoint, envelope: ValidityEnvelope
+) -> tuple[OperatingPoint, tuple[str, ...]]:
+    """Move ``op`` into ``envelope``; return the clamped point and one warning per clamp.
+
+    The speed and axial load keep their sign; each warning names the quantity, the requested
+    value, the bound and the value used, in SI units. A point inside the envelope is returned
+    unchanged with no warning.
+
+    Raises:
+        OperatingPointError: ``op`` is not a physical operating point (NaN, infinite,
+            temperature <= 138 K, negative preload): an input error, not a validity question.
+    """
+    op.validate()
+    warnings: list[str] = []
+    grow = 1.0 + BOUND_TOLERANCE
+    speed = op.screw_speed
+    if abs(speed) > envelope.max_speed * grow:
+        speed = math.copysign(envelope.max_speed, speed)
+        warnings.append(
+            f"validity: |screw_speed| = {abs(op.screw_speed):.6g} rad/s exceeds "
+            f"{envelope.max_speed:.6g} rad/s: evaluated at {speed:.6g} rad/s"
+        )
+    temperature = op.temperature
+    if not envelope.min_temperature / grow <= temperature <= envelope.max_temperature * grow:
+        temperature = min(max(temperature, envelope.min_temperature), envelope.max_temperature)
+        warnings.append(
+            f"validity: temperature = {op.temperature:.6g} K is outside "
+            f"[{envelope.min_temperature:.6g}, {envelope.max_temperature:.6g}] K: "
+            f"evaluated at {temperature:.6g} K"
+        )
+    preload = op.preload
+    if preload > envelope.max_preload * grow:
+        preload = envelope.max_preload
+        warnings.append(
+            f"validity: preload = {op.preload:.6g} N exceeds {envelope.max_preload:.6g} N: "
+            f"evaluated at {preload:.6g} N"
+        )
+    axial_load = op.axial_load
+    if abs(axial_load) > envelope.max_axial_load * grow:
+        axial_load = math.copysign(envelope.max_axial_load, axial_load)
+        warnings.append(
+            f"validity: |axial_load| = {abs(op.axial_load):.6g} N exceeds "
+            f"{envelope.max_axial_load:.6g} N: evaluated at {axial_load:.6g} N"
+        )
+    if not warnings:
+        return op, ()
+    clamped = OperatingPoint(
+        screw_speed=speed, temperature=temperature, preload=preload, axial_load=axial_load
+    )
+    return clamped, tuple(warnings)
+
+
+def check_finite_output(out: TwinOutput) -> None:
+    """Raise :class:`NonFiniteOutputError` naming the first non-finite number of ``out``."""
+    values: dict[str, float] = {
+        "drag_torque": out.drag_torque,
+        "nut_torque[master]": out.nut_torque[0],
+        "nut_torque[slave]": out.nut_torque[1],
+    }
+    for fld in fields(out.breakdown):
+        values[f"breakdown.{fld.name}"] = getattr(out.breakdown, fld.name)
+    if out.contacts is not None:
+        for fld in fields(out.contacts):
+            array = getattr(out.contacts, fld.name)
+            if array.dtype.kind == "f" and not bool(np.all(np.isfinite(array))):
+                values[f"contacts.{fld.name}"] = math.nan
+    for name, value in values.items():
+        if not math.isfinite(value):
+            raise NonFiniteOutputError(
+                f"{out.fidelity}: {name} = {value} is not finite at {out.operating_point}"
+            )
+
+
+class ValidatedModel:
+    """A model that is only ever evaluated inside its validity envelope.
+
+    Wraps a :class:`~ballscrew_twin.models.base.SteadyStateModel` (``evaluate``) or a
+    :class:`~ballscrew_twin.models.base.TimeSteppingModel` (``reset``/``step``); the methods the
+    wrapped model lacks raise ``TypeError``. Each output is the wrapped model's output at the
+    clamped operating point, with ``operating_point`` the point actually evaluated and one note
+    per clamped quantity; a non-finite output raises :class:`NonFiniteOutputError` instead of
+    being returned.
+
+    Args:
+        model: the model to wrap.
+        envelope: its validity envelope.
+    """
+
+    def __init__(
+        self, model: SteadyStateModel | TimeSteppingModel, envelope: ValidityEnvelope
+    ) -> None:
+        self.model = model
+        self.envelope = envelope
+        self.name = model.name
+
+    def _finish(self, out: TwinOutput, warnings: tuple[str, ...]) -> TwinOutput:
+        check_finite_output(out)
+        if warnings:
+            out = replace(out, notes=(*out.notes, *warnings))
+        return out
+
+    def evaluate(self, op: OperatingPoint) -> TwinOutput:
+        """The wrapped steady-state model at ``op`` clamped into the envelope."""
+        evaluate = getattr(self.model, "evaluate", None)
+        if evaluate is None:
+            raise TypeError(f"{self.name} is not a steady-state model (no evaluate)")
+        clamped, warnings = clamp_operating_point(op, self.envelope)
+        return self._finish(evaluate(clamped), warnings)
+
+    def reset(self, op: OperatingPoint) -> None:
+        """Reset the wrapped time-stepping model in the steady state of clamped ``op``."""
+        reset = getattr(self.model, "reset", None)
+        if reset is None:
+            raise TypeError(f"{self.name} is not a time-stepping model (no reset)")
+        clamped, _ = clamp_operating_point(op, self.envelope)
+        reset(clamped)
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        """Advance the wrapped time-stepping model by ``dt`` [s] under clamped ``op``."""
+        step = getattr(self.model, "step", None)
+        if step is None:
+            raise TypeError(f"{self.name} is not a time-stepping model (no step)")
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise OperatingPointError(f"time step dt = {dt!r} s must be finite and > 0")
+        clamped, warnings = clamp_operating_point(op, self.envelope)
+        return self._finish(step(clamped, dt), warnings)

@@ -1,0 +1,224 @@
+"""``ballscrew-twin sweep``: dimensions, points, failed points, and the same file from local
+processes and from a Dask cluster on loopback."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.cli import main
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.params import load_config
+from ballscrew_twin.sweep import (
+    SweepError,
+    SweepTask,
+    evaluate_point,
+    grid_points,
+    parameter_unit,
+    parse_dimension,
+    random_points,
+    with_overrides,
+)
+
+CONFIG = load_config()
+RPM = 2.0 * math.pi / 60.0
+
+
+def _rows(path: Path) -> list[dict[str, str]]:
+    with path.open(encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_dimension_forms_in_si() -> None:
+    speed = parse_dimension("screw_speed", "60,120", "rad/s", lambda rpm: rpm * RPM)
+    assert speed.values == pytest.approx((2.0 * math.pi, 4.0 * math.pi))
+    celsius = parse_dimension("temperature", "lin:-20:60:3", "K", lambda c: c + 273.15)
+    assert celsius.values == pytest.approx((253.15, 293.15, 333.15))
+    log = parse_dimension("lubricant.eyring_stress", "log:1e5:1e7:3", "Pa")
+    assert log.values == pytest.approx((1e5, 1e6, 1e7))
+    ranged = parse_dimension("preload", "loguniform:10:1000", "N")
+    assert ranged.is_range and ranged.log and (ranged.low, ranged.high) == (10.0, 1000.0)
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [
+        ("1,x", "not a number"),
+        ("1,nan", "not a finite number"),
+        ("lin:0:1", "expected lin:LO:HI:N"),
+        ("lin:0:1:2.5", "whole number"),
+        ("log:0:1:3", "LO, HI > 0"),
+        ("uniform:5:1", "LO must be below HI"),
+        ("loguniform:0:1", "LO > 0"),
+        ("gauss:0:1", "unknown form"),
+    ],
+)
+def test_bad_dimension_is_named(spec: str, message: str) -> None:
+    with pytest.raises(SweepError, match=message) as info:
+        parse_dimension("preload", spec, "N")
+    assert "preload" in str(info.value)
+
+
+def test_grid_is_the_cartesian_product_last_fastest() -> None:
+    a = parse_dimension("preload", "1,2", "N")
+    b = parse_dimension("axial_load", "10,20,30", "N")
+    points = grid_points([a, b])
+    assert [(p["preload"], p["axial_load"]) for p in points] == [
+        (1.0, 10.0),
+        (1.0, 20.0),
+        (1.0, 30.0),
+        (2.0, 10.0),
+        (2.0, 20.0),
+        (2.0, 30.0),
+    ]
+    with pytest.raises(SweepError, match="give --samples"):
+        grid_points([parse_dimension("preload", "uniform:0:1", "N")])
+
+
+def test_random_points_seeded_and_within_bounds() -> None:
+    dims = [
+        parse_dimension("preload", "uniform:100:3000", "N"),
+        parse_dimension("lubricant.eyring_stress", "loguniform:1e5:1e7", "Pa"),
+        parse_dimension("axial_load", "0,500", "N"),
+    ]
+    first = random_points(dims, 400, seed=3)
+    assert first == random_points(dims, 400, seed=3)
+    assert first != random_points(dims, 400, seed=4)
+    preload = np.array([p["preload"] for p in first])
+    tau = np.array([p["lubricant.eyring_stress"] for p in first])
+    assert preload.min() >= 100.0 and preload.max() <= 3000.0
+    assert tau.min() >= 1e5 and tau.max() <= 1e7
+    # log-uniform: log10 of the draw is uniform on [5, 7], so its mean is 6 (400 draws: the
+    # standard error is 0.58 / sqrt(400) = 0.029).
+    assert np.mean(np.log10(tau)) == pytest.approx(6.0, abs=0.12)
+    assert {p["axial_load"] for p in first} == {0.0, 500.0}
+
+
+def test_parameter_paths() -> None:
+    assert parameter_unit(CONFIG, "lubricant.eyring_stress") == "Pa"
+    assert parameter_unit(CONFIG, "materials.ball.young_modulus") == "Pa"
+    with pytest.raises(SweepError, match="no field 'eyring'"):
+        parameter_unit(CONFIG, "lubricant.eyring")
+    with pytest.raises(SweepError, match="not a numeric field"):
+        parameter_unit(CONFIG, "lubricant.viscosity_law")
+    changed = with_overrides(CONFIG, {"contact.dry_friction_coefficient": 0.05})
+    assert changed.contact.dry_friction_coefficient == 0.05
+    assert changed.lubricant == CONFIG.lubricant
+    with pytest.raises(ConfigError, match="eyring_stress"):
+        with_overrides(CONFIG, {"lubricant.eyring_stress": 1e20})
+
+
+def test_failed_and_clamped_points_are_rows(tmp_path: Path) -> None:
+    out = tmp_path / "catalog.csv"
+    code = main(
+        [
+            "sweep",
+            "--model",
+            "zhou",
+            "--preload",
+            "1500,8000",
+            "--param",
+            "lubricant.eyring_stress=1e6,1e20",
+            "--workers",
+            "1",
+            "--quiet",
+            "--out",
+            str(out),
+        ]
+    )
+    assert code == 0
+    rows = _rows(out)
+    assert [r["status"] for r in rows] == ["ok", "error", "ok", "error"]
+    assert "eyring_stress" in rows[1]["error"] and "outside the allowed range" in rows[1]["error"]
+    # Eq. 52 with mu = 0.002: 19.2 N mm at 1500 N (MODEL_NOTES, independent value); 8000 N is
+    # beyond the 5000 N envelope and is evaluated at 5000 N (Eq. 52 is linear in preload).
+    assert float(rows[0]["drag_torque_Nm"]) == pytest.approx(19.2e-3, rel=2e-3)
+    assert float(rows[2]["drag_torque_Nm"]) == pytest.approx(19.2e-3 * 5000 / 1500, rel=2e-3)
+    assert "validity: preload = 8000 N exceeds 5000 N" in rows[2]["notes"]
+    assert rows[2]["preload_N"] == "8000.0"  # the requested point is recorded
+    settings = json.loads(out.with_suffix(".json").read_text())
+    assert settings["failed_points"] == 2 and settings["model"] == "zhou"
+    assert len(settings["config_sha256"]) == 64
+    assert out.with_suffix(".png").is_file()
+
+
+def test_worker_of_another_version_refuses_points() -> None:
+    point = {"screw_speed": 10.0, "temperature": 293.15, "preload": 500.0, "axial_load": 0.0}
+    good = evaluate_point(SweepTask(model="zhou", mode="auto", config=CONFIG), point)
+    assert good["status"] == "ok"
+    old = evaluate_point(
+        SweepTask(model="zhou", mode="auto", config=CONFIG, version="0.0.0"), point
+    )
+    assert old["status"] == "error" and "install the same version" in old["error"]
+
+
+def test_same_csv_from_local_processes_and_dask_cluster(tmp_path: Path) -> None:
+    from distributed import LocalCluster
+
+    common = [
+        "sweep",
+        "--model",
+        "steady",
+        "--speed",
+        "100,4000",
+        "--temperature=20,60",
+        "--preload",
+        "0,1500",
+        "--param",
+        "lubricant.eyring_stress=5e5",
+        "--chunk-size",
+        "3",
+        "--quiet",
+        "--no-plot",
+    ]
+    local = tmp_path / "local.csv"
+    assert main([*common, "--workers", "2", "--out", str(local)]) == 0
+    with LocalCluster(
+        host="127.0.0.1",
+        protocol="tcp",
+        dashboard_address=None,
+        n_workers=2,
+        processes=False,
+        threads_per_worker=1,
+    ) as cluster:
+        remote = tmp_path / "dask.csv"
+        assert main([*common, "--scheduler", cluster.scheduler_address, "--out", str(remote)]) == 0
+    assert local.read_bytes() == remote.read_bytes()
+    rows = _rows(local)
+    assert len(rows) == 8
+    # The zero-preload point at 4000 rpm and 60 C does not converge (docs/model.md, section 9):
+    # a row with the solver's message, not a crashed sweep.
+    for row in rows:
+        if row["status"] == "ok":
+            assert math.isfinite(float(row["drag_torque_Nm"])) and row["error"] == ""
+        else:
+            assert row["status"] == "error" and "did not converge" in row["error"]
+    assert sum(r["status"] == "ok" for r in rows) >= 7
+    settings = json.loads(remote.with_suffix(".json").read_text())
+    assert settings["executor"].startswith("dask tcp://127.0.0.1")
+
+
+def test_unreachable_scheduler_is_a_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = main(
+        [
+            "sweep",
+            "--model",
+            "catalog",
+            "--scheduler",
+            "tcp://127.0.0.1:9",
+            "--connect-timeout",
+            "1",
+            "--quiet",
+            "--out",
+            str(tmp_path / "x.csv"),
+        ]
+    )
+    assert code == 2
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
