@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 
+from ballscrew_twin.errors import SolverError
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.models.steady import SteadyStateModel
@@ -247,3 +248,15 @@ def test_lubricant_state_is_computed_once_per_temperature(config) -> None:  # ty
         cached, fresh = model.scene(293.15, speed), make_scene(config, 293.15, speed)
         for f in fields(fresh):
             assert getattr(cached, f.name) == getattr(fresh, f.name), f.name
+
+
+def test_auto_mode_falls_back_to_every_sphere_where_the_reduction_stalls(config) -> None:  # type: ignore[no-untyped-def]
+    # 0 N, 4000 rpm, 60 C: the one-sphere reduction does not converge (bench stability).
+    op = OperatingPoint(screw_speed=4000 * RPM, temperature=333.15, preload=0.0)
+    with pytest.raises(SolverError):
+        SteadyStateModel(config, mode="symmetric").evaluate(op)
+    out = SteadyStateModel(config, mode="auto").evaluate(op)
+    full = SteadyStateModel(config, mode="full").evaluate(op)
+    assert out.fidelity == "steady-full"
+    assert any("full mode" in note for note in out.notes)
+    assert out.drag_torque == pytest.approx(full.drag_torque, rel=1e-6)
