@@ -20,6 +20,10 @@ setup(
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE_NAME}"]),
         (f"share/{PACKAGE_NAME}", ["package.xml"]),
         (f"share/{PACKAGE_NAME}/config", sorted(glob("config/*.yaml"))),
+        *[
+            (f"share/{PACKAGE_NAME}/config/{sub}", sorted(glob(f"config/{sub}/*.yaml")))
+            for sub in ("scenarios", "scenes", "bench_scenes", "launch")
+        ],
     ],
     install_requires=["setuptools"],
     zip_safe=False,

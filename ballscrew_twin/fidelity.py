@@ -296,7 +296,7 @@ def _add(*parts: float | None) -> float | None:
 
 
 def realtime_available() -> bool:
-    """True when the real-time model (helper B, ``models/realtime.py``) is installed."""
+    """True when the real-time model (``models/realtime.py``) and its table are installed."""
     try:
         from .models import realtime  # noqa: F401
     except ImportError:
@@ -363,7 +363,7 @@ def _candidates(scene: Scene, bounds: Bounds, orientation: str) -> list[Candidat
     elif reasons:
         out[-1].rejected = reasons[0]
 
-    # Real-time model (helper B): measured against the steady model by bench skips.
+    # Real-time model: measured against the steady model by bench skips.
     rt = bounds.realtime
     rt_bounds: dict[str, float | None] = {}
     rt_reason = None
