@@ -10,7 +10,13 @@ the full 2 x 25-sphere model shortened to 12 ms) on one core and prints
 - where the time goes: contact-law evaluations, Jacobians and Newton iterations per step, and
   the share of the compiled step in the wall time (cProfile);
 - with ``--convergence DT1,DT2,...``: the averaged drag torque of the scenario at each time
-  step, its difference to the finest one and the observed order.
+  step, its difference to the finest one and the observed order;
+- with ``--corners``: a time-compressed protocol (:func:`corner_scenario`) at every corner of
+  the envelope (preload 0 / 1500 / 3000 N, 100 / 4000 rpm, -20 / 20 / 60 C) with, per corner,
+  whether it finished, non-finite values, blow-up against physical bounds (:data:`BLOWUP`),
+  the smallest film thickness, unconverged steps, power-balance error, averaged drag torque and
+  wall / CPU time; a table printed and, with ``--out DIR``, written as ``corners.csv`` and
+  ``corners.md``.
 
 It measures; it never asserts a speed. Times in s, torques in N m (printed also in N mm).
 """
@@ -19,6 +25,7 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import csv
 import math
 import os
 import pstats
@@ -27,9 +34,11 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..errors import BallscrewTwinError
 from ..models.scenario import Scenario, load_scenario
-from ..models.simulation import SimulationResult, simulate
+from ..models.simulation import SimulationResult, build_config, simulate
 
 #: One-line help of this benchmark.
 DESCRIPTION = "cost of the paper protocol on the dynamic model (and its time-step convergence)"
@@ -38,6 +47,32 @@ SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 PAPER_TRANSIENT = 0.1  # s, end of the paper's speed ramp
 PAPER_DURATION = 0.6  # s, the paper's protocol
 NMM_PER_NM = 1e3
+RPM = math.pi / 30.0  # rad/s per rpm
+CELSIUS_ZERO = 273.15  # K
+
+#: The envelope of issue 4: preloads [N], speeds [rpm], temperatures [deg C] (CLI units).
+CORNER_PRELOADS = (0.0, 1500.0, 3000.0)
+CORNER_SPEEDS_RPM = (100.0, 4000.0)
+CORNER_TEMPERATURES_C = (-20.0, 20.0, 60.0)
+
+#: Time-compressed protocol of the corner runs [s]: the paper's 5 ms preload ramp, a standstill,
+#: a speed ramp, a hold; averages over the last CORNER_WINDOW.
+CORNER_PRELOAD_RAMP = 5e-3
+CORNER_SPEED_RAMP = (6e-3, 12e-3)
+CORNER_DURATION = 20e-3
+CORNER_WINDOW = 5e-3
+CORNER_OUTPUT = 1e-4  # s, sampling of the series and of the contact states
+CORNER_TIME_STEP = 2e-6  # s, the converged step of paper_protocol.yaml (unless --time-step)
+
+#: Blow-up bounds (physical, generous): the screw speed may overshoot its command by the PI
+#: controller's transient, never double it; a nut or contact force never exceeds twice the
+#: preload plus the largest inertial / gravity term of this screw (well under 500 N).
+BLOWUP = {
+    "speed_factor": 2.0,
+    "speed_margin_rad_s": 1.0,
+    "force_factor": 2.0,
+    "force_margin_N": 500.0,
+}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -62,6 +97,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--full", action="store_true", help="also run config/scenarios/paper_protocol.yaml"
+    )
+    parser.add_argument(
+        "--corners",
+        action="store_true",
+        help="run a 20 ms protocol at every corner of the envelope (preload 0/1500/3000 N, "
+        "100/4000 rpm, -20/20/60 C) and tabulate its health",
+    )
+    parser.add_argument(
+        "--out", default=None, help="folder for corners.csv and corners.md (with --corners)"
     )
 
 
@@ -157,11 +201,12 @@ def _run_once(scenario: Scenario) -> None:
     )
     stats = pstats.Stats(profile)
     raw = stats.stats  # type: ignore[attr-defined]
-    kernel = sum(v[2] for k, v in raw.items() if k[2] == "step_kernel")
+    kernel = sum(v[2] for k, v in raw.items() if k[2] in ("step_kernel", "run_steps"))
     total = sum(v[2] for v in raw.values())
     print(
         f"  profile: compiled step {kernel:.1f} s ({100 * kernel / max(total, 1e-300):.0f} % of "
-        f"the profiled time), Python around it (runner, records, energies) the rest"
+        f"the profiled time; run_steps: the steps between records), Python around it "
+        "(runner, records, energies) the rest"
     )
     print(
         f"  drag torque {s['drag_torque_Nm'] * NMM_PER_NM:.4f} N mm "
@@ -204,9 +249,213 @@ def _convergence(scenario: Scenario, steps: list[float]) -> None:
             print(f"    observed order from {a:g}, {b:g}, {c:g} s: {order:.2f}")
 
 
+def corner_scenario(
+    base: Scenario, preload: float, speed: float, temperature: float, time_step: float
+) -> Scenario:
+    """``base`` at one corner on the time-compressed protocol (CORNER_* timings).
+
+    Args:
+        base: scenario giving the parameter file, sphere count, controller and backend.
+        preload: final preload [N]; speed: final screw speed [rad/s]; temperature: [K];
+        time_step: integration step [s].
+    """
+    return replace(
+        base,
+        name=f"corner_{preload:g}N_{speed / RPM:g}rpm_{temperature - CELSIUS_ZERO:g}C",
+        preload=preload,
+        speed=speed,
+        temperature=temperature,
+        preload_ramp_end=CORNER_PRELOAD_RAMP,
+        speed_ramp_start=CORNER_SPEED_RAMP[0],
+        speed_ramp_end=CORNER_SPEED_RAMP[1],
+        duration=CORNER_DURATION,
+        average_window=CORNER_WINDOW,
+        time_step=time_step,
+        output_interval=CORNER_OUTPUT,
+        contact_output_interval=CORNER_OUTPUT,
+    )
+
+
+def corner_health(result: SimulationResult) -> dict[str, Any]:
+    """Health of one finished run: non-finite values, blow-up, film, balance, drag (SI)."""
+    sc = result.scenario
+    s = result.summary
+    series = [
+        result.screw_speed,
+        result.motor_torque,
+        result.nut_force,
+        result.nut_position,
+        result.dissipation,
+        result.power_balance_error,
+        result.normal_force,
+        result.film_thickness,
+    ]
+    finite = all(bool(np.all(np.isfinite(x))) for x in series)
+    speed_bound = BLOWUP["speed_factor"] * abs(sc.speed) + BLOWUP["speed_margin_rad_s"]
+    force_bound = BLOWUP["force_factor"] * sc.preload + BLOWUP["force_margin_N"]
+    max_speed = float(np.max(np.abs(result.screw_speed)))
+    max_nut_force = float(np.max(np.abs(result.nut_force)))
+    max_normal = float(np.max(result.normal_force))
+    active = result.in_contact
+    window = result.contact_time >= sc.duration - sc.average_window - 0.5 * sc.time_step
+    films = result.film_thickness[active]
+    # Screw inertia torque J dOmega/dt over the window: the PI controller's overshoot still
+    # settling in a short protocol (it is in the mean motor torque, so in the drag torque).
+    in_window = result.time >= sc.duration - sc.average_window - 0.5 * sc.time_step
+    times, speeds = result.time[in_window], result.screw_speed[in_window]
+    inertia_torque = 0.0
+    if len(times) > 1:
+        inertia = build_config(sc).screw.screw_inertia
+        inertia_torque = inertia * (speeds[-1] - speeds[0]) / (times[-1] - times[0])
+    window_films = result.film_thickness[window][active[window]]
+    return {
+        "finite": finite,
+        "blow_up": not (
+            max_speed <= speed_bound and max_nut_force <= force_bound and max_normal <= force_bound
+        ),
+        "max_screw_speed_rad_s": max_speed,
+        "max_nut_force_N": max_nut_force,
+        "max_normal_force_N": max_normal,
+        "min_film_m": float(films.min()) if films.size else math.nan,
+        "min_film_window_m": float(window_films.min()) if window_films.size else math.nan,
+        "contacts_open_in_window": int(np.sum(~active[window])),
+        "unconverged_steps": int(s["unconverged_steps"]),
+        "balance_error": float(s["power_balance_error_relative"]),
+        "drag_torque_Nm": float(s["drag_torque_Nm"]),
+        "drag_torque_std_Nm": float(s["drag_torque_std_Nm"]),
+        "inertia_torque_Nm": float(inertia_torque),
+        "drag_less_inertia_Nm": float(s["drag_torque_Nm"]) - float(inertia_torque),
+    }
+
+
+CORNER_COLUMNS = (
+    "preload_N",
+    "speed_rpm",
+    "temperature_C",
+    "finished",
+    "finite",
+    "blow_up",
+    "max_screw_speed_rad_s",
+    "max_nut_force_N",
+    "max_normal_force_N",
+    "min_film_m",
+    "min_film_window_m",
+    "contacts_open_in_window",
+    "unconverged_steps",
+    "steps",
+    "balance_error",
+    "drag_torque_Nm",
+    "drag_torque_std_Nm",
+    "inertia_torque_Nm",
+    "drag_less_inertia_Nm",
+    "wall_s",
+    "cpu_s",
+    "error",
+)
+
+
+def _corners(base: Scenario, time_step: float, out: Path | None) -> int:
+    """Run every corner; print the table, write it to ``out``; 1 when a corner fails."""
+    rows: list[dict[str, Any]] = []
+    failed = 0
+    corners = [
+        (p, n, c) for c in CORNER_TEMPERATURES_C for n in CORNER_SPEEDS_RPM for p in CORNER_PRELOADS
+    ]
+    print(
+        f"envelope corners: {len(corners)} runs of {CORNER_DURATION:g} s, dt = {time_step:g} s, "
+        f"preload ramp {CORNER_PRELOAD_RAMP:g} s, speed ramp {CORNER_SPEED_RAMP[0]:g}-"
+        f"{CORNER_SPEED_RAMP[1]:g} s, averaged over the last {CORNER_WINDOW:g} s; "
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
+        flush=True,
+    )
+    for preload, rpm, celsius in corners:
+        scenario = corner_scenario(base, preload, rpm * RPM, celsius + CELSIUS_ZERO, time_step)
+        row: dict[str, Any] = {"preload_N": preload, "speed_rpm": rpm, "temperature_C": celsius}
+        row["steps"] = scenario.steps
+        started, cpu0 = time.perf_counter(), time.process_time()
+        try:
+            result = simulate(scenario)
+        except BallscrewTwinError as err:
+            row.update(finished=False, finite=False, blow_up=True, error=str(err))
+        else:
+            row.update(finished=True, error="", **corner_health(result))
+        row["wall_s"] = time.perf_counter() - started
+        row["cpu_s"] = time.process_time() - cpu0
+        ok = (
+            row["finished"]
+            and row["finite"]
+            and not row["blow_up"]
+            and row["min_film_m"] >= 0.0
+            and not row["min_film_window_m"] <= 0.0
+        )
+        failed += not ok
+        rows.append(row)
+        print(_corner_line(row, ok), flush=True)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        with open(out / "corners.csv", "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(CORNER_COLUMNS), restval="")
+            writer.writeheader()
+            writer.writerows(rows)
+        (out / "corners.md").write_text(_corner_markdown(rows, base, time_step))
+        print(f"wrote {out / 'corners.csv'} and {out / 'corners.md'}")
+    print(f"{len(rows) - failed} of {len(rows)} corners healthy")
+    return 1 if failed else 0
+
+
+def _corner_line(row: dict[str, Any], ok: bool) -> str:
+    """One printed line of the corner table."""
+    head = f"  {row['preload_N']:6.0f} N {row['speed_rpm']:6.0f} rpm {row['temperature_C']:+4.0f} C"
+    if not row["finished"]:
+        return f"{head}: FAILED after {row['wall_s']:.0f} s wall: {row['error']}"
+    return (
+        f"{head}: {'ok' if ok else 'UNHEALTHY'}; finite {row['finite']}, blow-up "
+        f"{row['blow_up']} (max speed {row['max_screw_speed_rad_s']:.4g} rad/s, nut force "
+        f"{row['max_nut_force_N']:.4g} N, contact force {row['max_normal_force_N']:.4g} N), "
+        f"min film {row['min_film_m'] * 1e9:.4g} nm (window {row['min_film_window_m'] * 1e9:.4g}"
+        f" nm), unconverged {row['unconverged_steps']} of {row['steps']}, balance "
+        f"{row['balance_error']:+.2g}, drag {row['drag_torque_Nm'] * NMM_PER_NM:.4f} N mm "
+        f"(less J dOmega/dt: {row['drag_less_inertia_Nm'] * NMM_PER_NM:.4f}); "
+        f"wall {row['wall_s']:.0f} s, CPU {row['cpu_s']:.0f} s"
+    )
+
+
+def _corner_markdown(rows: list[dict[str, Any]], base: Scenario, time_step: float) -> str:
+    """The corner table as markdown."""
+    lines = [
+        f"Envelope corners (`bench protocol --corners`, base scenario {base.name}, dt = "
+        f"{time_step:g} s, {CORNER_DURATION * 1e3:g} ms per run)",
+        "",
+        "| preload | speed | T | finished | finite | blow-up | min film (window) | "
+        "unconverged | balance | drag (less J dOmega/dt) | wall / CPU |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for r in rows:
+        if not r["finished"]:
+            lines.append(
+                f"| {r['preload_N']:g} N | {r['speed_rpm']:g} rpm | {r['temperature_C']:g} C | "
+                f"no: {r['error']} | | | | | | | {r['wall_s']:.0f} / {r['cpu_s']:.0f} s |"
+            )
+            continue
+        lines.append(
+            f"| {r['preload_N']:g} N | {r['speed_rpm']:g} rpm | {r['temperature_C']:g} C | yes | "
+            f"{'yes' if r['finite'] else 'NO'} | {'YES' if r['blow_up'] else 'no'} | "
+            f"{r['min_film_m'] * 1e9:.3g} nm ({r['min_film_window_m'] * 1e9:.3g} nm) | "
+            f"{r['unconverged_steps']} / {r['steps']} | {100 * r['balance_error']:+.2f} % | "
+            f"{r['drag_torque_Nm'] * NMM_PER_NM:.3f} "
+            f"({r['drag_less_inertia_Nm'] * NMM_PER_NM:.3f}) N mm | "
+            f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} s |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; print its numbers."""
     scenario = _scenario(args)
+    if args.corners:
+        return _corners(
+            scenario, args.time_step or CORNER_TIME_STEP, Path(args.out) if args.out else None
+        )
     if args.convergence:
         steps = [float(x) for x in args.convergence.split(",") if x.strip()]
         _convergence(scenario, steps)

@@ -700,6 +700,174 @@ def step_kernel(
     return active, out
 
 
+# ----------------------------------------------------------------------------- time loop
+# Run accumulators (A_COUNT,) float64 of run_steps, carried from call to call: motor torque of
+# the last step [N m]; cumulative input energy, gross input energy int |P_in| dt and dissipated
+# energy [J] (trapezoid); input power and dissipation of the previous step [W] and 1 once there
+# is one; window sums of motor torque [N m], screw speed [rad/s], gravitational power [W],
+# step count [-], dissipation per mechanism (7) and per nut (2) [W]; work totals (contact
+# evaluations, Jacobians, Newton iterations, unconverged steps) [-]; the last scaled residual
+# [-]; the first step's gravitational power [W], input and dissipated energy after it [J]; on a
+# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step.
+(
+    A_MOTOR,
+    A_INPUT,
+    A_ABS_INPUT,
+    A_DISSIPATED,
+    A_PREV_POWER,
+    A_PREV_DISS,
+    A_HAS_PREV,
+    A_W_MOTOR,
+    A_W_SPEED,
+    A_W_GRAVITY,
+    A_W_COUNT,
+    A_W_MECHANISMS,
+    A_W_NUTS,
+    A_EVALS,
+    A_JACOBIANS,
+    A_ITERATIONS,
+    A_UNCONVERGED,
+    A_RESIDUAL,
+    A_FIRST_GRAVITY,
+    A_FIRST_INPUT,
+    A_FIRST_DISSIPATED,
+    A_FAILED,
+    A_FAILED_VALUE,
+    A_FAILED_STEP,
+) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30)
+A_COUNT = 31
+#: Quantities checked for finiteness at every step, in the order of simulation._check_finite.
+FINITE_CHECKS = (
+    "screw speed",
+    "motor torque",
+    "dissipation",
+    "screw torque",
+    "nut velocity",
+    "sphere velocity",
+    "sphere angular velocity",
+)
+
+
+@njit(cache=True, error_model="numpy")
+def run_steps(
+    first_step,
+    window_first,
+    commands,
+    pos,
+    vel,
+    omega,
+    theta,
+    body,
+    ball_nut,
+    c,
+    p,
+    sphere_offset,
+    spalls,
+    jam_start,
+    jac_own,
+    jac_shared,
+    jac_active,
+    jac_meta,
+    acc,
+    first_stats,
+):
+    """Steps ``first_step`` .. ``first_step + n - 1`` of a run (n = len(commands)), each as
+    simulation.simulate's per-step loop does with step_kernel: the step, the finiteness checks,
+    the input power M Omega + F_p (v_1 - v_2) and gravitational power, the trapezoid energy
+    integrals and the sums over the averaging window (steps >= ``window_first``).
+
+    Args:
+        commands: (n, 2) speed reference [rad/s] and preload [N] of each step.
+        pos, vel, omega, theta, body: the state (layouts of step_kernel), advanced in place.
+        jam_start: (B,) time from which each sphere's rotation is blocked [s] (inf: never).
+        acc: (A_COUNT,) run accumulators (layout A_*), updated; first_stats: (S_COUNT,) the
+            first step's statistics (written). Other arguments: see step_kernel.
+
+    Returns:
+        active (B, 4) and the contact kernel's buffer of the first step (for the records).
+        Stops at the first non-finite value (acc[A_FAILED] = 1 + its FINITE_CHECKS index).
+    """
+    count = pos.shape[0]
+    dt = c[K_DT]
+    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
+    jammed = np.zeros(count, dtype=np.bool_)
+    new_pos, new_vel, new_omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
+    new_theta, new_body = np.empty(count), np.empty(N_BODY)
+    stats = np.zeros(S_COUNT)
+    first_active = np.zeros((count, 4), dtype=np.bool_)
+    first_out = np.zeros((1, count, 4))
+    for n in range(commands.shape[0]):
+        for i in range(count):
+            jammed[i] = body[B_TIME] >= jam_start[i]
+        active, out = step_kernel(
+            pos, vel, omega, theta, body, commands[n], ball_nut, c, p, sphere_offset, spalls,
+            jammed, jac_own, jac_shared, jac_active, jac_meta, new_pos, new_vel, new_omega,
+            new_theta, new_body, stats,
+        )  # fmt: skip
+        sum_vel = 0.0
+        sum_omega = 0.0
+        gravity_power = 0.0
+        for i in range(count):
+            sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
+            sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
+            gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
+        nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
+        gravity_power += c[K_WEIGHT] * nut_vel
+        checks = (
+            body[B_SPEED],
+            stats[S_MOTOR],
+            stats[S_DISSIPATION],
+            stats[S_SCREW_TORQUE],
+            nut_vel,
+            sum_vel,
+            sum_omega,
+        )
+        for j in range(len(checks)):
+            if not np.isfinite(checks[j]):
+                acc[A_FAILED] = 1.0 + j
+                acc[A_FAILED_VALUE] = checks[j]
+                acc[A_FAILED_STEP] = first_step + n
+                return first_active, first_out
+        motor = acc[A_MOTOR]
+        power_in = motor * body[B_SPEED] + commands[n, 1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
+        diss = stats[S_DISSIPATION]
+        if acc[A_HAS_PREV] > 0.0:
+            acc[A_INPUT] += 0.5 * dt * (acc[A_PREV_POWER] + power_in)
+            acc[A_ABS_INPUT] += 0.5 * dt * (abs(acc[A_PREV_POWER]) + abs(power_in))
+            acc[A_DISSIPATED] += 0.5 * dt * (acc[A_PREV_DISS] + diss)
+        acc[A_PREV_POWER] = power_in
+        acc[A_PREV_DISS] = diss
+        acc[A_HAS_PREV] = 1.0
+        if first_step + n >= window_first:
+            acc[A_W_MOTOR] += motor
+            acc[A_W_SPEED] += body[B_SPEED]
+            acc[A_W_GRAVITY] += gravity_power
+            acc[A_W_COUNT] += 1.0
+            for j in range(N_MECHANISMS):
+                acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
+            for j in range(2):
+                acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
+        acc[A_EVALS] += stats[S_EVALS]
+        acc[A_JACOBIANS] += stats[S_JACOBIANS]
+        acc[A_ITERATIONS] += stats[S_ITERATIONS]
+        acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
+        acc[A_RESIDUAL] = stats[S_RESIDUAL]
+        if n == 0:
+            first_stats[:] = stats
+            first_active = active
+            first_out = out
+            acc[A_FIRST_GRAVITY] = gravity_power
+            acc[A_FIRST_INPUT] = acc[A_INPUT]
+            acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
+        acc[A_MOTOR] = stats[S_MOTOR]
+        pos[:, :] = new_pos
+        vel[:, :] = new_vel
+        omega[:, :] = new_omega
+        theta[:] = new_theta
+        body[:] = new_body
+    return first_active, first_out
+
+
 # ----------------------------------------------------------------------------- cache
 _checked_cache = False
 
@@ -722,6 +890,7 @@ def ensure_fresh_cache() -> bool:
             _residual,
             _correction,
             step_kernel,
+            run_steps,
             frozen_constants,
             compiled_stamp,
         ):

@@ -32,7 +32,7 @@ from ..errors import SolverError
 from ..params import TwinConfig, load_config
 from .base import DISSIPATION_KEYS
 from .contact_forces import make_scene
-from .dynamic import DynamicModel, DynamicState, StepReport
+from .dynamic import Commands, DynamicModel, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
 
@@ -230,13 +230,18 @@ def _check_finite(state: DynamicState, report: StepReport, t: float) -> None:
             )
 
 
-def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> SimulationResult:
+def simulate(
+    scenario: Scenario, progress: ProgressCallback | None = None, *, compiled_loop: bool = True
+) -> SimulationResult:
     """Run ``scenario`` through the dynamic model and record its outputs.
 
     Args:
         scenario: the validated scenario.
         progress: called as ``progress(fraction_done, elapsed_wall_seconds)`` about every 0.5 %
             of the run and once at the end.
+        compiled_loop: with the compiled step, run the steps between two records in one
+            compiled call (kernels/dynamic_step.run_steps); False: one Python iteration per step
+            (the reference, tested equal). Ignored when the model runs the Python step.
 
     Raises:
         ConfigError: the parameter file or the ``balls_per_nut`` override is invalid.
@@ -256,88 +261,16 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
             scenario.faults, config.screw.balls_per_nut, f"{scenario.source or 'scenario'}: faults"
         ),
     )
-    ball_mass = make_scene(config, scenario.temperature, 0.0).ball_mass
-    state = model.initial_state(0.0)
-    balls = len(model.ball_nut)
-    nut_members = [model.ball_nut == k for k in (0, 1)]
-    dt = scenario.time_step
-    steps = scenario.steps
-    every = scenario.steps_per(scenario.output_interval)
-    contact_every = scenario.steps_per(scenario.contact_output_interval)
-    window_first = steps - scenario.steps_per(scenario.average_window)
-    rec = _Recorder(steps // every + 1, steps // contact_every + 1, balls)
-    progress_every = max(1, round(steps * PROGRESS_FRACTION))
-
-    energy0 = model.energy(state)
-    total0 = float(sum(energy0.values()))
-    motor = 0.0  # N m: the controller starts at rest with zero error
-    input_energy = dissipated = 0.0
-    abs_input_energy = 0.0
-    previous: tuple[float, float] | None = None  # (input power, dissipation) of the last sample
-    window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
-    window_mechanisms = np.zeros(len(MECHANISMS))
-    window_nuts = np.zeros(2)
-
-    for k in range(steps + 1):
-        t = k * dt
-        commands = scenario.commands_at(t)
-        new_state, report = model.step(state, commands)
-        _check_finite(state, report, t)
-        power_in = model.input_power(state, commands, motor)
-        diss = report.dissipation
-        if previous is not None:
-            input_energy += 0.5 * dt * (previous[0] + power_in)
-            abs_input_energy += 0.5 * dt * (abs(previous[0]) + abs(power_in))
-            dissipated += 0.5 * dt * (previous[1] + diss)
-        previous = (power_in, diss)
-        record = k % every == 0
-        mechanisms = report.mechanism_dissipation
-        per_nut = report.nut_dissipation
-        p_grav = _gravitational_power(model, ball_mass, state)
-        if k >= window_first:
-            window["motor"] += motor
-            window["speed"] += state.screw_speed
-            window["gravity"] += p_grav
-            window["count"] += 1
-            window_mechanisms += mechanisms
-            window_nuts += per_nut
-        if record:
-            energy = model.energy(state)
-            i = rec.n
-            s = rec.series
-            s["time"][i] = t
-            s["speed_command"][i] = commands.screw_speed
-            s["preload_command"][i] = commands.preload
-            s["screw_speed"][i] = state.screw_speed
-            s["motor_torque"][i] = motor
-            s["screw_torque"][i] = report.screw_torque
-            s["nut_force"][i] = report.nut_force
-            s["nut_position"][i] = state.nut_position
-            s["dissipation"][i] = diss
-            s["mechanism_dissipation"][i] = mechanisms
-            s["nut_dissipation"][i] = per_nut
-            s["kinetic_energy"][i] = energy["kinetic"]
-            s["elastic_energy"][i] = energy["elastic"]
-            s["gravitational_energy"][i] = energy["gravitational"]
-            s["gravitational_power"][i] = p_grav
-            s["input_energy"][i] = input_energy
-            s["dissipated_energy"][i] = dissipated
-            s["power_balance_error"][i] = (
-                float(sum(energy.values())) - total0 - input_energy + dissipated
-            )
-            rec.n += 1
-        if k % contact_every == 0:
-            _record_contacts(rec, report, t)
-        if k == steps:
-            break
-        state, motor = new_state, report.motor_torque
-        if progress is not None and (k + 1) % progress_every == 0:
-            progress((k + 1) / steps, time.perf_counter() - started)
-
+    run = _Run(scenario, model, progress, started)
+    if compiled_loop and model._kernel is not None:
+        run.compiled()
+    else:
+        run.python()
     wall = time.perf_counter() - started
     if progress is not None:
         progress(1.0, wall)
-    series, contacts, in_contact = rec.trimmed()
+    series, contacts, in_contact = run.rec.trimmed()
+    nut_members = [model.ball_nut == k for k in (0, 1)]
     ball_index = np.concatenate([np.arange(int(m.sum())) for m in nut_members]).astype(np.int64)
     result = SimulationResult(
         scenario=scenario,
@@ -347,14 +280,279 @@ def simulate(scenario: Scenario, progress: ProgressCallback | None = None) -> Si
         ball_nut=model.ball_nut.astype(np.int64),
         ball_index=ball_index,
     )
+    steps = scenario.steps
     result.summary = _summary(
-        result, window, window_mechanisms, window_nuts, abs_input_energy, wall, steps, config
+        result,
+        run.window,
+        run.window_mechanisms,
+        run.window_nuts,
+        run.abs_input_energy,
+        wall,
+        steps,
+        config,
     )
     result.summary["unconverged_steps"] = model.unconverged_steps
     result.summary["work_per_step"] = {
         name: count / max(steps + 1, 1) for name, count in model.work.items()
     }
     return result
+
+
+class _Run:
+    """The time loop of :func:`simulate`: per step in Python, or per record interval compiled.
+
+    Both visit steps k = 0 .. steps (the last one only for its report), accumulate the energy
+    integrals and window sums the same way and record every ``output_interval`` and
+    ``contact_output_interval``.
+    """
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        model: DynamicModel,
+        progress: ProgressCallback | None,
+        started: float,
+    ) -> None:
+        self.scenario = scenario
+        self.model = model
+        self.progress = progress
+        self.started = started
+        self.ball_mass = make_scene(model.config, scenario.temperature, 0.0).ball_mass
+        self.state = model.initial_state(0.0)
+        self.steps = scenario.steps
+        self.every = scenario.steps_per(scenario.output_interval)
+        self.contact_every = scenario.steps_per(scenario.contact_output_interval)
+        self.window_first = self.steps - scenario.steps_per(scenario.average_window)
+        balls = len(model.ball_nut)
+        self.rec = _Recorder(
+            self.steps // self.every + 1, self.steps // self.contact_every + 1, balls
+        )
+        self.progress_every = max(1, round(self.steps * PROGRESS_FRACTION))
+        self.total0 = float(sum(model.energy(self.state).values()))
+        self.abs_input_energy = 0.0
+        self.window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
+        self.window_mechanisms = np.zeros(len(MECHANISMS))
+        self.window_nuts = np.zeros(2)
+
+    def _record(
+        self,
+        t: float,
+        commands: Commands,
+        state: DynamicState,
+        motor: float,
+        report: StepReport,
+        p_grav: float,
+        energies: tuple[float, float],
+    ) -> None:
+        """Store the sample of step ``t`` [s]: ``energies`` = (input, dissipated) [J] so far."""
+        energy = self.model.energy(state)
+        input_energy, dissipated = energies
+        i = self.rec.n
+        s = self.rec.series
+        s["time"][i] = t
+        s["speed_command"][i] = commands.screw_speed
+        s["preload_command"][i] = commands.preload
+        s["screw_speed"][i] = state.screw_speed
+        s["motor_torque"][i] = motor
+        s["screw_torque"][i] = report.screw_torque
+        s["nut_force"][i] = report.nut_force
+        s["nut_position"][i] = state.nut_position
+        s["dissipation"][i] = report.dissipation
+        s["mechanism_dissipation"][i] = report.mechanism_dissipation
+        s["nut_dissipation"][i] = report.nut_dissipation
+        s["kinetic_energy"][i] = energy["kinetic"]
+        s["elastic_energy"][i] = energy["elastic"]
+        s["gravitational_energy"][i] = energy["gravitational"]
+        s["gravitational_power"][i] = p_grav
+        s["input_energy"][i] = input_energy
+        s["dissipated_energy"][i] = dissipated
+        s["power_balance_error"][i] = (
+            float(sum(energy.values())) - self.total0 - input_energy + dissipated
+        )
+        self.rec.n += 1
+
+    def python(self) -> None:
+        """One Python iteration per step (the reference loop)."""
+        model, scenario, state = self.model, self.scenario, self.state
+        dt, steps = scenario.time_step, self.steps
+        motor = 0.0  # N m: the controller starts at rest with zero error
+        input_energy = dissipated = 0.0
+        previous: tuple[float, float] | None = None  # (input power, dissipation), last step
+        window = self.window
+        for k in range(steps + 1):
+            t = k * dt
+            commands = scenario.commands_at(t)
+            new_state, report = model.step(state, commands)
+            _check_finite(state, report, t)
+            power_in = model.input_power(state, commands, motor)
+            diss = report.dissipation
+            if previous is not None:
+                input_energy += 0.5 * dt * (previous[0] + power_in)
+                self.abs_input_energy += 0.5 * dt * (abs(previous[0]) + abs(power_in))
+                dissipated += 0.5 * dt * (previous[1] + diss)
+            previous = (power_in, diss)
+            p_grav = _gravitational_power(model, self.ball_mass, state)
+            if k >= self.window_first:
+                window["motor"] += motor
+                window["speed"] += state.screw_speed
+                window["gravity"] += p_grav
+                window["count"] += 1
+                self.window_mechanisms += report.mechanism_dissipation
+                self.window_nuts += report.nut_dissipation
+            if k % self.every == 0:
+                self._record(t, commands, state, motor, report, p_grav, (input_energy, dissipated))
+            if k % self.contact_every == 0:
+                _record_contacts(self.rec, report, t)
+            if k == steps:
+                break
+            state, motor = new_state, report.motor_torque
+            if self.progress is not None and (k + 1) % self.progress_every == 0:
+                self.progress((k + 1) / steps, time.perf_counter() - self.started)
+
+    def compiled(self) -> None:
+        """One compiled call (run_steps) per stretch of steps between two records (or two
+        progress reports)."""
+        from ..kernels import dynamic_step as ks
+        from ..kernels.contacts import evaluation_from_buffer
+
+        model, scenario, state = self.model, self.scenario, self.state
+        kernel = model._kernel
+        assert kernel is not None
+        dt, steps = scenario.time_step, self.steps
+        count = len(model.ball_nut)
+        pos = np.array(state.ball_position, dtype=np.float64)
+        vel = np.array(state.ball_velocity, dtype=np.float64)
+        omega = np.array(state.ball_omega, dtype=np.float64)
+        theta = np.array(state.helix_parameter, dtype=np.float64)
+        body = np.array(
+            [
+                state.time,
+                state.screw_angle,
+                state.screw_speed,
+                state.controller_integral,
+                *state.nut_position,
+                *state.nut_velocity,
+            ],
+            dtype=np.float64,
+        )
+        jam_start = np.full(count, math.inf)
+        for jam in model.faults.jams:
+            hit = (model.ball_nut == jam.nut) & (model.ball_index == jam.index)
+            jam_start[hit] = np.minimum(jam_start[hit], jam.start)
+        acc = np.zeros(ks.A_COUNT)
+        first_stats = np.zeros(ks.S_COUNT)
+        done = [0, 0, 0, 0]  # evaluations, Jacobians, iterations, unconverged already counted
+        k = 0
+        while k <= steps:
+            record = k % self.every == 0
+            record_contacts = k % self.contact_every == 0
+            stop = min(
+                (k // self.every + 1) * self.every,
+                (k // self.contact_every + 1) * self.contact_every,
+                (k // self.progress_every + 1) * self.progress_every,
+                steps,
+            )
+            n = 1 if k == steps else stop - k
+            times = np.arange(k, k + n, dtype=np.float64) * dt
+            commands = np.empty((n, 2))
+            commands[:, 0] = scenario.speed * _smooth_steps(
+                times, scenario.speed_ramp_start, scenario.speed_ramp_end
+            )
+            commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
+            motor = float(acc[ks.A_MOTOR])
+            before = _body_state(pos, vel, omega, theta, body) if record else None
+            active, buffer = ks.run_steps(
+                k, self.window_first, commands, pos, vel, omega, theta, body,
+                kernel.ball_nut, kernel.consts, kernel.params, kernel.sphere_offset,
+                kernel.spalls, jam_start, kernel.jac_own, kernel.jac_shared, kernel.jac_active,
+                kernel.jac_meta, acc, first_stats,
+            )  # fmt: skip
+            if acc[ks.A_FAILED] > 0.0:
+                raise SolverError(
+                    f"dynamic model diverged at t = {acc[ks.A_FAILED_STEP] * dt:.7g} s: "
+                    f"{ks.FINITE_CHECKS[int(acc[ks.A_FAILED]) - 1]} is "
+                    f"{acc[ks.A_FAILED_VALUE]} (last screw speed {body[ks.B_SPEED]:.6g} rad/s)"
+                )
+            totals = [
+                int(acc[ks.A_EVALS]),
+                int(acc[ks.A_JACOBIANS]),
+                int(acc[ks.A_ITERATIONS]),
+                int(acc[ks.A_UNCONVERGED]),
+            ]
+            work = model.work
+            work["contact_evaluations"] += totals[0] - done[0]
+            work["jacobians"] += totals[1] - done[1]
+            work["newton_iterations"] += totals[2] - done[2]
+            model.unconverged_steps += totals[3] - done[3]
+            model.last_step_residual = float(acc[ks.A_RESIDUAL])
+            done = totals
+            if record or record_contacts:
+                report = _report_from_stats(ks, first_stats, evaluation_from_buffer(active, buffer))
+                t = k * dt
+                if record:
+                    assert before is not None
+                    self._record(
+                        t,
+                        Commands(float(commands[0, 0]), float(commands[0, 1])),
+                        before,
+                        motor,
+                        report,
+                        float(acc[ks.A_FIRST_GRAVITY]),
+                        (float(acc[ks.A_FIRST_INPUT]), float(acc[ks.A_FIRST_DISSIPATED])),
+                    )
+                if record_contacts:
+                    _record_contacts(self.rec, report, t)
+            k += n
+            if self.progress is not None and k % self.progress_every == 0 and k <= steps:
+                self.progress(k / steps, time.perf_counter() - self.started)
+        window = self.window
+        window["motor"] = float(acc[ks.A_W_MOTOR])
+        window["speed"] = float(acc[ks.A_W_SPEED])
+        window["gravity"] = float(acc[ks.A_W_GRAVITY])
+        window["count"] = int(acc[ks.A_W_COUNT])
+        self.window_mechanisms = acc[ks.A_W_MECHANISMS : ks.A_W_MECHANISMS + len(MECHANISMS)].copy()
+        self.window_nuts = acc[ks.A_W_NUTS : ks.A_W_NUTS + 2].copy()
+        self.abs_input_energy = float(acc[ks.A_ABS_INPUT])
+
+
+def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
+    """:func:`~ballscrew_twin.models.scenario.smooth_step` at every time of ``t`` (same
+    arithmetic, so the same values)."""
+    if t1 <= t0:
+        return np.where(t >= t1, 1.0, 0.0)
+    s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
+    return np.where(t >= t1, 1.0, np.where(t <= t0, 0.0, s * s * (3.0 - 2.0 * s)))
+
+
+def _body_state(
+    pos: FloatArray, vel: FloatArray, omega: FloatArray, theta: FloatArray, body: FloatArray
+) -> DynamicState:
+    """A :class:`DynamicState` copy of the compiled loop's arrays (layout of step_kernel)."""
+    return DynamicState(
+        time=float(body[0]),
+        screw_angle=float(body[1]),
+        screw_speed=float(body[2]),
+        controller_integral=float(body[3]),
+        nut_position=body[4:6].copy(),
+        nut_velocity=body[6:8].copy(),
+        ball_position=pos.copy(),
+        ball_velocity=vel.copy(),
+        ball_omega=omega.copy(),
+        helix_parameter=theta.copy(),
+    )
+
+
+def _report_from_stats(ks: Any, stats: FloatArray, contacts: Any) -> StepReport:
+    """The :class:`StepReport` of a step from step_kernel's statistics (layout ks.S_*)."""
+    return StepReport(
+        motor_torque=float(stats[ks.S_MOTOR]),
+        contacts=contacts,
+        nut_force=stats[ks.S_NUT_FORCE : ks.S_NUT_FORCE + 2].copy(),
+        screw_torque=float(stats[ks.S_SCREW_TORQUE]),
+        dissipation=float(stats[ks.S_DISSIPATION]),
+        mechanism_dissipation=stats[ks.S_MECHANISMS : ks.S_MECHANISMS + ks.N_MECHANISMS].copy(),
+        nut_dissipation=stats[ks.S_NUT_DISSIPATION : ks.S_NUT_DISSIPATION + 2].copy(),
+    )
 
 
 def _record_contacts(rec: _Recorder, report: StepReport, t: float) -> None:

@@ -92,8 +92,14 @@ def test_gravitational_power_is_the_rate_of_the_gravitational_energy(
     result: SimulationResult,
 ) -> None:
     integral = np.concatenate(
-        [[0.0], np.cumsum(0.5 * np.diff(result.time) * (result.gravitational_power[1:]
-                                                        + result.gravitational_power[:-1]))]
+        [
+            [0.0],
+            np.cumsum(
+                0.5
+                * np.diff(result.time)
+                * (result.gravitational_power[1:] + result.gravitational_power[:-1])
+            ),
+        ]
     )
     change = result.gravitational_energy - result.gravitational_energy[0]
     assert np.max(np.abs(integral - change)) < 0.02 * np.max(np.abs(change))
@@ -153,11 +159,96 @@ def test_divergence_is_reported_not_hidden(monkeypatch: pytest.MonkeyPatch) -> N
         return new, report
 
     monkeypatch.setattr(dynamic.DynamicModel, "step", poisoned)
-    short = {**SMALL, "duration": 5e-5, "average_window": 1e-5, "preload_ramp_end": 1e-5,
-             "speed_ramp_start": 1e-5, "speed_ramp_end": 2e-5, "contact_output_interval": 1e-5}
+    short = {
+        **SMALL,
+        "duration": 5e-5,
+        "average_window": 1e-5,
+        "preload_ramp_end": 1e-5,
+        "speed_ramp_start": 1e-5,
+        "speed_ramp_end": 2e-5,
+        "contact_output_interval": 1e-5,
+    }
     expected = re.escape("diverged at t = 2.1e-05 s: screw speed is nan")
     with pytest.raises(SolverError, match=expected):
-        simulate(Scenario(**short))
+        simulate(Scenario(**short), compiled_loop=False)
+
+
+def test_compiled_loop_reports_divergence_like_the_python_loop(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    original = dynamic.DynamicModel.initial_state
+
+    def poisoned(self: Any, preload: float = 0.0) -> Any:
+        state = original(self, preload)
+        state.ball_omega[1, 2] = math.nan
+        return state
+
+    monkeypatch.setattr(dynamic.DynamicModel, "initial_state", poisoned)
+    short = {
+        **SMALL,
+        "duration": 5e-5,
+        "average_window": 1e-5,
+        "preload_ramp_end": 1e-5,
+        "speed_ramp_start": 1e-5,
+        "speed_ramp_end": 2e-5,
+        "contact_output_interval": 1e-5,
+    }
+    messages = []
+    for compiled_loop in (False, True):
+        with pytest.raises(SolverError, match=re.escape("diverged at t = 0 s: ")) as err:
+            simulate(Scenario(**short), compiled_loop=compiled_loop)
+        messages.append(str(err.value))
+    assert messages[0] == messages[1]
+
+
+#: A short run with every fault kind (a jam starting half-way) and record intervals that are
+#: not multiples of each other (10 and 15 steps): the compiled loop must retrace the Python one.
+FAULTY: dict[str, Any] = {
+    **SMALL,
+    "balls_per_nut": 3,
+    "duration": 6e-4,
+    "average_window": 2e-4,
+    "preload_ramp_end": 1e-4,
+    "speed_ramp_start": 1.5e-4,
+    "speed_ramp_end": 3.5e-4,
+    "jacobian_interval": 5,
+    "contact_output_interval": 1.5e-5,
+    "faults": {
+        "spheres": [{"nut": 1, "index": 1, "radius_change": 2e-6}],
+        "spalls": [{"half_groove": "S2", "centre": 0.2, "width": 0.4, "depth": 3e-6}],
+        "jams": [{"nut": 0, "index": 2, "start": 3e-4}],
+    },
+}
+
+
+def test_compiled_loop_retraces_the_python_loop() -> None:
+    reference, fast = (
+        simulate(Scenario(**FAULTY), compiled_loop=compiled) for compiled in (False, True)
+    )
+    for name, value in vars(reference).items():
+        if name in ("scenario", "summary"):
+            continue
+        other = getattr(fast, name)
+        assert np.shape(other) == np.shape(value), name
+        if np.asarray(value).dtype == bool or np.asarray(value).dtype.kind == "i":
+            np.testing.assert_array_equal(other, value, err_msg=name)
+            continue
+        scale = float(np.max(np.abs(value))) if np.size(value) else 0.0
+        worst = float(np.max(np.abs(other - value))) if np.size(value) else 0.0
+        assert worst <= 1e-9 * scale, (name, worst, scale)
+    for key, value in reference.summary.items():
+        if key in ("wall_time_s", "real_time_factor", "step_cost_s"):
+            continue
+        if isinstance(value, dict):
+            for sub, number in value.items():
+                assert fast.summary[key][sub] == pytest.approx(number, rel=1e-9, abs=1e-300), key
+        elif isinstance(value, float):
+            assert fast.summary[key] == pytest.approx(value, rel=1e-9, abs=1e-300), key
+        else:
+            assert fast.summary[key] == value, key
+    # The run did something: spheres loaded, screw turning, the jammed sphere blocked.
+    assert reference.in_contact.any() and reference.screw_speed[-1] > 5.0
+    assert reference.summary["drag_torque_Nm"] > 0.0
 
 
 # ---------------------------------------------------------------------------------- writers
@@ -168,12 +259,15 @@ def test_csv_round_trip(result: SimulationResult, tmp_path: Path) -> None:
     with path.open(encoding="utf-8") as handle:
         rows = list(csv.reader(handle))
     header, body = rows[0], np.array(rows[1:], dtype=float)
-    assert header[:4] == ["time [s]", "speed_command [rad/s]", "preload_command [N]",
-                          "screw_speed [rad/s]"]
+    assert header[:4] == [
+        "time [s]",
+        "speed_command [rad/s]",
+        "preload_command [N]",
+        "screw_speed [rad/s]",
+    ]
     assert "drag_torque [N m]" in header and "power_balance_error [J]" in header
     assert body.shape == (121, len(header))
-    np.testing.assert_array_equal(body[:, header.index("motor_torque [N m]")],
-                                  result.motor_torque)
+    np.testing.assert_array_equal(body[:, header.index("motor_torque [N m]")], result.motor_torque)
     np.testing.assert_array_equal(body[:, header.index("drag_torque [N m]")], result.drag_torque)
 
 
@@ -222,8 +316,11 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
         assert t_ns == round(result.contact_time[j] * 1e9)
         assert len(msg.contacts) == int(result.in_contact[j].sum())
         for c in msg.contacts:
-            ball = int(np.flatnonzero((result.ball_nut == c.nut)
-                                      & (result.ball_index == c.sphere_index))[0])
+            ball = int(
+                np.flatnonzero((result.ball_nut == c.nut) & (result.ball_index == c.sphere_index))[
+                    0
+                ]
+            )
             assert c.in_contact
             assert c.normal_force == result.normal_force[j, ball, c.half_groove]
             assert c.contact_angle == result.contact_angle[j, ball, c.half_groove]
