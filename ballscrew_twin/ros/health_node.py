@@ -48,6 +48,7 @@ from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMoni
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..params import load_config
+from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import ERROR, STALE, Check, to_message
 from .diagnostics import OK as DIAG_OK
 from .diagnostics import WARN as DIAG_WARN
@@ -431,25 +432,12 @@ def main(args: list[str] | None = None) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``ballscrew-twin health-node``."""
-    parser.add_argument(
-        "--params-file", default=None, help="ROS parameter file (e.g. config/health_node.yaml)"
-    )
-    parser.add_argument(
-        "--ros-args",
-        dest="ros_args",
-        nargs=argparse.REMAINDER,
-        default=[],
-        help="ROS arguments, passed on unchanged (must come last)",
-    )
+    add_ros_arguments(parser, "config/health_node.yaml")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the health node until SIGINT/SIGTERM; 0 on a clean stop, 1 if it cannot start."""
-    ros: list[str] = []
-    if args.params_file:
-        ros += ["--params-file", args.params_file]
-    ros += list(args.ros_args)
-    return run_node(["ballscrew-twin-health-node", *(["--ros-args", *ros] if ros else [])])
+    return run_node(ros_argv("ballscrew-twin-health-node", args))
 
 
 if __name__ == "__main__":

@@ -9,34 +9,16 @@ from __future__ import annotations
 
 import argparse
 
+from .command_args import add_ros_arguments, ros_argv
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``node``."""
-    parser.add_argument(
-        "--params-file",
-        default=None,
-        help="ROS parameter file (e.g. config/twin_node.yaml); same as --ros-args --params-file",
-    )
-    parser.add_argument(
-        "--ros-args",
-        dest="ros_args",
-        nargs=argparse.REMAINDER,
-        default=[],
-        help="ROS arguments, passed on unchanged (must come last)",
-    )
-
-
-def ros_argv(args: argparse.Namespace) -> list[str]:
-    """The argument vector rclpy sees: program name, then ``--ros-args`` and its arguments."""
-    ros: list[str] = []
-    if args.params_file:
-        ros += ["--params-file", args.params_file]
-    ros += list(args.ros_args)
-    return ["ballscrew-twin-node", "--ros-args", *ros] if ros else ["ballscrew-twin-node"]
+    add_ros_arguments(parser, "config/twin_node.yaml")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the twin node until SIGINT/SIGTERM; 0 on a clean stop, 1 if it cannot start."""
     from .twin_node import run_node
 
-    return run_node(ros_argv(args))
+    return run_node(ros_argv("ballscrew-twin-node", args))

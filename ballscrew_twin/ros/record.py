@@ -31,6 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import BallscrewTwinError
+from .command_args import add_ros_arguments, ros_argv
 from .replay import ReplayError, message_class
 
 QOS_MODES = ("auto", "reliable", "best_effort")
@@ -209,13 +210,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
     parser.add_argument("--qos", default="auto", choices=QOS_MODES)
     parser.add_argument("--depth", type=int, default=1000, help="subscription history depth")
-    parser.add_argument(
-        "--ros-args",
-        dest="ros_args",
-        nargs=argparse.REMAINDER,
-        default=[],
-        help="ROS arguments, passed on unchanged (must come last)",
-    )
+    add_ros_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -226,7 +221,7 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0.0):
         raise RecordError(f"--duration {args.duration} must be a number of seconds > 0")
     requests = [parse_topic(t) for t in args.topics]
-    rclpy.init(args=["ballscrew-twin-record", "--ros-args", *args.ros_args])
+    rclpy.init(args=ros_argv("ballscrew-twin-record", args))
     context = rclpy.get_default_context()
     node = rclpy.create_node("bag_record", context=context)
     executor = SingleThreadedExecutor(context=context)

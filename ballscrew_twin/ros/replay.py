@@ -32,6 +32,7 @@ from typing import Any
 
 from ..errors import BallscrewTwinError
 from ..health.bags import RawBag, RawMessage, open_raw_bag
+from .command_args import add_ros_arguments, ros_argv
 
 CLOCK_TOPIC = "/clock"
 #: Longest single sleep while pacing [s], so that a stop request is seen quickly.
@@ -209,13 +210,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=0.0,
         help="wait up to this long [s] for a subscriber on every played topic",
     )
-    parser.add_argument(
-        "--ros-args",
-        dest="ros_args",
-        nargs=argparse.REMAINDER,
-        default=[],
-        help="ROS arguments, passed on unchanged (must come last)",
-    )
+    add_ros_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -223,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
-    rclpy.init(args=["ballscrew-twin-replay", "--ros-args", *args.ros_args])
+    rclpy.init(args=ros_argv("ballscrew-twin-replay", args))
     context = rclpy.get_default_context()
     node = None
     try:

@@ -43,7 +43,10 @@ def test_scripts_on_venv_path(name: str) -> None:
 def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
     proc = subprocess.Popen(
         [_script("twin_node"), "--ros-args", "--params-file", str(ROOT / "config/twin_node.yaml")],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=_env(),
         stdin=subprocess.DEVNULL,
     )
     try:
@@ -74,7 +77,11 @@ def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
 def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
     result = subprocess.run(
         [_script(command[0]), *command[1:], "--ros-args", "-p", "sim_rate_hz:=5000.0"],
-        capture_output=True, text=True, env=_env(), timeout=TIMEOUT, stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
     )
     assert result.returncode == 1
     assert "sim_rate_hz" in result.stderr
@@ -83,7 +90,11 @@ def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
 def test_node_refuses_unreadable_params_file(tmp_path: Path) -> None:
     result = subprocess.run(
         [_script("ballscrew-twin"), "node", "--params-file", str(tmp_path / "missing.yaml")],
-        capture_output=True, text=True, env=_env(), timeout=TIMEOUT, stdin=subprocess.DEVNULL,
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
     )
     assert result.returncode == 1
     assert "missing.yaml" in result.stderr and "Traceback" not in result.stderr
@@ -93,10 +104,10 @@ def test_node_command_passes_ros_arguments_on() -> None:
     import argparse
 
     from ballscrew_twin.ros import node_command
+    from ballscrew_twin.ros.command_args import ros_argv
 
     parser = argparse.ArgumentParser()
     node_command.add_arguments(parser)
     args = parser.parse_args(["--params-file", "p.yaml", "--ros-args", "-p", "a:=1"])
-    assert node_command.ros_argv(args)[1:] == ["--ros-args", "--params-file", "p.yaml",
-                                               "-p", "a:=1"]
-    assert node_command.ros_argv(parser.parse_args([])) == ["ballscrew-twin-node"]
+    assert ros_argv("prog", args) == ["prog", "--ros-args", "--params-file", "p.yaml", "-p", "a:=1"]
+    assert ros_argv("prog", parser.parse_args([])) == ["prog"]

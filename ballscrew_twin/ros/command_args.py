@@ -1,0 +1,36 @@
+"""Command-line arguments shared by the ``ballscrew-twin`` commands that start an rclpy node.
+
+Each such command accepts ``--ros-args ...`` (last; passed to ROS unchanged: ``-p name:=value``,
+``--params-file``, ``-r old:=new``, ``--log-level`` ...), and the node commands also take a
+``--params-file`` shortcut. No rclpy import here, so ``--help`` stays fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_ros_arguments(parser: argparse.ArgumentParser, params_example: str | None = None) -> None:
+    """Add ``--ros-args`` and, when ``params_example`` names a file, ``--params-file``."""
+    if params_example is not None:
+        parser.add_argument(
+            "--params-file",
+            default=None,
+            help=f"ROS parameter file (e.g. {params_example}); same as --ros-args --params-file",
+        )
+    parser.add_argument(
+        "--ros-args",
+        dest="ros_args",
+        nargs=argparse.REMAINDER,
+        default=[],
+        help="ROS arguments, passed on unchanged (must come last)",
+    )
+
+
+def ros_argv(program: str, args: argparse.Namespace) -> list[str]:
+    """The argument vector rclpy sees: ``program``, then ``--ros-args`` and its arguments."""
+    ros: list[str] = []
+    if getattr(args, "params_file", None):
+        ros += ["--params-file", args.params_file]
+    ros += list(args.ros_args)
+    return [program, "--ros-args", *ros] if ros else [program]
