@@ -35,9 +35,7 @@ Everything is SI: m, s, rad, N, N m, kg, W, J.
 
 from __future__ import annotations
 
-import hashlib
 import math
-from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -51,6 +49,7 @@ from ..models.dynamic import (
     VELOCITY_STEP,
 )
 from . import contacts as _contacts_module
+from .cache_stamp import dependency_stamp
 from .contacts import (
     F_DISS_DAMPING,
     F_DISS_LUBRICANT,
@@ -130,15 +129,8 @@ _I_SCREW_SPEED = 12
 N_STACK = 8
 
 
-def _dependency_stamp() -> int:
-    """Hash of what the cached machine code depends on outside this file (63-bit int)."""
-    digest = hashlib.sha256(Path(_contacts_module.__file__).read_bytes())
-    digest.update(repr(SOLVER_CONSTANTS).encode())
-    return int.from_bytes(digest.digest()[:7], "little")
-
-
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
-DEPENDENCY_STAMP = _dependency_stamp()
+DEPENDENCY_STAMP = dependency_stamp((_contacts_module,), SOLVER_CONSTANTS)
 
 
 @njit(cache=True)

@@ -41,9 +41,7 @@ the model (this module imports ``models.steady`` at import time) and call
 
 from __future__ import annotations
 
-import hashlib
 import math
-from pathlib import Path
 
 import numpy as np
 from numba import njit
@@ -64,6 +62,7 @@ from ..models.steady import (
 )
 from ..timing import median_time
 from . import contacts as _contacts_module
+from .cache_stamp import dependency_stamp
 from .contacts import R_FORCE, R_GROOVE_FORCE, R_MOMENT, contacts_kernel, evaluate_contacts_compiled
 from .contacts import scene_arrays as scene_arrays
 
@@ -92,15 +91,8 @@ SOLVER_CONSTANTS = (
 )
 
 
-def _dependency_stamp() -> int:
-    """Hash of what the cached machine code depends on outside this file (63-bit int)."""
-    digest = hashlib.sha256(Path(_contacts_module.__file__).read_bytes())
-    digest.update(repr(SOLVER_CONSTANTS).encode())
-    return int.from_bytes(digest.digest()[:7], "little")
-
-
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
-DEPENDENCY_STAMP = _dependency_stamp()
+DEPENDENCY_STAMP = dependency_stamp((_contacts_module,), SOLVER_CONSTANTS)
 
 
 @njit(cache=True)
