@@ -13,11 +13,17 @@ On a vertical screw every sphere of a nut is equivalent, so the per-sphere conta
 the map's per-nut states repeated over the nut's spheres. The external axial load enters
 through each nut's equivalent preload (:func:`~.steady_map.equivalent_preloads`). Commands
 outside the map are clamped to it and every clamping is named in ``notes``.
+
+Cost per step: a caller that does not need the contact states on a tick (the node publishes
+them at a tenth of its step rate) passes ``contacts=False`` and gets ``contacts=None`` and
+only the torque interpolated. The output depends on the command alone, so an unchanged command
+(the common case at 1 kHz) returns the previous output without interpolating again.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -78,21 +84,53 @@ class RealTimeModel:
                 "map does not resolve (error measured by bench accuracy)"
             )
         self._notes = tuple(notes)
+        #: Last command and its output without / with contact states (None: not computed).
+        self._last: tuple[OperatingPoint, TwinOutput | None, TwinOutput | None] | None = None
+
+    #: ``step`` and ``evaluate`` take ``contacts=False`` (read by ``ValidatedModel``).
+    optional_contacts = True
 
     def reset(self, op: OperatingPoint) -> None:
         """Check ``op``; the model keeps no transient state to forget."""
         op.validate()
 
-    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
-        """The tabulated steady state of ``op`` after a tick of ``dt`` [s] (finite, > 0)."""
+    def step(self, op: OperatingPoint, dt: float, contacts: bool = True) -> TwinOutput:
+        """The tabulated steady state of ``op`` after a tick of ``dt`` [s] (finite, > 0).
+
+        ``contacts=False``: the output's ``contacts`` is None (torques unchanged, less work).
+        """
         if not (math.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt = {dt!r} s must be a finite number > 0")
-        return self.evaluate(op)
+        return self.evaluate(op, contacts)
 
-    def evaluate(self, op: OperatingPoint) -> TwinOutput:
-        """The tabulated steady state of ``op`` (also a ``SteadyStateModel``)."""
-        op.validate()
-        sample = self.map.sample(op.screw_speed, op.temperature, equivalent_preloads(op))
+    def evaluate(self, op: OperatingPoint, contacts: bool = True) -> TwinOutput:
+        """The tabulated steady state of ``op`` (also a ``SteadyStateModel``); ``contacts=False``
+        leaves the contact states out (None). A repeated command returns the cached output."""
+        last = self._last
+        if last is None or last[0] != op:  # NaN never equals: a bad op is always validated
+            op.validate()
+            last = (op, None, None)
+        plain, full = last[1], last[2]
+        if contacts:
+            if full is None:
+                full = self._interpolate(op, contacts=True)
+            out = full
+        else:
+            if plain is None:
+                plain = (
+                    replace(full, contacts=None)
+                    if full is not None
+                    else self._interpolate(op, contacts=False)
+                )
+            out = plain
+        self._last = (op, plain, full)
+        return out
+
+    def _interpolate(self, op: OperatingPoint, contacts: bool) -> TwinOutput:
+        """Interpolate the map at a validated ``op``."""
+        sample = self.map.sample(
+            op.screw_speed, op.temperature, equivalent_preloads(op), contacts=contacts
+        )
         per_nut = sample.torque.sum(axis=1)
         breakdown = TorqueBreakdown(
             **{m: float(sample.torque[:, j].sum()) for j, m in enumerate(MECHANISMS)}
@@ -103,7 +141,7 @@ class RealTimeModel:
             breakdown=breakdown,
             fidelity="realtime-map",
             operating_point=op,
-            contacts=self._contact_states(sample.contacts),
+            contacts=None if sample.contacts is None else self._contact_states(sample.contacts),
             notes=(*self._notes, *sample.notes),
         )
 

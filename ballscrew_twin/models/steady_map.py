@@ -463,18 +463,31 @@ def _stencil_2d(table: FloatArray, pos: _Positions) -> FloatArray:
     return np.asarray(w.reshape(16) @ block.reshape(16, -1)).reshape(table.shape[2:])
 
 
+def _nut_torques(values: FloatArray, blend: float) -> FloatArray:
+    """(2, 6) torque per nut and mechanism [N m] from the interpolated (2, 1 + 6) values
+    (asinh of the nut torque, then the mechanisms), scaled by the standstill ``blend`` [-]."""
+    total = TORQUE_SCALE * np.sinh(values[:, :1])
+    mechanisms = values[:, 1:]
+    # Share the difference to the total out in proportion to each mechanism's size.
+    magnitude = np.abs(mechanisms)
+    size = magnitude.sum(axis=1, keepdims=True)
+    share = np.divide(magnitude, size, out=np.zeros_like(magnitude), where=size > 0.0)
+    return (mechanisms + (total - mechanisms.sum(axis=1, keepdims=True)) * share) * blend
+
+
 @dataclass(frozen=True)
 class MapSample:
     """Interpolated state of both nuts at one query.
 
     Attributes:
         torque: (2, 6) drag torque per nut and mechanism [N m] (it has the sign of the speed).
-        contacts: (2, 4, F) contact quantities per nut and half groove, :data:`CONTACT_FIELDS`.
+        contacts: (2, 4, F) contact quantities per nut and half groove, :data:`CONTACT_FIELDS`;
+            None when the sample was taken without them.
         notes: clamping, standstill blending and filled nodes, in words.
     """
 
     torque: FloatArray
-    contacts: FloatArray
+    contacts: FloatArray | None
     notes: tuple[str, ...] = field(default_factory=tuple)
 
 
@@ -576,7 +589,11 @@ class SteadyMap:
         return bool(self.filled[sign, s : s + 4, t : t + 4, p : p + 4].any())
 
     def sample(
-        self, screw_speed: float, temperature: float, preloads: tuple[float, float]
+        self,
+        screw_speed: float,
+        temperature: float,
+        preloads: tuple[float, float],
+        contacts: bool = True,
     ) -> MapSample:
         """Interpolate both nuts.
 
@@ -585,15 +602,27 @@ class SteadyMap:
             temperature: temperature [K].
             preloads: equivalent preload of the (master, slave) nut [N],
                 :func:`equivalent_preloads`.
+            contacts: interpolate the contact states too (False: torque only, about half the
+                work; ``MapSample.contacts`` is None).
         """
         g = self.grid
         sign = 0 if screw_speed >= 0.0 else 1
         speed = abs(screw_speed)
         notes = self._clamp_notes(speed, temperature, preloads)
         blend = min(speed / g.speed_min, 1.0)  # 1 on the map, -> 0 at standstill
+        fine_s, fine_t = _speed_position(g, speed), _temperature_position(g, temperature)
+        if not contacts:
+            values = np.empty((NUTS, len(MECHANISMS) + 1))
+            stencils: dict[float, FloatArray] = {}
+            for nut, preload in enumerate(preloads):
+                pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
+                if preload not in stencils:
+                    stencils[preload] = _stencil(self._padded["torque"][sign], pos)
+                values[nut] = stencils[preload][nut]
+                self._note_filled(notes, nut, sign, pos)
+            return MapSample(_nut_torques(values, blend), None, tuple(notes))
         c = self._coarse
         assert c is not None
-        fine_s, fine_t = _speed_position(g, speed), _temperature_position(g, temperature)
         coarse_s, coarse_t = _speed_position(c, speed), _temperature_position(c, temperature)
         values = np.empty((NUTS, len(MECHANISMS) + 1))
         rows = np.empty((NUTS, HALF_GROOVES * len(CONTACT_FIELDS)))
@@ -613,24 +642,22 @@ class SteadyMap:
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
             if nut_still is not None:
                 still[nut] = nut_still[nut]
-            if self._any_filled and self._filled_near(sign, pos):
-                notes.append(
-                    f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady solver "
-                    "failed (filled from the nearest solved speed)"
-                )
-        total = TORQUE_SCALE * np.sinh(values[:, :1])
-        mechanisms = values[:, 1:]
-        # Share the difference to the total out in proportion to each mechanism's size.
-        magnitude = np.abs(mechanisms)
-        size = magnitude.sum(axis=1, keepdims=True)
-        share = np.divide(magnitude, size, out=np.zeros_like(magnitude), where=size > 0.0)
-        torque = (mechanisms + (total - mechanisms.sum(axis=1, keepdims=True)) * share) * blend
-        contacts = rows.reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
-        contacts[..., _LOG_FIELDS] = _LOG_SCALE_VALUES * np.sinh(contacts[..., _LOG_FIELDS])
+            self._note_filled(notes, nut, sign, pos)
+        torque = _nut_torques(values, blend)
+        states = rows.reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
+        states[..., _LOG_FIELDS] = _LOG_SCALE_VALUES * np.sinh(states[..., _LOG_FIELDS])
         if blend < 1.0:
-            contacts = contacts * blend + still.reshape(contacts.shape) * (1.0 - blend)
-        np.maximum(contacts, _LOWER_BOUND, out=contacts)
-        return MapSample(torque=torque, contacts=contacts, notes=tuple(notes))
+            states = states * blend + still.reshape(states.shape) * (1.0 - blend)
+        np.maximum(states, _LOWER_BOUND, out=states)
+        return MapSample(torque=torque, contacts=states, notes=tuple(notes))
+
+    def _note_filled(self, notes: list[str], nut: int, sign: int, pos: _Positions) -> None:
+        """Append a note when the stencil of ``nut`` at ``pos`` uses a filled node."""
+        if self._any_filled and self._filled_near(sign, pos):
+            notes.append(
+                f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady solver "
+                "failed (filled from the nearest solved speed)"
+            )
 
     # ------------------------------------------------------------------ files
 

@@ -203,6 +203,9 @@ class ValidatedModel:
         self.envelope = envelope
         self.name = model.name
 
+    #: ``step`` takes ``contacts=False`` (passed on to a model that has this flag).
+    optional_contacts = True
+
     def _finish(self, out: TwinOutput, warnings: tuple[str, ...]) -> TwinOutput:
         check_finite_output(out)
         if warnings:
@@ -225,12 +228,18 @@ class ValidatedModel:
         clamped, _ = clamp_operating_point(op, self.envelope)
         reset(clamped)
 
-    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
-        """Advance the wrapped time-stepping model by ``dt`` [s] under clamped ``op``."""
+    def step(self, op: OperatingPoint, dt: float, contacts: bool = True) -> TwinOutput:
+        """Advance the wrapped time-stepping model by ``dt`` [s] under clamped ``op``.
+
+        ``contacts=False`` is passed on to a model with ``optional_contacts`` (it then leaves
+        the contact states out); other models ignore it.
+        """
         step = getattr(self.model, "step", None)
         if step is None:
             raise TypeError(f"{self.name} is not a time-stepping model (no step)")
         if not (math.isfinite(dt) and dt > 0.0):
             raise OperatingPointError(f"time step dt = {dt!r} s must be finite and > 0")
         clamped, warnings = clamp_operating_point(op, self.envelope)
+        if not contacts and getattr(self.model, "optional_contacts", False):
+            return self._finish(step(clamped, dt, contacts=False), warnings)
         return self._finish(step(clamped, dt), warnings)

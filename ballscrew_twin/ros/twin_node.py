@@ -689,12 +689,17 @@ class TwinNode(Node):
         for index in plan.ticks:
             self._tick(index)
 
-    def _step(self, op: OperatingPoint) -> TwinOutput:
-        """One model step at ``op``; the catalogue model stands in if the model fails."""
+    def _step(self, op: OperatingPoint, contacts: bool = True) -> TwinOutput:
+        """One model step at ``op``; the catalogue model stands in if the model fails.
+        ``contacts=False``: the contact states are not needed on this tick."""
         dt = self.period_ns / NS_PER_S
         reason = ""
         try:
-            out = self.choice.model.step(op, dt)
+            model: Any = self.choice.model  # optional_contacts: step takes contacts=False
+            if not contacts and getattr(model, "optional_contacts", False):
+                out = model.step(op, dt, contacts=False)
+            else:
+                out = model.step(op, dt)
             if _finite_output(out):
                 return out
             reason = "returned a non-finite torque"
@@ -719,8 +724,9 @@ class TwinNode(Node):
     def _tick(self, index: int) -> None:
         """Step the model once and publish the tick's drag torque (and contact states)."""
         op = self.operating_point
+        publish_contacts = bool(self.contact_every) and index % self.contact_every == 0
         start = time.perf_counter()
-        out = self._step(op)
+        out = self._step(op, contacts=publish_contacts)
         step_time = time.perf_counter() - start
         tick_ns = self.scheduler.time_of(index)
         stamp = TimeMsg(sec=tick_ns // NS_PER_S, nanosec=tick_ns % NS_PER_S)
@@ -739,7 +745,7 @@ class TwinNode(Node):
             self.late_total += 1
         if self.latency_log is not None:
             self.latency_log.append(latency)
-        if self.contact_every and index % self.contact_every == 0 and out.contacts is not None:
+        if publish_contacts and out.contacts is not None:
             contacts = self.contact_message(out, stamp)
             if contacts is None:
                 self._log_throttled(

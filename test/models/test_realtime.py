@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.errors import OperatingPointError
-from ballscrew_twin.models.base import OperatingPoint, TimeSteppingModel
+from ballscrew_twin.models.base import MECHANISMS, OperatingPoint, TimeSteppingModel, TwinOutput
 from ballscrew_twin.models.realtime import RealTimeModel
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.steady_map import MapError, load_map
@@ -144,3 +144,51 @@ def test_steps_never_solve(model: RealTimeModel, monkeypatch: pytest.MonkeyPatch
         assert math.isfinite(out.drag_torque)
         if abs(op.screw_speed) > 10 * RPM:
             assert math.copysign(1.0, out.drag_torque) == math.copysign(1.0, op.screw_speed)
+
+
+def _torques(out: TwinOutput) -> list[float]:
+    return [out.drag_torque, *out.nut_torque, *(getattr(out.breakdown, m) for m in MECHANISMS)]
+
+
+# Slow (blended), reversed, clamped, axial-loaded and repeated commands.
+_SEQUENCE = [
+    _point(1200, 30, 1500),
+    _point(1200, 30, 1500),
+    _point(0.01, 20, 900),
+    _point(-700, 5, 2000, axial=-300),
+    _point(-700, 5, 2000, axial=-300),
+    _point(9000, 120, 5000),
+    _point(1200, 30, 1500),
+]
+
+
+def test_cached_and_contact_free_steps_equal_a_fresh_interpolation(
+    model: RealTimeModel, config: TwinConfig
+) -> None:
+    """Oracle: a new model per command (no cache); torques identical with or without contacts."""
+    stepper = RealTimeModel(config, steady_map=model.map)
+    for i, op in enumerate(_SEQUENCE):
+        fresh = RealTimeModel(config, steady_map=model.map).evaluate(op)
+        want = i % 3 != 1  # mix of requests with and without contact states
+        out = stepper.step(op, TICK, contacts=want)
+        np.testing.assert_allclose(_torques(out), _torques(fresh), rtol=1e-12, atol=0.0)
+        assert out.notes == fresh.notes and out.operating_point == op
+        plain = stepper.step(op, TICK, contacts=False)
+        assert plain.contacts is None
+        np.testing.assert_allclose(_torques(plain), _torques(fresh), rtol=1e-12, atol=0.0)
+        full = stepper.step(op, TICK)
+        assert full.contacts is not None and fresh.contacts is not None
+        for name in ("normal_force", "contact_angle", "film_thickness", "slip_speed"):
+            np.testing.assert_allclose(
+                getattr(full.contacts, name), getattr(fresh.contacts, name), rtol=1e-12, atol=0.0
+            )
+        np.testing.assert_array_equal(full.contacts.in_contact, fresh.contacts.in_contact)
+
+
+def test_a_bad_command_after_a_cached_one_is_still_refused(model: RealTimeModel) -> None:
+    op = _point(800, 20, 1000)
+    model.step(op, TICK, contacts=False)
+    with pytest.raises(OperatingPointError):
+        model.step(replace(op, screw_speed=math.nan), TICK, contacts=False)
+    with pytest.raises(ValueError):
+        model.step(op, math.nan)

@@ -57,7 +57,8 @@ class CountingModel:
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         self.calls += 1
         return dataclasses.replace(
-            CatalogModel(SETTINGS.config).evaluate(op), drag_torque=op.preload)
+            CatalogModel(SETTINGS.config).evaluate(op), drag_torque=op.preload
+        )
 
 
 def test_quasi_static_cache_solves_only_on_a_new_command() -> None:
@@ -71,3 +72,16 @@ def test_quasi_static_cache_solves_only_on_a_new_command() -> None:
     model.reset(OP)
     model.step(other, 1e-3)
     assert steady.calls == 3  # reset forgets the cache
+
+
+def test_contact_free_ticks_through_the_validity_wrapper() -> None:
+    """The node's contacts=False reaches the real-time model (no states, same torque); models
+    without optional contact states ignore it."""
+    realtime = fidelity.build("realtime", SETTINGS)
+    full = realtime.step(OP, 1e-3)
+    plain = realtime.step(OP, 1e-3, contacts=False)  # type: ignore[call-arg]
+    assert full.contacts is not None and plain.contacts is None
+    assert plain.drag_torque == full.drag_torque and plain.nut_torque == full.nut_torque
+    catalog = fidelity.build("catalog", SETTINGS)
+    stepped = catalog.step(OP, 1e-3, contacts=False)  # type: ignore[call-arg]
+    assert stepped.drag_torque == catalog.step(OP, 1e-3).drag_torque
