@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ballscrew_twin.benchmarks.skips import RULES
 from ballscrew_twin.fidelity import (
     METRICS,
     Bounds,
@@ -20,15 +21,6 @@ from ballscrew_twin.params import load_config
 from ballscrew_twin.scene import scene_from_mapping
 
 RPM = 2 * math.pi / 60
-RULES = (
-    "symmetric_vertical",
-    "symmetric_horizontal",
-    "inertial",
-    "asperity",
-    "catalog_vertical",
-    "catalog_horizontal",
-    "realtime",
-)
 
 
 @pytest.fixture(scope="module")
