@@ -81,6 +81,8 @@ class DemoCommander(Node):
         inject_nan_at: fraction of the run at which one NaN preload is published (<0: never).
         inject_rpm_at: fraction of the run at which :data:`RPM_MISTAKE` (a speed in rpm) is
             published as rad/s (<0: never); the node must reject it as implausible.
+        listeners: subscribers of ``drag_torque`` (this node's own included) to wait for before
+            the profile starts, so that a console view started alongside sees it all [-].
     """
 
     def __init__(
@@ -88,10 +90,12 @@ class DemoCommander(Node):
         duration: float,
         inject_nan_at: float = 0.5,
         inject_rpm_at: float = 0.7,
+        listeners: int = 1,
         **kwargs: Any,
     ) -> None:
         super().__init__("twin_demo_commander", **kwargs)
         self.duration = duration
+        self.listeners = listeners
         self.injections = {"nan": inject_nan_at, "rpm": inject_rpm_at}
         #: When the profile started: with the twin node's first torque message.
         self.start: float | None = None
@@ -114,8 +118,9 @@ class DemoCommander(Node):
         return time.monotonic() - self.created if self.start is None else 0.0
 
     def _on_torque(self, _msg: DragTorque) -> None:
-        """The profile starts with the twin node's first torque message."""
-        if self.start is None:
+        """The profile starts with the twin node's first torque message once ``listeners``
+        subscribers of the torque are there."""
+        if self.start is None and self.count_subscribers("drag_torque") >= self.listeners:
             self.start = time.monotonic()
 
     def _due(self, name: str, fraction: float) -> bool:
@@ -174,6 +179,12 @@ def main(args: list[str] | None = None) -> None:
         default=0.7,
         help="fraction of the run at which a speed in rpm is sent as rad/s (<0: never)",
     )
+    parser.add_argument(
+        "--listeners",
+        type=int,
+        default=1,
+        help="drag_torque subscribers (this one included) to wait for before starting",
+    )
     opts = parser.parse_args(remove_ros_args(argv)[1:])
     if not opts.duration > 0.0:
         parser.error("--duration must be > 0")
@@ -181,14 +192,20 @@ def main(args: list[str] | None = None) -> None:
     rclpy.init(args=argv)
     node: DemoCommander | None = None
     try:
-        node = DemoCommander(opts.duration, inject_nan_at=opts.nan_at, inject_rpm_at=opts.rpm_at)
+        node = DemoCommander(
+            opts.duration,
+            inject_nan_at=opts.nan_at,
+            inject_rpm_at=opts.rpm_at,
+            listeners=opts.listeners,
+        )
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while rclpy.ok() and node.elapsed() < opts.duration:
             executor.spin_once(timeout_sec=0.05)
             if node.waited() > STARTUP_TIMEOUT:
                 print(
-                    f"twin_demo_commander: no twin node within {STARTUP_TIMEOUT:g} s",
+                    f"twin_demo_commander: no twin node torque with {opts.listeners} "
+                    f"subscriber(s) within {STARTUP_TIMEOUT:g} s",
                     file=sys.stderr,
                 )
                 raise SystemExit(1)
