@@ -345,6 +345,16 @@ def read_yaml(file: Path, what: str) -> Any:
         raise ConfigError(f"{file}: not valid YAML ({err})") from err
 
 
+def path_beside(path: str, source: str | None) -> Path:
+    """``path`` (``~`` expanded) as a file named in the YAML file ``source`` means it: a relative
+    path is relative to that file's folder (to the working directory when ``source`` is not a
+    file, e.g. ``"<mapping>"``)."""
+    resolved = Path(path).expanduser()
+    if not resolved.is_absolute() and source and not source.startswith("<"):
+        resolved = Path(source).resolve().parent / resolved
+    return resolved
+
+
 def load_config(path: str | Path | None = None) -> TwinConfig:
     """Read and validate a YAML parameter file (``None``: the paper's screw)."""
     file = Path(path) if path is not None else default_config_path()

@@ -32,7 +32,7 @@ from .errors import ConfigError
 from .models.base import OperatingPoint
 from .models.faults import Faults, faults_from_mapping
 from .models.scenario import smooth_step
-from .params import Orientation, read_yaml
+from .params import Orientation, path_beside, read_yaml
 
 FloatArray = NDArray[np.float64]
 Output = Literal["drag", "per_nut", "per_sphere"]
@@ -307,9 +307,7 @@ def scene_from_mapping(data: Any, source: str = "<mapping>") -> Scene:
     if data.get("config") is not None:
         if not isinstance(data["config"], str) or not data["config"]:
             raise ConfigError(f"{where}: config must be a path string, got {data['config']!r}")
-        config = Path(data["config"]).expanduser()
-        if not config.is_absolute() and source and not source.startswith("<"):
-            config = Path(source).resolve().parent / config
+        config = path_beside(data["config"], source)
     orientation = data.get("orientation")
     if orientation is not None and orientation not in get_args(Orientation):
         raise ConfigError(

@@ -51,6 +51,7 @@ from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, default_config_path, load_config
+from ..timing import cpu_time
 
 DESCRIPTION = "measured error bounds of the fidelity skip rules (writes fidelity_bounds.yaml)"
 RPM = 2.0 * math.pi / 60.0
@@ -106,19 +107,6 @@ def _floats(text: str, what: str) -> list[float]:
     if not values or not all(math.isfinite(v) for v in values):
         raise BallscrewTwinError(f"--{what}: {text!r} must hold finite numbers")
     return values
-
-
-def cpu_time(func: Callable[[], object], repeat: int, warmup: int = 0) -> float:
-    """Median CPU time of this process per call of ``func()`` [s]: unlike the wall time it does
-    not grow when other programs share the cores (the models are single-threaded)."""
-    for _ in range(warmup):
-        func()
-    times = []
-    for _ in range(repeat):
-        start = time.process_time()
-        func()
-        times.append(time.process_time() - start)
-    return statistics.median(times)
 
 
 # --------------------------------------------------------------------------- error metrics

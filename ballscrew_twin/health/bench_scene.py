@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
-from ..params import read_yaml
+from ..params import path_beside, read_yaml
 from .fault_profiles import FaultSpec, faults_from_list
 from .sensors import SensorSet, check_number, from_mapping, quantity, sensors_from_mapping
 
@@ -114,10 +114,7 @@ class BenchScene:
         """Screw parameter file: ``config`` resolved against the scene file's folder."""
         if self.config is None:
             return None
-        path = Path(self.config).expanduser()
-        if not path.is_absolute() and self.source:
-            path = Path(self.source).resolve().parent / path
-        return path
+        return path_beside(self.config, self.source)
 
 
 SCENE_KEYS = (

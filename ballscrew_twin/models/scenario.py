@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any, Literal, get_args
 
 from ..errors import ConfigError
-from ..params import read_yaml
+from ..params import path_beside, read_yaml
 from .dynamic import Commands, SpeedController
 from .faults import faults_from_mapping
 
@@ -227,10 +227,7 @@ class Scenario:
         (None: the shipped default)."""
         if self.config is None:
             return None
-        path = Path(self.config).expanduser()
-        if not path.is_absolute() and self.source:
-            path = Path(self.source).resolve().parent / path
-        return path
+        return path_beside(self.config, self.source)
 
     def commands_at(self, t: float) -> Commands:
         """Commanded screw speed [rad/s] and preload [N] at time ``t`` [s]."""
