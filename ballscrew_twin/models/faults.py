@@ -154,6 +154,15 @@ def _fields(item: Any, allowed: Sequence[str], where: str) -> dict[str, Any]:
     return item
 
 
+def _sphere_of(item: dict[str, Any], balls_per_nut: int, path: str) -> tuple[int, int]:
+    """The (nut, index) a fault entry names: whole numbers, nut 0..1, index 0..Z-1."""
+    nut = _number(item, "nut", 0, 1, "-", path)
+    index = _number(item, "index", 0, balls_per_nut - 1, "-", path)
+    if nut != int(nut) or index != int(index):
+        raise ConfigError(f"{path}: nut and index must be whole numbers")
+    return int(nut), int(index)
+
+
 def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
     """Validate ``{spheres: [...], spalls: [...], jams: [...]}`` (all optional) into
     :class:`Faults`."""
@@ -164,12 +173,9 @@ def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
     for k, item in enumerate(data.get("spheres") or []):
         path = f"{where}.spheres[{k}]"
         item = _fields(item, ("nut", "index", "radius_change"), path)
-        nut = _number(item, "nut", 0, 1, "-", path)
-        index = _number(item, "index", 0, balls_per_nut - 1, "-", path)
-        if nut != int(nut) or index != int(index):
-            raise ConfigError(f"{path}: nut and index must be whole numbers")
+        nut, index = _sphere_of(item, balls_per_nut, path)
         change = _number(item, "radius_change", -5e-5, 5e-5, "m", path)
-        spheres.append(SphereDefect(nut=int(nut), index=int(index), radius_change=change))
+        spheres.append(SphereDefect(nut=nut, index=index, radius_change=change))
     spalls = []
     for k, item in enumerate(data.get("spalls") or []):
         path = f"{where}.spalls[{k}]"
@@ -189,10 +195,7 @@ def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
     for k, item in enumerate(data.get("jams") or []):
         path = f"{where}.jams[{k}]"
         item = _fields(item, ("nut", "index", "start"), path)
-        nut = _number(item, "nut", 0, 1, "-", path)
-        index = _number(item, "index", 0, balls_per_nut - 1, "-", path)
-        if nut != int(nut) or index != int(index):
-            raise ConfigError(f"{path}: nut and index must be whole numbers")
+        nut, index = _sphere_of(item, balls_per_nut, path)
         start = _number(item, "start", 0.0, 100.0, "s", path)
-        jams.append(SphereJam(nut=int(nut), index=int(index), start=start))
+        jams.append(SphereJam(nut=nut, index=index, start=start))
     return Faults(spheres=tuple(spheres), spalls=tuple(spalls), jams=tuple(jams))
