@@ -1,9 +1,12 @@
 """``ballscrew-twin bench node``: the twin node in real time, printed, never asserted.
 
-For each executor (``SingleThreadedExecutor`` and rclpy's ``EventsExecutor``, one after the
-other in the same run) the twin node runs in a process of its own at ``--rate`` (1 kHz) with
-contact states at ``--contact-rate`` (100 Hz), while this process publishes commands at 100 Hz
-and counts what arrives. Measured after a warm-up, over ``--duration`` seconds:
+For each tick source (the node's tick thread, or the executor's timer) and each executor
+(``SingleThreadedExecutor`` and rclpy's ``EventsExecutor``), one after the other in the same
+run, the twin node runs in a process of its own at ``--rate`` (1 kHz) with contact states at
+``--contact-rate`` (100 Hz), while this process publishes commands at 100 Hz and counts what
+arrives. First, as the machine's floor, a process with nothing but the tick thread's sleep
+loop (no ROS, no model) measures how late the operating system wakes a thread that sleeps until
+each tick is due. Measured after a warm-up, over ``--duration`` seconds:
 
 - share of ticks published on time (within 1 ms of their due time; skipped ticks count as
   late), tick latency p50/p99/max (due time to publish returned, node clock = wall time);
@@ -33,8 +36,9 @@ import psutil
 from tqdm import tqdm
 
 #: One-line help of this benchmark.
-DESCRIPTION = "twin node in real time: ticks on time, latency, CPU, for both executors"
+DESCRIPTION = "twin node in real time: ticks on time, latency, CPU, per tick source and executor"
 EXECUTORS = ("single_threaded", "events")
+TICK_SOURCES = ("thread", "executor")
 #: Time the node runs before measuring (imports done, discovery settled) [s].
 WARMUP = 3.0
 ON_TIME_NS = 1_000_000
@@ -45,7 +49,7 @@ SPEED = 10.47  # rad/s (100 rpm)
 class NodeRun:
     """What one run of the node measured (latencies in ns)."""
 
-    executor: str
+    executor: str  # "<tick source>/<executor>", or "sleep loop" (the floor)
     model: str
     latencies: np.ndarray
     skipped: int
@@ -67,7 +71,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=float, default=1000.0, help="simulation rate [Hz]")
     parser.add_argument("--contact-rate", type=float, default=100.0, help="contact states [Hz]")
     parser.add_argument(
-        "--executors", default=",".join(EXECUTORS), help="comma-separated: single_threaded,events"
+        "--executors", default="events,single_threaded", help="comma-separated: events,..."
+    )
+    parser.add_argument(
+        "--tick-sources", default="thread,executor", help="comma-separated: thread,executor"
+    )
+    parser.add_argument(
+        "--priority",
+        type=int,
+        default=0,
+        help="SCHED_FIFO priority of the tick thread (node parameter thread_priority), 0: off",
+    )
+    parser.add_argument(
+        "--no-floor", action="store_true", help="skip the bare sleep loop (the machine's floor)"
     )
     parser.add_argument(
         "--fidelity",
@@ -96,6 +112,7 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     from rclpy.context import Context
     from rclpy.parameter import Parameter
 
+    from ..ros.tick_thread import prepare_process
     from ..ros.twin_node import TwinNode, make_executor, spin
 
     context = Context()
@@ -104,6 +121,7 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     node = TwinNode(context=context, parameter_overrides=overrides)
     executor = make_executor(str(params["executor"]), context)
     executor.add_node(node)
+    prepare_process()  # as twin_node's main does
     start = time.monotonic()
     spin(executor, until=lambda: time.monotonic() - start > WARMUP)
     node.latency_log = []
@@ -114,6 +132,7 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     conn.send(
         {
             "model": node.choice.model.name,
+            "tick_source": node.tick_source,
             "latencies": np.asarray(node.latency_log, dtype=np.int64),
             "skipped": node.skipped_total - skipped0,
             "cpu_share": cpu / wall,
@@ -127,8 +146,84 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     rclpy.try_shutdown(context=context)
 
 
-def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
-    """Run the node with one executor while commanding it and counting what arrives."""
+def _floor_process(rate: float, measure: float, priority: int, conn: Connection) -> None:
+    """Child process: the tick thread's sleep loop alone; send back its wake-up lateness."""
+    import threading
+
+    from ..ros.tick_thread import TickThread, prepare_process
+
+    prepare_process()
+    period_ns = round(1e9 / rate)
+    latencies: list[int] = []
+    done = threading.Event()
+    grid = {"origin": time.time_ns(), "k": 0}
+    end = time.monotonic() + WARMUP + measure
+
+    def run_due() -> float | None:
+        now = time.time_ns()
+        if grid["k"] and time.monotonic() > end - measure:
+            latencies.append(now - (grid["origin"] + grid["k"] * period_ns))
+        if time.monotonic() > end:
+            done.set()
+            return None
+        grid["k"] = (now - grid["origin"]) // period_ns + 1
+        return (grid["origin"] + grid["k"] * period_ns - time.time_ns()) / 1e9
+
+    cpu0, wall0 = time.process_time(), time.monotonic()
+    thread = TickThread(run_due, lambda err: None, priority=priority)
+    thread.start()
+    done.wait()
+    thread.stop()
+    cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
+    conn.send(
+        {
+            "model": f"none; {thread.scheduling}",
+            "latencies": np.asarray(latencies, dtype=np.int64),
+            "cpu_share": cpu / wall,
+            "duration": measure,
+        }
+    )
+
+
+def _run_floor(args: argparse.Namespace) -> NodeRun:
+    """The bare sleep loop at ``args.rate`` (see the module docstring)."""
+    spawn = multiprocessing.get_context("spawn")
+    parent_conn, child_conn = spawn.Pipe()
+    proc = spawn.Process(
+        target=_floor_process, args=(args.rate, args.duration, args.priority, child_conn)
+    )
+    load_before = os.getloadavg()
+    psutil.cpu_percent()
+    proc.start()
+    with tqdm(
+        total=int(WARMUP + args.duration), desc="bench node floor", unit="s", leave=False
+    ) as bar:
+        start = time.monotonic()
+        while not parent_conn.poll(0.5):
+            bar.update(int(time.monotonic() - start) - bar.n)
+            if not proc.is_alive() and not parent_conn.poll():
+                raise RuntimeError(f"sleep-loop process died with exit code {proc.exitcode}")
+    result = parent_conn.recv()
+    proc.join(timeout=30.0)
+    return NodeRun(
+        executor="sleep loop",
+        model=result["model"],
+        latencies=result["latencies"],
+        skipped=0,
+        cpu_share=float(result["cpu_share"]),
+        published=len(result["latencies"]),
+        contacts=0,
+        received_torque=0,
+        received_contacts=0,
+        duration=float(result["duration"]),
+        load_before=load_before,
+        system_cpu=psutil.cpu_percent(),
+    )
+
+
+def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> NodeRun:
+    """Run the node with one tick source and executor while commanding it and counting what
+    arrives."""
     import rclpy
     from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
     from rclpy.context import Context
@@ -140,6 +235,8 @@ def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
 
     params: dict[str, Any] = {
         "executor": executor_name,
+        "tick_source": tick_source,
+        "thread_priority": args.priority,
         "sim_rate_hz": args.rate,
         "contact_rate_hz": args.contact_rate,
         "initial_screw_speed": SPEED,
@@ -162,8 +259,9 @@ def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
 
         return count
 
-    node.create_subscription(DragTorque, "drag_torque", counter("torque"), 100)
-    node.create_subscription(ContactStateArray, "contact_states", counter("contacts"), 10)
+    # raw=True: counted as bytes, not deserialised (the counter must not load the machine)
+    node.create_subscription(DragTorque, "drag_torque", counter("torque"), 100, raw=True)
+    node.create_subscription(ContactStateArray, "contact_states", counter("contacts"), 10, raw=True)
     qos = qos_profile_sensor_data
     speed_pub = node.create_publisher(Float64, "speed_command", qos)
     temp_pub = node.create_publisher(Temperature, "temperature", qos)
@@ -183,7 +281,8 @@ def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
     psutil.cpu_percent()
     total = WARMUP + args.duration
     start = time.monotonic()
-    with tqdm(total=int(total), desc=f"bench node {executor_name}", unit="s", leave=False) as bar:
+    name = f"{tick_source}/{executor_name}"
+    with tqdm(total=int(total), desc=f"bench node {name}", unit="s", leave=False) as bar:
         measured_from = None
         while not parent_conn.poll():
             executor.spin_once(timeout_sec=0.05)
@@ -201,8 +300,8 @@ def _run_one(executor_name: str, args: argparse.Namespace) -> NodeRun:
     node.destroy_node()
     rclpy.try_shutdown(context=context)
     return NodeRun(
-        executor=executor_name,
-        model=result["model"],
+        executor=name,
+        model=f"{result['model']}; ticks: {result['tick_source']}",
         latencies=result["latencies"],
         skipped=int(result["skipped"]),
         cpu_share=float(result["cpu_share"]),
@@ -225,6 +324,7 @@ def summary(run: NodeRun) -> dict[str, float]:
         "on_time": on_time,
         "p50": float(np.percentile(lat, 50)) if lat.size else math.nan,
         "p99": float(np.percentile(lat, 99)) if lat.size else math.nan,
+        "p999": float(np.percentile(lat, 99.9)) if lat.size else math.nan,
         "max": float(lat.max()) if lat.size else math.nan,
     }
 
@@ -239,12 +339,12 @@ def _plot(runs: list[NodeRun], path: Path) -> Path:
         lat = np.sort(run.latencies.astype(np.float64) * 1e-6)
         if lat.size:
             share = np.arange(1, lat.size + 1) / lat.size
-            ax.plot(lat, share, label=f"{run.executor} ({run.model})")
+            ax.plot(lat, share, label=run.executor)
     ax.axvline(1.0, color="k", ls="--", lw=0.8, label="1 ms")
     ax.set_xscale("log")
     ax.set_xlabel("tick latency: due time to published [ms]")
     ax.set_ylabel("share of ticks [-]")
-    ax.set_title("twin node, tick latency distribution")
+    ax.set_title("twin node, tick latency distribution (sleep loop: the machine's floor)")
     ax.grid(True, alpha=0.3)
     ax.legend()
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -253,37 +353,60 @@ def _plot(runs: list[NodeRun], path: Path) -> Path:
     return path
 
 
+def _names(text: str, allowed: tuple[str, ...], option: str) -> list[str]:
+    """The comma-separated names of ``text``, each one of ``allowed``."""
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    if not names or any(n not in allowed for n in names):
+        raise SystemExit(f"{option} must name some of {', '.join(allowed)}")
+    return names
+
+
+def _print_run(run: NodeRun) -> None:
+    """One line of numbers of ``run``."""
+    s = summary(run)
+    line = (
+        f"  {run.executor:<26} {len(run.latencies)} ticks, {run.skipped} skipped; on time "
+        f"(<= 1 ms) {s['on_time']:.4%}; latency p50 {s['p50']:.3f} ms, p99 {s['p99']:.3f} ms, "
+        f"p99.9 {s['p999']:.3f} ms, max {s['max']:.2f} ms; CPU {run.cpu_share:.1%} of one core"
+    )
+    if run.executor != "sleep loop":
+        line += (
+            f"; received {run.received_torque / run.duration:.0f} torque/s, "
+            f"{run.received_contacts / run.duration:.0f} contact arrays/s "
+            f"({run.contacts / run.duration:.0f}/s published)"
+        )
+    print(
+        f"{line}; machine: load {run.load_before[0]:.2f} before, "
+        f"{run.system_cpu:.0f} % of all cores during\n      ({run.model})"
+    )
+
+
 def run(args: argparse.Namespace) -> int:
-    """Run the node with each executor and print the numbers."""
+    """Run the floor, then the node with each tick source and executor; print the numbers."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
-    names = [n.strip() for n in args.executors.split(",") if n.strip()]
-    if not names or any(n not in EXECUTORS for n in names):
-        raise SystemExit(f"--executors must name some of {', '.join(EXECUTORS)}")
+    executors = _names(args.executors, EXECUTORS, "--executors")
+    sources = _names(args.tick_sources, TICK_SOURCES, "--tick-sources")
     if not (args.duration > 0.0 and args.rate > 0.0 and 0.0 <= args.contact_rate <= args.rate):
         raise SystemExit("need --duration > 0, --rate > 0, 0 <= --contact-rate <= --rate")
+    if not 0 <= args.priority <= 99:
+        raise SystemExit(f"--priority {args.priority}: must be 0 (off) or 1..99")
     print(
         f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, "
-        f"{args.duration:g} s measured per executor after {WARMUP:g} s warm-up; "
+        f"{args.duration:g} s measured per run after {WARMUP:g} s warm-up; "
         f"{psutil.cpu_count()} cores, load average before {os.getloadavg()[0]:.2f}"
     )
     runs = []
-    for name in names:
-        result = _run_one(name, args)
-        runs.append(result)
-        s = summary(result)
-        print(
-            f"  {name:<15} model {result.model}: {len(result.latencies)} ticks, "
-            f"{result.skipped} skipped; on time (<= 1 ms) {s['on_time']:.4%}; latency p50 "
-            f"{s['p50']:.3f} ms, p99 {s['p99']:.3f} ms, max {s['max']:.2f} ms; node CPU "
-            f"{result.cpu_share:.1%} of one core; received "
-            f"{result.received_torque / result.duration:.0f} torque/s, "
-            f"{result.received_contacts / result.duration:.0f} contact arrays/s "
-            f"({result.contacts / result.duration:.0f}/s published); machine: load "
-            f"{result.load_before[0]:.2f} before, {result.system_cpu:.0f} % of all cores during"
-        )
-    if len(runs) > 1:
-        best = max(runs, key=lambda r: (round(summary(r)["on_time"], 3), -r.cpu_share))
-        print(f"  chosen executor: {best.executor} (highest on-time share, then lowest CPU)")
+    if not args.no_floor:
+        runs.append(_run_floor(args))
+        _print_run(runs[-1])
+    for source in sources:
+        for name in executors:
+            runs.append(_run_one(source, name, args))
+            _print_run(runs[-1])
+    nodes = [r for r in runs if r.executor != "sleep loop"]
+    if len(nodes) > 1:
+        best = max(nodes, key=lambda r: (round(summary(r)["on_time"], 3), -r.cpu_share))
+        print(f"  best: {best.executor} (highest on-time share, then lowest CPU)")
     print(f"  plot: {_plot(runs, Path(args.plot))}")
     print("  goals of issue 6: >= 99.9 % of ticks on time within 1 ms, <= 50 % of one core")
     return 0

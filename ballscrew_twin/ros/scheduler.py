@@ -10,15 +10,14 @@ never drifts from the clock: it either keeps up, catches up, or skips and says s
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 #: A forward jump of the clock larger than this is a jump (replay seek), not a stall [ns].
 FORWARD_JUMP_NS = 1_000_000_000
 
 
-@dataclass(frozen=True)
-class TickPlan:
-    """What to run now.
+class TickPlan(NamedTuple):
+    """What to run now (a named tuple: made at every wake-up, so it is cheap to build).
 
     Attributes:
         ticks: indices of the ticks to run, oldest first (times: :meth:`TickScheduler.time_of`).
@@ -57,6 +56,10 @@ class TickScheduler:
         if self.origin_ns is None:
             raise RuntimeError("the schedule has not started")
         return self.origin_ns + index * self.period_ns
+
+    def next_due_ns(self) -> int:
+        """Clock time at which the next tick not yet handed out is due [ns]."""
+        return self.time_of(self.last_index + 1)
 
     def start(self, origin_ns: int) -> None:
         """Start the grid at ``origin_ns`` [ns]: tick 0 is due then and counts as run, so the

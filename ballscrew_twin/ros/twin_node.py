@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -37,8 +38,7 @@ from typing import Any
 
 import numpy as np
 import rclpy
-from ballscrew_twin_msgs.msg import ContactState, ContactStateArray, DragTorque
-from builtin_interfaces.msg import Time as TimeMsg
+from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
 from diagnostic_msgs.msg import DiagnosticArray
 from rcl_interfaces.msg import (
     FloatingPointRange,
@@ -53,13 +53,15 @@ from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedE
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from rclpy.timer import Timer
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..errors import BallscrewTwinError
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
+from ..models.validity import all_finite
 from ..params import load_config
-from . import diagnostics, fidelity
+from . import cdr, diagnostics, fidelity
 from .inputs import (
     NS_PER_S,
     InputChannel,
@@ -72,10 +74,14 @@ from .inputs import (
     check_temperature,
 )
 from .scheduler import TickScheduler
+from .tick_thread import TickThread, prepare_process
 
 NODE_NAME = "ballscrew_twin"
 #: Executors ``main`` can spin the node with (parameter ``executor``).
 EXECUTORS = ("single_threaded", "events")
+#: What drives the ticks on wall time (parameter ``tick_source``); under ``use_sim_time`` the
+#: executor's timer always does (it follows ``/clock``).
+TICK_SOURCES = ("thread", "executor")
 #: A tick published within this time of its due time is on time [ns].
 ON_TIME_NS = 1_000_000
 #: Minimum interval between two log lines about the same input or failure [s].
@@ -128,6 +134,7 @@ CHOICES: dict[str, tuple[str, ...]] = {
     "speed_type": ("float64", "joint_state"),
     "input_qos": ("sensor_data", "reliable"),
     "executor": EXECUTORS,
+    "tick_source": TICK_SOURCES,
 }
 #: Parameters whose change rebuilds the model.
 MODEL_PARAMETERS = ("fidelity", "tolerance", "steady_mode", "mu_lit", "realtime_map")
@@ -195,6 +202,8 @@ class TwinNode(Node):
     def __init__(self, node_name: str = NODE_NAME, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
         self._declare_parameters()
+        #: Whether the node's clock is wall time (not /clock); kept up by _start_schedule.
+        self._wall_time = not self.get_parameter("use_sim_time").value
         self.config = load_config(self._str("config_file") or None)
         max_speed = self._float("limits.max_screw_speed") or self.config.screw.critical_speed
         self.limits = InputLimits(
@@ -232,8 +241,6 @@ class TwinNode(Node):
         # Totals since start-up (the window counters restart with each diagnostics message).
         self.published_count = 0
         self.contact_count = 0
-        # Contact states being built a slice per tick (published when complete).
-        self._pending_contacts: PendingContacts | None = None
         self.rejected_commands = 0
         self.clock_jumps_back = 0
         self.clock_jumps_forward = 0
@@ -252,6 +259,7 @@ class TwinNode(Node):
         #: If set, every tick's publish latency [ns] is appended (benchmarks).
         self.latency_log: list[int] | None = None
         self._frame_id = self._str("frame_id")
+        self._torque_encoder = cdr.DragTorqueEncoder(self._frame_id)
 
         qos: QoSProfile | int = (
             qos_profile_sensor_data if self._str("input_qos") == "sensor_data" else 10
@@ -275,7 +283,12 @@ class TwinNode(Node):
                 Float64, self._str("axial_load_topic"), self._on_axial_load, qos
             )
 
-        self._timer = self.create_timer(1.0, self._on_timer)  # replaced by _start_schedule
+        #: Held while ticks run and while anything they read is changed (parameters,
+        #: inputs, diagnostics windows): the ticks may run on a thread of their own.
+        self.tick_lock = threading.Lock()
+        self.tick_errors = 0
+        self._timer: Timer | None = None
+        self._tick_thread: TickThread | None = None
         self._start_schedule()
         # On the steady clock: diagnostics go on (and say so) while a replay's /clock pauses.
         self._diag_timer = self.create_timer(
@@ -366,6 +379,26 @@ class TwinNode(Node):
                 "executor",
                 "single_threaded",
                 sd("Executor of the twin_node process", choices=EXECUTORS),
+            ),
+            (
+                "tick_source",
+                "thread",
+                sd(
+                    "What runs the ticks on wall time: a thread of their own or the executor's "
+                    "timer (under use_sim_time always the timer)",
+                    choices=TICK_SOURCES,
+                ),
+            ),
+            (
+                "thread_priority",
+                0,
+                ParameterDescriptor(
+                    type=ParameterType.PARAMETER_INTEGER,
+                    description="SCHED_FIFO priority of the tick thread, 1..99; 0: normal "
+                    "scheduling (needs CAP_SYS_NICE or an rtprio limit; refused: logged)",
+                    read_only=True,
+                    integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
+                ),
             ),
             ("speed_topic", "speed_command", sd("Input: screw speed [rad/s]")),
             (
@@ -519,14 +552,18 @@ class TwinNode(Node):
 
     def _apply_parameters(self, params: list[Parameter]) -> None:
         """Apply run-time parameter changes that passed validation."""
-        names = {p.name for p in params}
+        with self.tick_lock:
+            self._apply_locked({p.name for p in params})
+
+    def _apply_locked(self, names: set[str]) -> None:
+        """:meth:`_apply_parameters` of the parameters ``names``, under the tick lock."""
         if self._pending is not None and names & set(MODEL_PARAMETERS):
             choice, fallback = self._pending
             self._pending = None
             self._switch_model(choice)
             self.fallback = fallback
             self.fallback.reset(self.operating_point)
-        if names & set(RATE_PARAMETERS):
+        if names & {*RATE_PARAMETERS, "use_sim_time"}:
             self._start_schedule()
             self.get_logger().info(
                 f"simulation now {self.sim_rate:g} Hz, contact states "
@@ -534,6 +571,7 @@ class TwinNode(Node):
             )
         if "frame_id" in names:
             self._frame_id = self._str("frame_id")
+            self._torque_encoder = cdr.DragTorqueEncoder(self._frame_id)
 
     def _switch_model(self, choice: fidelity.ModelChoice) -> None:
         """Run ``choice`` from the next tick on, started in the steady state of the command."""
@@ -546,7 +584,8 @@ class TwinNode(Node):
         self.get_logger().warning(f"model {previous} -> {choice.model.name}: {choice.reason}")
 
     def _start_schedule(self) -> None:
-        """(Re)start the tick schedule and its timer at the current rates."""
+        """(Re)start the tick schedule at the current rates, driven by the tick thread on wall
+        time (``tick_source: thread``) or by an executor timer (also under use_sim_time)."""
         self.period_ns = max(round(NS_PER_S / self.sim_rate), 1)
         self.scheduler = TickScheduler(
             self.period_ns, int(self.get_parameter("max_catch_up_ticks").value)
@@ -555,12 +594,34 @@ class TwinNode(Node):
         self.contact_every = (
             max(round(self.sim_rate / contact_rate), 1) if contact_rate > 0.0 else 0
         )
-        self.destroy_timer(self._timer)
-        self._timer = self.create_timer(self.period_ns / NS_PER_S, self._on_timer)
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        self._wall_time = not self.get_parameter("use_sim_time").value
+        on_thread = self._str("tick_source") == "thread" and self._wall_time
+        if not on_thread:
+            self._timer = self.create_timer(self.period_ns / NS_PER_S, self._on_timer)
+        elif self._tick_thread is None:
+            self._tick_thread = TickThread(
+                self._thread_due,
+                self._on_tick_error,
+                priority=int(self.get_parameter("thread_priority").value),
+            )
+            self._tick_thread.start()
+
+    @property
+    def tick_source(self) -> str:
+        """What drives the ticks now, and how it is scheduled."""
+        if self._timer is not None:
+            return "executor timer"
+        return f"thread ({self._tick_thread.scheduling})" if self._tick_thread else "none"
 
     # ------------------------------------------------------------------ inputs
     def _now_ns(self) -> int:
-        """The node's clock [ns] (wall time, or /clock under use_sim_time)."""
+        """The node's clock [ns] (wall time, or /clock under use_sim_time). On wall time read
+        directly: the ROS clock is then the system clock, and asking rclpy costs ~5 us."""
+        if self._wall_time:
+            return time.time_ns()
         return int(self.get_clock().now().nanoseconds)
 
     def _current_op(self) -> OperatingPoint:
@@ -576,6 +637,13 @@ class TwinNode(Node):
         self, channel: InputChannel, value: float, reason: str | None, stamp: Any = None
     ) -> None:
         """Accept ``value`` into ``channel`` or reject it with ``reason`` (logged, counted)."""
+        with self.tick_lock:
+            self._take_locked(channel, value, reason, stamp)
+
+    def _take_locked(
+        self, channel: InputChannel, value: float, reason: str | None, stamp: Any
+    ) -> None:
+        """:meth:`_take` under the tick lock."""
         now = self._now_ns()
         stamp_ns = 0 if stamp is None else stamp.sec * NS_PER_S + stamp.nanosec
         if reason is None:
@@ -649,11 +717,37 @@ class TwinNode(Node):
     def _on_timer(self) -> None:
         """Run the ticks that are due on the node's clock (nothing once shutting down)."""
         try:
-            self._run_due_ticks()
+            with self.tick_lock:
+                self._run_due_ticks()
         except Exception:
             if self.context.ok():
                 raise
             # SIGINT/SIGTERM shut the context down under a running tick: publishing failed.
+
+    def _thread_due(self) -> float | None:
+        """Tick thread: run the due ticks; seconds until the next one (None: the executor's
+        timer drives the ticks now, e.g. under use_sim_time)."""
+        with self.tick_lock:
+            if self._timer is not None:
+                return None
+            self._run_due_ticks()
+            return (self.scheduler.next_due_ns() - self._now_ns()) / NS_PER_S
+
+    def _on_tick_error(self, err: Exception) -> None:
+        """An exception escaped a tick on the tick thread: logged; the ticks go on."""
+        if not self.context.ok():
+            # Shut down under a running tick (publishing failed): nothing more to publish.
+            if self._tick_thread is not None:
+                self._tick_thread.stop()
+            return
+        self.tick_errors += 1
+        self._log_throttled("tick", f"tick failed ({self.tick_errors} so far): {err!r}")
+
+    def destroy_node(self) -> None:
+        """Stop the tick thread, then destroy the node."""
+        if self._tick_thread is not None:
+            self._tick_thread.stop()
+        super().destroy_node()
 
     def _run_due_ticks(self) -> None:
         """Run the ticks that are due on the node's clock."""
@@ -661,7 +755,8 @@ class TwinNode(Node):
         if self.scheduler.origin_ns is None:
             # First wake-up (the executor may start long after the timer was created): the
             # timer wakes at now + k periods from here on, and so does the tick grid.
-            self._timer.reset()
+            if self._timer is not None:
+                self._timer.reset()
             self.scheduler.start(now)
             return
         plan = self.scheduler.due(now)
@@ -731,12 +826,13 @@ class TwinNode(Node):
         out = self._step(op, contacts=publish_contacts)
         step_time = time.perf_counter() - start
         tick_ns = self.scheduler.time_of(index)
-        stamp = TimeMsg(sec=tick_ns // NS_PER_S, nanosec=tick_ns % NS_PER_S)
+        sec, nanosec = divmod(tick_ns, NS_PER_S)
         period = self.period_ns / NS_PER_S
         # Simulated time per compute time (>= 1 keeps up); below the clock's resolution it is
         # counted as one nanosecond.
-        msg = self.to_message(out, stamp=stamp, real_time_factor=period / max(step_time, 1e-9))
-        self._torque_pub.publish(msg)
+        self._torque_pub.publish(
+            self.encode_torque(out, sec, nanosec, real_time_factor=period / max(step_time, 1e-9))
+        )
         self.published_count += 1
         self.last_output = out
         # Tick latency: due time to torque published (contact states follow, at a lower rate).
@@ -747,7 +843,8 @@ class TwinNode(Node):
             self.late_total += 1
         if self.latency_log is not None:
             self.latency_log.append(latency)
-        self._advance_contacts(publish_contacts, out, stamp)
+        if publish_contacts and out.contacts is not None:
+            self._publish_contacts(out, sec, nanosec)
         if self._auto_window.ticks >= max(int(self.sim_rate), 1):
             self._review_fidelity()
 
@@ -777,106 +874,86 @@ class TwinNode(Node):
         )
 
     # ------------------------------------------------------------------ messages
-    def to_message(self, out: TwinOutput, *, stamp: Any, real_time_factor: float) -> DragTorque:
-        """The DragTorque message of one finite model output.
+    def encode_torque(
+        self, out: TwinOutput, sec: int, nanosec: int, *, real_time_factor: float
+    ) -> bytes:
+        """The serialised DragTorque of one finite model output (published as bytes: building
+        a Python message and converting it cost ~20 us a tick, this ~1 us; ros/cdr.py).
 
         Args:
             out: model output [N m], finite; its ``operating_point`` (SI) is the point the
                 model computed at (inside the validity envelope).
-            stamp: ``builtin_interfaces/Time`` of the tick.
+            sec, nanosec: stamp of the tick [s], [ns].
             real_time_factor: step / model compute time, >= 1 keeps up [-].
         """
         op = out.operating_point
         b = out.breakdown
-        msg = DragTorque(
-            total=float(out.drag_torque),
-            nut_master=float(out.nut_torque[0]),
-            nut_slave=float(out.nut_torque[1]),
-            lubricant_shear=float(b.lubricant_shear),
-            dry_contact=float(b.dry_contact),
-            rolling_resistance=float(b.rolling_resistance),
-            hysteresis=float(b.hysteresis),
-            curvature=float(b.curvature),
-            spin=float(b.spin),
-            fidelity=out.fidelity,
-            real_time_factor=float(real_time_factor),
-            screw_speed=float(op.screw_speed),
-            temperature=float(op.temperature),
-            preload=float(op.preload),
+        return self._torque_encoder.encode(
+            sec,
+            nanosec,
+            (
+                out.drag_torque,
+                out.nut_torque[0],
+                out.nut_torque[1],
+                b.lubricant_shear,
+                b.dry_contact,
+                b.rolling_resistance,
+                b.hysteresis,
+                b.curvature,
+                b.spin,
+            ),
+            out.fidelity,
+            real_time_factor,
+            op.screw_speed,
+            op.temperature,
+            op.preload,
         )
-        msg.header.stamp = stamp
-        msg.header.frame_id = self._frame_id
-        return msg
 
-    def _advance_contacts(self, start: bool, out: TwinOutput, stamp: Any) -> None:
-        """Build the pending contact states a slice further; publish them when complete.
-
-        Building and publishing 200 ContactState messages takes ~2 ms of Python, two ticks at
-        1 kHz: done at once it made the next ticks late. So the message of a contact tick is
-        built over the ticks up to the next contact tick (stamped with its own tick's time) and
-        published on the tick that completes it.
-        """
-        pending = self._pending_contacts
-        if pending is not None and (start or pending.advance()):
-            pending.finish()  # a new one starts: the old one is completed first
-            self._contact_pub.publish(pending.msg)
-            self.contact_count += 1
-            self._pending_contacts = None
-        if not start or out.contacts is None:
-            return
-        pending = self.contact_message(out, stamp, slices=max(self.contact_every - 1, 1))
-        if pending is None:
+    def _publish_contacts(self, out: TwinOutput, sec: int, nanosec: int) -> None:
+        """Publish the contact states of ``out`` stamped ``sec``/``nanosec`` [s]/[ns], or log
+        why not (a value that is not finite)."""
+        data = self.encode_contacts(out, sec, nanosec)
+        if data is None:
             self._log_throttled(
                 "contacts",
                 f"model {out.fidelity} returned non-finite contact states: not published",
             )
-        elif self.contact_every == 1:
-            self._contact_pub.publish(pending.finish())
-            self.contact_count += 1
-        else:
-            self._pending_contacts = pending
+            return
+        self._contact_pub.publish(data)
+        self.contact_count += 1
 
-    def contact_message(
-        self, out: TwinOutput, stamp: Any, slices: int = 1
-    ) -> PendingContacts | None:
-        """The ContactStateArray of every resolved sphere/half-groove contact of ``out``, to be
-        built in ``slices`` parts, or None when a value is not finite (nothing is published)."""
+    def encode_contacts(self, out: TwinOutput, sec: int, nanosec: int) -> bytes | None:
+        """The serialised ContactStateArray of every resolved sphere/half-groove contact of
+        ``out`` (stamp ``sec`` [s], ``nanosec`` [ns]), or None when a value is not finite.
+        Serialised directly from the arrays (ros/cdr.py): ~20 us for 200 contacts, against
+        ~2.4 ms as 200 Python messages."""
         cs = out.contacts
         assert cs is not None
         columns = [
-            np.asarray(a, dtype=np.float64)
-            for a in (
-                cs.normal_force,
-                cs.friction_force,
-                cs.contact_angle,
-                cs.max_pressure,
-                cs.semi_axis_x,
-                cs.semi_axis_y,
-                cs.film_thickness,
-                cs.tallian_parameter,
-                cs.lubricant_share,
-                cs.dry_share,
-                cs.slip_speed,
-            )
+            np.asarray(getattr(cs, name), dtype=np.float64) for name in cdr.CONTACT_FLOAT_FIELDS
         ]
-        if not all(np.isfinite(c).all() for c in columns):
+        if not all_finite(columns):
             return None
-        msg = ContactStateArray(fidelity=out.fidelity)
-        msg.header.stamp = stamp
-        msg.header.frame_id = self._frame_id
-        rows = zip(
-            sphere_index_within_nut(cs).tolist(),
-            cs.nut.tolist(),
-            cs.half_groove.tolist(),
-            cs.in_contact.tolist(),
-            *(c.tolist() for c in columns),
-            strict=True,
+        return cdr.encode_contact_states(
+            sec,
+            nanosec,
+            self._frame_id,
+            out.fidelity,
+            sphere_index_within_nut(cs),
+            cs.nut,
+            cs.half_groove,
+            cs.in_contact,
+            columns,
         )
-        return PendingContacts(msg, list(rows), slices)
 
     # ------------------------------------------------------------------ diagnostics
     def diagnostic_checks(self) -> list[diagnostics.Check]:
         """The checks of the window since the last call (which restarts the window)."""
+        with self.tick_lock:
+            return self._checks_locked()
+
+    def _checks_locked(self) -> list[diagnostics.Check]:
+        """:meth:`diagnostic_checks` under the tick lock."""
         now = self._now_ns()
         w, self.window = self.window, TickWindow()
         elapsed = max((now - self._window_start_ns) / NS_PER_S, 1e-9)
@@ -932,6 +1009,8 @@ class TwinNode(Node):
             (
                 ("simulation rate [Hz]", f"{self.sim_rate:g}"),
                 ("use_sim_time", str(self.get_parameter("use_sim_time").value)),
+                ("ticks run by", self.tick_source),
+                ("tick errors (total)", str(self.tick_errors)),
                 ("ticks published (window)", str(w.ticks)),
                 ("simulated / clock time [-]", f"{w.ticks * period / elapsed:.4f}"),
                 ("on time within 1 ms [-]", f"{on_time:.5f}"),
@@ -1016,57 +1095,6 @@ class TwinNode(Node):
         )
 
 
-class PendingContacts:
-    """A ContactStateArray whose rows are turned into messages a slice at a time.
-
-    Args:
-        msg: the array message (header and fidelity set, no contacts yet).
-        rows: one tuple per contact, in the field order of ContactState.
-        slices: number of :meth:`advance` calls that complete it (>= 1).
-    """
-
-    def __init__(self, msg: ContactStateArray, rows: list[tuple[Any, ...]], slices: int) -> None:
-        self.msg = msg
-        self._rows = rows
-        self._done = 0
-        self._per_slice = max(-(-len(rows) // max(slices, 1)), 1)
-
-    def advance(self) -> bool:
-        """Build the next slice of messages; True when every row is built."""
-        end = min(self._done + self._per_slice, len(self._rows))
-        self.msg.contacts.extend(_contact_state(row) for row in self._rows[self._done : end])
-        self._done = end
-        return self._done == len(self._rows)
-
-    def finish(self) -> ContactStateArray:
-        """Build every remaining row; the complete message."""
-        while not self.advance():
-            pass
-        return self.msg
-
-
-def _contact_state(row: tuple[Any, ...]) -> ContactState:
-    """One ContactState from a row (sphere, nut, half groove, in contact, 11 SI values)."""
-    i, n, g, c, fn, ft, a, p, ax, ay, h, lam, ls, ds, v = row
-    return ContactState(
-        sphere_index=i,
-        nut=n,
-        half_groove=g,
-        in_contact=c,
-        normal_force=fn,
-        friction_force=ft,
-        contact_angle=a,
-        max_pressure=p,
-        semi_axis_x=ax,
-        semi_axis_y=ay,
-        film_thickness=h,
-        tallian_parameter=lam,
-        lubricant_share=ls,
-        dry_share=ds,
-        slip_speed=v,
-    )
-
-
 def sphere_index_within_nut(cs: ContactStates) -> np.ndarray:
     """Index of each contact's sphere within its own nut, 0-based [-]."""
     index = np.asarray(cs.sphere, dtype=np.int64).copy()
@@ -1133,6 +1161,7 @@ def run_node(argv: list[str]) -> int:
         node = TwinNode()
         executor = make_executor(node._str("executor"), node.context)
         executor.add_node(node)
+        prepare_process()
         spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -18,6 +19,7 @@ from ballscrew_twin.models.validity import (
     NonFiniteOutputError,
     ValidatedModel,
     ValidityEnvelope,
+    all_finite,
     clamp_operating_point,
 )
 from ballscrew_twin.params import load_config
@@ -182,3 +184,22 @@ def test_non_finite_output_is_never_returned() -> None:
     model = ValidatedModel(_Broken(), ENVELOPE)
     with pytest.raises(NonFiniteOutputError, match="drag_torque = nan"):
         model.evaluate(OperatingPoint(screw_speed=1.0, temperature=293.15, preload=100.0))
+
+
+@given(
+    st.lists(
+        st.lists(st.floats(allow_nan=True, allow_infinity=True, width=64), max_size=8),
+        max_size=5,
+    )
+)
+def test_all_finite_agrees_with_an_element_by_element_check(values: list[list[float]]) -> None:
+    arrays = [np.asarray(v, dtype=np.float64) for v in values]
+    expected = all(math.isfinite(x) for v in values for x in v)
+    assert all_finite(arrays) is expected
+
+
+def test_all_finite_of_huge_values_and_of_nothing() -> None:
+    huge = np.full(4, 1.0e308)
+    assert all_finite([huge, -huge])
+    assert not all_finite([huge, np.array([0.0, math.nan])])
+    assert all_finite([])

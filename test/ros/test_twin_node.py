@@ -156,9 +156,12 @@ def test_command_moves_torque_the_right_way_within_a_few_ticks(
     assert backward.total == pytest.approx(-first.total)
 
 
+@pytest.mark.parametrize("tick_source", ["thread", "executor"])
 def test_torque_published_at_the_simulation_rate_on_a_fixed_grid(
-    executor: SingleThreadedExecutor, twin: TwinNode, spin_until: SpinUntil
+    executor: SingleThreadedExecutor, spin_until: SpinUntil, tick_source: str
 ) -> None:
+    twin = _twin(executor, fidelity="catalog", tick_source=tick_source)
+    assert twin.tick_source.startswith({"thread": "thread (", "executor": "executor"}[tick_source])
     bench = Bench(executor)
     assert spin_until(executor, lambda: len(bench.torques) >= 200)
     stamps = [_stamp_ns(m.header.stamp) for m in bench.torques[-150:]]
@@ -240,6 +243,37 @@ def test_sim_time_follows_clock_and_survives_a_jump_back(
     assert twin.clock_jumps_back == 1
     assert all(500 * NS_PER_S <= s <= sim["ns"] for s in after_jump())
     assert _stamp_ns(bench.torques[-1].header.stamp) < 1000 * NS_PER_S
+
+
+def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
+    executor: SingleThreadedExecutor, spin_until: SpinUntil
+) -> None:
+    twin = _twin(executor, fidelity="catalog", sim_rate_hz=100.0)
+    bench = Bench(executor)
+    assert spin_until(executor, lambda: len(bench.torques) >= 3)
+    assert twin.tick_source.startswith("thread")
+    wall = _stamp_ns(bench.torques[-1].header.stamp)
+
+    assert twin.set_parameters([Parameter("use_sim_time", value=True)])[0].successful
+    assert twin.tick_source == "executor timer"
+    sim = {"ns": 7 * NS_PER_S}
+
+    def advance() -> None:
+        sim["ns"] += 10_000_000
+        bench.clock.publish(Clock(clock=Time(sec=sim["ns"] // NS_PER_S,
+                                             nanosec=sim["ns"] % NS_PER_S)))
+
+    def on_sim_time() -> list[int]:
+        # Sim time is seconds since 7 s; wall time since 1970.
+        return [s for m in bench.torques if (s := _stamp_ns(m.header.stamp)) < 1000 * NS_PER_S]
+
+    assert spin_until(executor, lambda: len(on_sim_time()) >= 5, every=advance)
+    assert all(7 * NS_PER_S < s <= sim["ns"] for s in on_sim_time())
+
+    assert twin.set_parameters([Parameter("use_sim_time", value=False)])[0].successful
+    assert twin.tick_source.startswith("thread")
+    after = _published_after(spin_until, executor, bench, wall)
+    assert after.header.stamp.sec > 1_000_000  # wall time again (seconds since 1970)
 
 
 def test_joint_state_speed_input(executor: SingleThreadedExecutor,
@@ -337,10 +371,11 @@ def test_auto_steps_down_when_the_model_overruns_its_budget(
     # Windows in which every step took 90 % of the 10 ms step (the budget is 50 %): the first
     # is tolerated (start-up, a hiccup), the second in a row is not.
     for expected in ("realtime", "catalog"):
-        twin._auto_window = type(twin._auto_window)()
-        for _ in range(100):
-            twin._auto_window.add(step_time=9e-3, latency_ns=200_000)
-        twin._review_fidelity()
+        with twin.tick_lock:  # the ticks run on a thread of their own
+            twin._auto_window = type(twin._auto_window)()
+            for _ in range(100):
+                twin._auto_window.add(step_time=9e-3, latency_ns=200_000)
+            twin._review_fidelity()
         assert twin.choice.mode == expected
     assert twin.model_switches == 1
     assert "took 9.000 ms per step" in twin.choice.reason
