@@ -42,6 +42,8 @@ TICK_SOURCES = ("thread", "executor")
 #: Time the node runs before measuring (imports done, discovery settled) [s].
 WARMUP = 3.0
 ON_TIME_NS = 1_000_000
+#: What the node process sends when its measurement starts.
+MEASURING = "measuring"
 SPEED = 10.47  # rad/s (100 rpm)
 
 
@@ -126,6 +128,7 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     spin(executor, until=lambda: time.monotonic() - start > WARMUP)
     node.latency_log = []
     skipped0, published0, contacts0 = node.skipped_total, node.published_count, node.contact_count
+    conn.send(MEASURING)  # the commander counts received messages from here
     cpu0, wall0 = time.process_time(), time.monotonic()
     spin(executor, until=lambda: time.monotonic() - wall0 > measure)
     cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
@@ -282,20 +285,24 @@ def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> 
     total = WARMUP + args.duration
     start = time.monotonic()
     name = f"{tick_source}/{executor_name}"
+    base: dict[str, int] | None = None
+    result: Any = None
     with tqdm(total=int(total), desc=f"bench node {name}", unit="s", leave=False) as bar:
-        measured_from = None
-        while not parent_conn.poll():
+        while result is None:
             executor.spin_once(timeout_sec=0.05)
-            elapsed = time.monotonic() - start
-            bar.update(int(elapsed) - bar.n)
-            if measured_from is None and elapsed > WARMUP + 2.0:  # child start-up ~2 s
-                measured_from = dict(counts)
-            if not proc.is_alive() and not parent_conn.poll():
+            bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
+            if parent_conn.poll():
+                message = parent_conn.recv()
+                if message == MEASURING:
+                    base = dict(counts)
+                    psutil.cpu_percent()
+                else:
+                    result, end = message, dict(counts)
+            elif not proc.is_alive():
                 raise RuntimeError(f"node process died with exit code {proc.exitcode}")
     system_cpu = psutil.cpu_percent()
-    result = parent_conn.recv()
     proc.join(timeout=30.0)
-    base = measured_from or {"torque": 0, "contacts": 0}
+    base = base or {"torque": 0, "contacts": 0}
     executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=context)
@@ -307,8 +314,8 @@ def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> 
         cpu_share=float(result["cpu_share"]),
         published=int(result["published"]),
         contacts=int(result["contacts"]),
-        received_torque=counts["torque"] - base["torque"],
-        received_contacts=counts["contacts"] - base["contacts"],
+        received_torque=end["torque"] - base["torque"],
+        received_contacts=end["contacts"] - base["contacts"],
         duration=float(result["duration"]),
         load_before=load_before,
         system_cpu=system_cpu,
