@@ -6,7 +6,9 @@ run, the twin node runs in a process of its own at ``--rate`` (1 kHz) with conta
 ``--contact-rate`` (100 Hz), while this process publishes commands at 100 Hz and counts what
 arrives. First, as the machine's floor, a process with nothing but the tick thread's sleep
 loop (no ROS, no model) measures how late the operating system wakes a thread that sleeps until
-each tick is due. Measured after a warm-up, over ``--duration`` seconds:
+each tick is due. ``--duration`` is split into ``--rounds`` interleaved rounds of every variant,
+so that a change of the shared machine's load hits all of them alike. Measured after a warm-up
+in each round, over ``--duration`` seconds in all:
 
 - share of ticks published on time (within 1 ms of their due time; skipped ticks count as
   late), tick latency p50/p99/max (due time to publish returned, node clock = wall time);
@@ -88,6 +90,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--no-floor", action="store_true", help="skip the bare sleep loop (the machine's floor)"
     )
     parser.add_argument(
+        "--rounds",
+        type=int,
+        default=6,
+        help="split --duration into this many interleaved rounds of every variant",
+    )
+    parser.add_argument(
         "--fidelity",
         default="",
         choices=("", "realtime", "quasi_static", "catalog"),
@@ -164,12 +172,16 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
 
     def run_due() -> float | None:
         now = time.time_ns()
+        due_index = (now - grid["origin"]) // period_ns
         if grid["k"] and time.monotonic() > end - measure:
-            latencies.append(now - (grid["origin"] + grid["k"] * period_ns))
+            # Every grid point passed since the last wake-up, as the node would run it late.
+            latencies.extend(
+                now - (grid["origin"] + k * period_ns) for k in range(grid["k"], due_index + 1)
+            )
         if time.monotonic() > end:
             done.set()
             return None
-        grid["k"] = (now - grid["origin"]) // period_ns + 1
+        grid["k"] = due_index + 1
         return (grid["origin"] + grid["k"] * period_ns - time.time_ns()) / 1e9
 
     cpu0, wall0 = time.process_time(), time.monotonic()
@@ -188,19 +200,17 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
     )
 
 
-def _run_floor(args: argparse.Namespace) -> NodeRun:
-    """The bare sleep loop at ``args.rate`` (see the module docstring)."""
+def _run_floor(args: argparse.Namespace, duration: float) -> NodeRun:
+    """The bare sleep loop at ``args.rate`` for ``duration`` [s] (see the module docstring)."""
     spawn = multiprocessing.get_context("spawn")
     parent_conn, child_conn = spawn.Pipe()
     proc = spawn.Process(
-        target=_floor_process, args=(args.rate, args.duration, args.priority, child_conn)
+        target=_floor_process, args=(args.rate, duration, args.priority, child_conn)
     )
     load_before = os.getloadavg()
     psutil.cpu_percent()
     proc.start()
-    with tqdm(
-        total=int(WARMUP + args.duration), desc="bench node floor", unit="s", leave=False
-    ) as bar:
+    with tqdm(total=int(WARMUP + duration), desc="bench node floor", unit="s", leave=False) as bar:
         start = time.monotonic()
         while not parent_conn.poll(0.5):
             bar.update(int(time.monotonic() - start) - bar.n)
@@ -224,9 +234,11 @@ def _run_floor(args: argparse.Namespace) -> NodeRun:
     )
 
 
-def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> NodeRun:
-    """Run the node with one tick source and executor while commanding it and counting what
-    arrives."""
+def _run_one(
+    tick_source: str, executor_name: str, args: argparse.Namespace, duration: float
+) -> NodeRun:
+    """Run the node with one tick source and executor for ``duration`` [s] while commanding
+    it and counting what arrives."""
     import rclpy
     from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
     from rclpy.context import Context
@@ -248,7 +260,7 @@ def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> 
     vary = params["fidelity"] != "quasi_static"  # a quasi-static command stays constant
     spawn = multiprocessing.get_context("spawn")
     parent_conn, child_conn = spawn.Pipe()
-    proc = spawn.Process(target=_node_process, args=(params, args.duration, child_conn))
+    proc = spawn.Process(target=_node_process, args=(params, duration, child_conn))
     proc.start()
 
     context = Context()
@@ -282,7 +294,7 @@ def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> 
     executor.add_node(node)
     load_before = os.getloadavg()
     psutil.cpu_percent()
-    total = WARMUP + args.duration
+    total = WARMUP + duration
     start = time.monotonic()
     name = f"{tick_source}/{executor_name}"
     base: dict[str, int] | None = None
@@ -319,6 +331,26 @@ def _run_one(tick_source: str, executor_name: str, args: argparse.Namespace) -> 
         duration=float(result["duration"]),
         load_before=load_before,
         system_cpu=system_cpu,
+    )
+
+
+def merge(runs: list[NodeRun]) -> NodeRun:
+    """The rounds ``runs`` of one variant as one run (counts and times added, CPU share
+    weighted by duration, load before the first round, machine CPU averaged)."""
+    duration = sum(r.duration for r in runs)
+    return NodeRun(
+        executor=runs[0].executor,
+        model=runs[0].model,
+        latencies=np.concatenate([r.latencies for r in runs]),
+        skipped=sum(r.skipped for r in runs),
+        cpu_share=sum(r.cpu_share * r.duration for r in runs) / duration,
+        published=sum(r.published for r in runs),
+        contacts=sum(r.contacts for r in runs),
+        received_torque=sum(r.received_torque for r in runs),
+        received_contacts=sum(r.received_contacts for r in runs),
+        duration=duration,
+        load_before=runs[0].load_before,
+        system_cpu=sum(r.system_cpu for r in runs) / len(runs),
     )
 
 
@@ -395,21 +427,40 @@ def run(args: argparse.Namespace) -> int:
     sources = _names(args.tick_sources, TICK_SOURCES, "--tick-sources")
     if not (args.duration > 0.0 and args.rate > 0.0 and 0.0 <= args.contact_rate <= args.rate):
         raise SystemExit("need --duration > 0, --rate > 0, 0 <= --contact-rate <= --rate")
+    if args.rounds < 1:
+        raise SystemExit(f"--rounds {args.rounds}: must be >= 1")
     if not 0 <= args.priority <= 99:
         raise SystemExit(f"--priority {args.priority}: must be 0 (off) or 1..99")
     print(
         f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, "
-        f"{args.duration:g} s measured per run after {WARMUP:g} s warm-up; "
+        f"{args.duration:g} s measured per variant in {args.rounds} interleaved rounds, each "
+        f"after {WARMUP:g} s warm-up; "
         f"{psutil.cpu_count()} cores, load average before {os.getloadavg()[0]:.2f}"
     )
-    runs = []
-    if not args.no_floor:
-        runs.append(_run_floor(args))
-        _print_run(runs[-1])
-    for source in sources:
-        for name in executors:
-            runs.append(_run_one(source, name, args))
-            _print_run(runs[-1])
+    variants: list[tuple[str, str]] = [] if args.no_floor else [("floor", "")]
+    variants += [(source, name) for source in sources for name in executors]
+    # Interleaved rounds: a change of the shared machine's load hits every variant alike.
+    share = args.duration / args.rounds
+    rounds: dict[tuple[str, str], list[NodeRun]] = {v: [] for v in variants}
+    for index in range(args.rounds):
+        for variant in variants:
+            run_ = (
+                _run_floor(args, share)
+                if variant[0] == "floor"
+                else _run_one(*variant, args, share)
+            )
+            rounds[variant].append(run_)
+            if args.rounds > 1:
+                s = summary(run_)
+                print(
+                    f"    round {index + 1}/{args.rounds} {run_.executor:<26} on time "
+                    f"{s['on_time']:.3%}, p99 {s['p99']:.3f} ms, CPU {run_.cpu_share:.1%}",
+                    flush=True,
+                )
+    runs = [merge(rounds[v]) for v in variants]
+    print(f"  all rounds ({args.rounds} x {share:g} s per variant):")
+    for run_ in runs:
+        _print_run(run_)
     nodes = [r for r in runs if r.executor != "sleep loop"]
     if len(nodes) > 1:
         best = max(nodes, key=lambda r: (round(summary(r)["on_time"], 3), -r.cpu_share))

@@ -1,0 +1,36 @@
+"""``bench node`` end to end, briefly: the floor and a node run are measured and printed, every
+tick and message is accounted for, the plot is written. Timings are printed, never asserted."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from ballscrew_twin.cli import main
+
+
+def test_short_run_accounts_for_every_tick_and_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plot = tmp_path / "latency.png"
+    argv = ["bench", "node", "--duration", "2", "--rate", "200", "--contact-rate", "20",
+            "--fidelity", "quasi_static", "--tick-sources", "thread", "--executors", "events",
+            "--rounds", "2", "--plot", str(plot)]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    floor = re.search(r"sleep loop +(\d+) ticks, 0 skipped; on time \(<= 1 ms\) ([\d.]+)%", out)
+    assert floor is not None, out
+    assert 2 * 200 * 0.9 <= int(floor.group(1)) <= 2 * 200 * 1.1  # every grid point of 2 s
+    assert out.count("round 2/2") == 2
+    node = re.search(
+        r"thread/events +(\d+) ticks, (\d+) skipped; on time .* received (\d+) torque/s, "
+        r"(\d+) contact arrays/s \((\d+)/s published\)", out)
+    assert node is not None, out
+    ticks, skipped, torque_rate, contact_rate, published = map(int, node.groups())
+    assert 2 * 200 * 0.9 <= ticks + skipped <= 2 * 200 * 1.1
+    # Another process received what was published (as CDR bytes) at the configured rates.
+    assert 150 <= torque_rate <= 220 and 15 <= contact_rate <= 22 and 15 <= published <= 22
+    assert "ticks: thread (" in out and "quasi_static" in out
+    assert plot.stat().st_size > 10_000
