@@ -27,6 +27,7 @@ import argparse
 import math
 import multiprocessing
 import os
+import threading
 import time
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
@@ -65,6 +66,7 @@ class NodeRun:
     duration: float  # s
     load_before: tuple[float, float, float]
     system_cpu: float  # % of all cores during the run
+    commander_cpu: float = 0.0  # of one core, this process (commands, counting)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -159,8 +161,6 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
 
 def _floor_process(rate: float, measure: float, priority: int, conn: Connection) -> None:
     """Child process: the tick thread's sleep loop alone; send back its wake-up lateness."""
-    import threading
-
     from ..ros.tick_thread import TickThread, prepare_process
 
     prepare_process()
@@ -242,7 +242,7 @@ def _run_one(
     import rclpy
     from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
     from rclpy.context import Context
-    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.experimental import EventsExecutor
     from rclpy.node import Node
     from rclpy.qos import qos_profile_sensor_data
     from sensor_msgs.msg import Temperature
@@ -290,7 +290,9 @@ def _run_one(
         preload_pub.publish(Float64(data=1500.0))
 
     node.create_timer(0.01, command)
-    executor = SingleThreadedExecutor(context=context)
+    # The events executor: this process receives ~1100 messages a second and must not load
+    # the machine the node runs on (with SingleThreadedExecutor it took ~45 % of a core).
+    executor = EventsExecutor(context=context)
     executor.add_node(node)
     load_before = os.getloadavg()
     psutil.cpu_percent()
@@ -299,20 +301,32 @@ def _run_one(
     name = f"{tick_source}/{executor_name}"
     base: dict[str, int] | None = None
     result: Any = None
+    stop = threading.Event()
+
+    def receive() -> None:  # the messages on a thread of their own, the pipe here
+        while not stop.is_set():
+            executor.spin_once(timeout_sec=0.1)
+
+    receiver = threading.Thread(target=receive, daemon=True)
+    receiver.start()
+    cpu0 = wall0 = 0.0
     with tqdm(total=int(total), desc=f"bench node {name}", unit="s", leave=False) as bar:
         while result is None:
-            executor.spin_once(timeout_sec=0.05)
             bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
-            if parent_conn.poll():
+            if parent_conn.poll(0.25):
                 message = parent_conn.recv()
                 if message == MEASURING:
                     base = dict(counts)
                     psutil.cpu_percent()
+                    cpu0, wall0 = time.process_time(), time.monotonic()
                 else:
                     result, end = message, dict(counts)
             elif not proc.is_alive():
                 raise RuntimeError(f"node process died with exit code {proc.exitcode}")
     system_cpu = psutil.cpu_percent()
+    commander_cpu = (time.process_time() - cpu0) / max(time.monotonic() - wall0, 1e-9)
+    stop.set()
+    receiver.join(timeout=5.0)
     proc.join(timeout=30.0)
     base = base or {"torque": 0, "contacts": 0}
     executor.shutdown()
@@ -331,6 +345,7 @@ def _run_one(
         duration=float(result["duration"]),
         load_before=load_before,
         system_cpu=system_cpu,
+        commander_cpu=commander_cpu,
     )
 
 
@@ -351,6 +366,7 @@ def merge(runs: list[NodeRun]) -> NodeRun:
         duration=duration,
         load_before=runs[0].load_before,
         system_cpu=sum(r.system_cpu for r in runs) / len(runs),
+        commander_cpu=sum(r.commander_cpu * r.duration for r in runs) / duration,
     )
 
 
@@ -412,7 +428,8 @@ def _print_run(run: NodeRun) -> None:
         line += (
             f"; received {run.received_torque / run.duration:.0f} torque/s, "
             f"{run.received_contacts / run.duration:.0f} contact arrays/s "
-            f"({run.contacts / run.duration:.0f}/s published)"
+            f"({run.contacts / run.duration:.0f}/s published); commanding and counting "
+            f"process CPU {run.commander_cpu:.1%}"
         )
     print(
         f"{line}; machine: load {run.load_before[0]:.2f} before, "

@@ -3,6 +3,8 @@
 Modules:
     inputs          -- validation and unit conversion of commanded inputs (pure Python, no rclpy)
     scheduler       -- fixed-step tick schedule of the node (pure Python, no rclpy)
+    tick_thread     -- the thread that runs the node's ticks on wall time (no rclpy)
+    cdr             -- CDR bytes of DragTorque / ContactStateArray, published as they are
     fidelity        -- the models the node can run, chosen by its ``fidelity`` parameter
     diagnostics     -- ``/diagnostics`` messages of the node
     twin_node       -- :class:`TwinNode`: commands in, DragTorque and ContactStateArray out
