@@ -83,10 +83,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--tick-sources", default="thread,executor", help="comma-separated: thread,executor"
     )
     parser.add_argument(
-        "--priority",
-        type=int,
-        default=0,
-        help="SCHED_FIFO priority of the tick thread (node parameter thread_priority), 0: off",
+        "--priorities",
+        default="0",
+        help="comma-separated SCHED_FIFO priorities of the tick thread (node parameter "
+        "thread_priority; 0: normal scheduling); each is a variant of the floor and of the "
+        "thread tick source",
     )
     parser.add_argument(
         "--no-floor", action="store_true", help="skip the bare sleep loop (the machine's floor)"
@@ -133,7 +134,7 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     node = TwinNode(context=context, parameter_overrides=overrides)
     executor = make_executor(str(params["executor"]), context)
     executor.add_node(node)
-    prepare_process()  # as twin_node's main does
+    prepare_process(int(params.get("thread_priority", 0)))  # as twin_node's main does
     start = time.monotonic()
     spin(executor, until=lambda: time.monotonic() - start > WARMUP)
     node.latency_log = []
@@ -200,13 +201,12 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
     )
 
 
-def _run_floor(args: argparse.Namespace, duration: float) -> NodeRun:
-    """The bare sleep loop at ``args.rate`` for ``duration`` [s] (see the module docstring)."""
+def _run_floor(args: argparse.Namespace, priority: int, duration: float) -> NodeRun:
+    """The bare sleep loop at ``args.rate`` for ``duration`` [s] with the tick thread's
+    SCHED_FIFO ``priority`` (0: normal scheduling; see the module docstring)."""
     spawn = multiprocessing.get_context("spawn")
     parent_conn, child_conn = spawn.Pipe()
-    proc = spawn.Process(
-        target=_floor_process, args=(args.rate, duration, args.priority, child_conn)
-    )
+    proc = spawn.Process(target=_floor_process, args=(args.rate, duration, priority, child_conn))
     load_before = os.getloadavg()
     psutil.cpu_percent()
     proc.start()
@@ -219,7 +219,7 @@ def _run_floor(args: argparse.Namespace, duration: float) -> NodeRun:
     result = parent_conn.recv()
     proc.join(timeout=30.0)
     return NodeRun(
-        executor="sleep loop",
+        executor="sleep loop" + (f"/fifo{priority}" if priority else ""),
         model=result["model"],
         latencies=result["latencies"],
         skipped=0,
@@ -235,10 +235,10 @@ def _run_floor(args: argparse.Namespace, duration: float) -> NodeRun:
 
 
 def _run_one(
-    tick_source: str, executor_name: str, args: argparse.Namespace, duration: float
+    tick_source: str, executor_name: str, priority: int, args: argparse.Namespace, duration: float
 ) -> NodeRun:
-    """Run the node with one tick source and executor for ``duration`` [s] while commanding
-    it and counting what arrives."""
+    """Run the node with one tick source, executor and tick-thread priority for ``duration``
+    [s] while commanding it and counting what arrives."""
     import rclpy
     from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
     from rclpy.context import Context
@@ -251,7 +251,7 @@ def _run_one(
     params: dict[str, Any] = {
         "executor": executor_name,
         "tick_source": tick_source,
-        "thread_priority": args.priority,
+        "thread_priority": priority,
         "sim_rate_hz": args.rate,
         "contact_rate_hz": args.contact_rate,
         "initial_screw_speed": SPEED,
@@ -298,7 +298,7 @@ def _run_one(
     psutil.cpu_percent()
     total = WARMUP + duration
     start = time.monotonic()
-    name = f"{tick_source}/{executor_name}"
+    name = f"{tick_source}/{executor_name}" + (f"/fifo{priority}" if priority else "")
     base: dict[str, int] | None = None
     result: Any = None
     stop = threading.Event()
@@ -424,7 +424,7 @@ def _print_run(run: NodeRun) -> None:
         f"(<= 1 ms) {s['on_time']:.4%}; latency p50 {s['p50']:.3f} ms, p99 {s['p99']:.3f} ms, "
         f"p99.9 {s['p999']:.3f} ms, max {s['max']:.2f} ms; CPU {run.cpu_share:.1%} of one core"
     )
-    if run.executor != "sleep loop":
+    if not run.executor.startswith("sleep loop"):
         line += (
             f"; received {run.received_torque / run.duration:.0f} torque/s, "
             f"{run.received_contacts / run.duration:.0f} contact arrays/s "
@@ -446,23 +446,32 @@ def run(args: argparse.Namespace) -> int:
         raise SystemExit("need --duration > 0, --rate > 0, 0 <= --contact-rate <= --rate")
     if args.rounds < 1:
         raise SystemExit(f"--rounds {args.rounds}: must be >= 1")
-    if not 0 <= args.priority <= 99:
-        raise SystemExit(f"--priority {args.priority}: must be 0 (off) or 1..99")
+    try:
+        priorities = sorted({int(p) for p in args.priorities.split(",") if p.strip()})
+    except ValueError:
+        raise SystemExit(f"--priorities {args.priorities!r}: comma-separated integers") from None
+    if not priorities or not all(0 <= p <= 99 for p in priorities):
+        raise SystemExit(f"--priorities {args.priorities!r}: each 0 (off) or 1..99")
     print(
         f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, "
         f"{args.duration:g} s measured per variant in {args.rounds} interleaved rounds, each "
         f"after {WARMUP:g} s warm-up; "
         f"{psutil.cpu_count()} cores, load average before {os.getloadavg()[0]:.2f}"
     )
-    variants: list[tuple[str, str]] = [] if args.no_floor else [("floor", "")]
-    variants += [(source, name) for source in sources for name in executors]
+    # (tick source or "floor", executor, priority); a priority only matters on a thread.
+    variants: list[tuple[str, str, int]] = (
+        [] if args.no_floor else [("floor", "", p) for p in priorities]
+    )
+    for source in sources:
+        for prio in priorities if source == "thread" else [0]:
+            variants += [(source, name, prio) for name in executors]
     # Interleaved rounds: a change of the shared machine's load hits every variant alike.
     share = args.duration / args.rounds
-    rounds: dict[tuple[str, str], list[NodeRun]] = {v: [] for v in variants}
+    rounds: dict[tuple[str, str, int], list[NodeRun]] = {v: [] for v in variants}
     for index in range(args.rounds):
         for variant in variants:
             run_ = (
-                _run_floor(args, share)
+                _run_floor(args, variant[2], share)
                 if variant[0] == "floor"
                 else _run_one(*variant, args, share)
             )
@@ -478,7 +487,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"  all rounds ({args.rounds} x {share:g} s per variant):")
     for run_ in runs:
         _print_run(run_)
-    nodes = [r for r in runs if r.executor != "sleep loop"]
+    nodes = [r for r in runs if not r.executor.startswith("sleep loop")]
     if len(nodes) > 1:
         best = max(nodes, key=lambda r: (round(summary(r)["on_time"], 3), -r.cpu_share))
         print(f"  best: {best.executor} (highest on-time share, then lowest CPU)")

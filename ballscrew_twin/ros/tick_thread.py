@@ -32,13 +32,18 @@ _PR_SET_TIMERSLACK = 29
 SWITCH_INTERVAL = 2e-4
 
 
-def prepare_process() -> None:
-    """Process-wide settings for a process whose main job is a tick thread: a short
-    interpreter switch interval (:data:`SWITCH_INTERVAL`) and the objects of start-up moved
-    out of the garbage collector's reach (``gc.freeze``: later full collections stay short)."""
+def prepare_process(priority: int = 0) -> str:
+    """Process-wide settings for a process whose main job is a tick thread, made by the thread
+    that will spin the executor: a short interpreter switch interval (:data:`SWITCH_INTERVAL`),
+    the objects of start-up moved out of the garbage collector's reach (``gc.freeze``: later
+    full collections stay short), and, when the tick thread runs at SCHED_FIFO ``priority``
+    (> 1), the calling thread at ``priority - 1``: the tick thread needs the interpreter lock
+    the executor thread may hold, and a holder preempted by ordinary processes would keep it
+    waiting (priority inversion). Returns how the calling thread is scheduled."""
     sys.setswitchinterval(SWITCH_INTERVAL)
     gc.collect()
     gc.freeze()
+    return _set_fifo_priority(priority - 1) if priority > 1 else "normal scheduling"
 
 
 def _set_timer_slack(slack_ns: int) -> str:

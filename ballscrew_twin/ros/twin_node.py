@@ -1161,7 +1161,10 @@ def run_node(argv: list[str]) -> int:
         node = TwinNode()
         executor = make_executor(node._str("executor"), node.context)
         executor.add_node(node)
-        prepare_process()
+        priority = int(node.get_parameter("thread_priority").value)
+        scheduling = prepare_process(priority)
+        if priority:
+            node.get_logger().info(f"executor thread: {scheduling}")
         spin(executor)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

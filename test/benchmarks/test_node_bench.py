@@ -12,14 +12,14 @@ from ballscrew_twin.cli import main
 
 
 def test_short_run_accounts_for_every_tick_and_message(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    tmp_path: Path, capfd: pytest.CaptureFixture[str]
 ) -> None:
     plot = tmp_path / "latency.png"
     argv = ["bench", "node", "--duration", "2", "--rate", "200", "--contact-rate", "20",
             "--fidelity", "quasi_static", "--tick-sources", "thread", "--executors", "events",
             "--rounds", "2", "--plot", str(plot)]
     assert main(argv) == 0
-    out = capsys.readouterr().out
+    out = capfd.readouterr().out
     floor = re.search(r"sleep loop +(\d+) ticks, 0 skipped; on time \(<= 1 ms\) ([\d.]+)%", out)
     assert floor is not None, out
     assert 2 * 200 * 0.9 <= int(floor.group(1)) <= 2 * 200 * 1.1  # every grid point of 2 s

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import gc
+import itertools
+import sys
 import threading
 import time
 
 import pytest
 
-from ballscrew_twin.ros.tick_thread import MAX_SLEEP, TickThread
+from ballscrew_twin.ros.tick_thread import MAX_SLEEP, SWITCH_INTERVAL, TickThread, prepare_process
 
 
 def test_calls_run_due_after_the_delay_it_asks_for() -> None:
@@ -25,7 +28,7 @@ def test_calls_run_due_after_the_delay_it_asks_for() -> None:
     assert done.wait(5.0)
     thread.stop()
     assert not thread.running
-    gaps = [b - a for a, b in zip(calls[:19], calls[1:20], strict=True)]
+    gaps = [b - a for a, b in itertools.pairwise(calls[:20])]
     assert min(gaps) >= 0.005  # never before it is due
     assert sorted(gaps)[len(gaps) // 2] < 0.05  # and not some unrelated period (median)
     assert "timer slack" in thread.scheduling
@@ -77,3 +80,23 @@ def test_priority_checked_and_its_outcome_reported() -> None:
     thread.stop()
     # Granted (root, rtprio limit) or refused with the reason: either way it says which.
     assert "SCHED_FIFO" in thread.scheduling
+
+
+def test_prepare_process_sets_the_switch_interval_and_the_callers_priority() -> None:
+    before = sys.getswitchinterval()
+    results: dict[str, str] = {}
+    try:
+        # In threads of their own: a granted SCHED_FIFO must not stay on the test's thread.
+        for priority in (0, 1, 5):
+            worker = threading.Thread(
+                target=lambda p=priority: results.__setitem__(str(p), prepare_process(p))
+            )
+            worker.start()
+            worker.join()
+        assert sys.getswitchinterval() == pytest.approx(SWITCH_INTERVAL)
+        assert gc.get_freeze_count() > 0
+    finally:
+        sys.setswitchinterval(before)
+        gc.unfreeze()
+    assert results["0"] == results["1"] == "normal scheduling"  # the tick thread's - 1 is 0
+    assert "SCHED_FIFO" in results["5"] and "4" in results["5"]  # granted or refused, named
