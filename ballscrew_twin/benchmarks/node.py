@@ -125,8 +125,9 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     from rclpy.context import Context
     from rclpy.parameter import Parameter
 
+    from ..ros.executors import make_executor, spin
     from ..ros.tick_thread import prepare_process
-    from ..ros.twin_node import TwinNode, make_executor, spin
+    from ..ros.twin_node import TwinNode
 
     context = Context()
     rclpy.init(context=context)

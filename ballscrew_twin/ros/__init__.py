@@ -7,6 +7,7 @@ Modules:
     cdr             -- CDR bytes of DragTorque / ContactStateArray, published as they are
     fidelity        -- the models the node can run, chosen by its ``fidelity`` parameter
     diagnostics     -- ``/diagnostics`` messages of the node
+    executors       -- the executors the processes spin with, and a ``spin_once`` loop
     twin_node       -- :class:`TwinNode`: commands in, DragTorque and ContactStateArray out
     node_command    -- ``ballscrew-twin node``
     launcher        -- ``ballscrew-twin launch FILE``: several nodes, stopped cleanly on Ctrl-C

@@ -26,11 +26,12 @@ from ballscrew_twin_msgs.msg import DragTorque, HealthResidual
 from diagnostic_msgs.msg import DiagnosticArray
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from .diagnostics import LEVEL_NAMES, level_of
+from .executors import make_executor, spin
 from .inputs import CELSIUS_TO_KELVIN_OFFSET, RAD_S_PER_RPM
 
 #: Longest wait for the first torque message [s].
@@ -202,12 +203,18 @@ def main(args: list[str] | None = None) -> None:
         parser.error("--duration must be > 0")
     rclpy.init(args=argv)
     node: ConsoleView | None = None
+    executor: Executor | None = None
     try:
         node = ConsoleView(opts.torque_topic, opts.health_topic)
-        executor = SingleThreadedExecutor()
+        # The events executor: this view receives every drag_torque (1 kHz) on the machine
+        # the twin runs on; rclpy's SingleThreadedExecutor costs several times its CPU.
+        executor = make_executor("events", node.context)
         executor.add_node(node)
-        while rclpy.ok() and node.elapsed() < opts.duration and node.waited() < STARTUP_TIMEOUT:
-            executor.spin_once(timeout_sec=0.05)
+        view = node
+        spin(
+            executor,
+            until=lambda: view.elapsed() >= opts.duration or view.waited() >= STARTUP_TIMEOUT,
+        )
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
@@ -217,7 +224,11 @@ def main(args: list[str] | None = None) -> None:
             print(f"summary: {node.summary()}", flush=True)
             if received:
                 print(f"plot: {node.plot(Path(opts.plot))}", flush=True)
+            if executor is not None:
+                executor.remove_node(node)
             node.destroy_node()
+        if executor is not None:
+            executor.shutdown()
         rclpy.try_shutdown()
     raise SystemExit(0 if received else 1)
 

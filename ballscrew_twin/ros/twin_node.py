@@ -32,7 +32,6 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -49,7 +48,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
@@ -62,6 +61,7 @@ from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.validity import all_finite
 from ..params import load_config
 from . import cdr, diagnostics, fidelity
+from .executors import EXECUTORS, make_executor, spin
 from .inputs import (
     NS_PER_S,
     InputChannel,
@@ -77,8 +77,6 @@ from .scheduler import TickScheduler
 from .tick_thread import TickThread, prepare_process
 
 NODE_NAME = "ballscrew_twin"
-#: Executors ``main`` can spin the node with (parameter ``executor``).
-EXECUTORS = ("single_threaded", "events")
 #: What drives the ticks on wall time (parameter ``tick_source``); under ``use_sim_time`` the
 #: executor's timer always does (it follows ``/clock``).
 TICK_SOURCES = ("thread", "executor")
@@ -1103,31 +1101,6 @@ def sphere_index_within_nut(cs: ContactStates) -> np.ndarray:
         if mask.any():
             index[mask] -= index[mask].min()
     return index
-
-
-def make_executor(name: str, context: Any) -> Executor:
-    """The executor ``name`` (one of :data:`EXECUTORS`) on ``context``."""
-    if name == "events":
-        from rclpy.experimental import EventsExecutor
-
-        return EventsExecutor(context=context)
-    return SingleThreadedExecutor(context=context)
-
-
-def spin(executor: Executor, until: Callable[[], bool] | None = None) -> None:
-    """Spin until the context shuts down (or ``until()`` holds), one callback at a time.
-
-    A ``spin_once`` loop for both executors: ``EventsExecutor.spin()`` ignored SIGTERM in an
-    earlier check (docs ROS_NOTES), and the loop lets benchmarks stop after a fixed time.
-    """
-    context = executor.context
-    while context.ok() and (until is None or not until()):
-        try:
-            executor.spin_once(timeout_sec=0.1)
-        except Exception:
-            if context.ok():
-                raise
-            # Shut down (SIGINT/SIGTERM) while waiting: the wait set could not be built.
 
 
 def main(args: list[str] | None = None) -> None:
