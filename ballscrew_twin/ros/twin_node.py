@@ -757,7 +757,13 @@ class TwinNode(Node):
                 self._timer.reset()
             self.scheduler.start(now)
             return
+        last_due = self.scheduler.time_of(self.scheduler.last_index)
         plan = self.scheduler.due(now)
+        skipped = plan.skipped
+        if plan.jumped_forward and self._wall_time:
+            # On wall time a leap forward is the node not running for that long (a stall) or
+            # the system clock being stepped: either way no tick was published in between.
+            skipped = max((now - last_due) // self.period_ns - 1, 0)
         if plan.jumped_back:
             self.clock_jumps_back += 1
             for channel in self.channels:
@@ -769,16 +775,19 @@ class TwinNode(Node):
             )
         if plan.jumped_forward:
             self.clock_jumps_forward += 1
+            gap = (now - last_due) / NS_PER_S
             self.get_logger().warning(
-                f"clock jumped forwards to {now / NS_PER_S:.6f} s: simulation restarted there"
+                f"clock jumped forwards to {now / NS_PER_S:.6f} s ({gap:.3f} s after the last "
+                "tick; on wall time: the node stalled or the system clock was stepped): "
+                "simulation restarted there"
             )
-        if plan.skipped:
-            self.window.skipped += plan.skipped
-            self._auto_window.skipped += plan.skipped
-            self.skipped_total += plan.skipped
+        if skipped:
+            self.window.skipped += skipped
+            self._auto_window.skipped += skipped
+            self.skipped_total += skipped
             self._log_throttled(
                 "skipped",
-                f"{plan.skipped} ticks skipped: the node fell "
+                f"{skipped} ticks skipped: the node fell "
                 f"more than {self.scheduler.max_catch_up} ticks behind",
             )
         for index in plan.ticks:

@@ -245,6 +245,22 @@ def test_sim_time_follows_clock_and_survives_a_jump_back(
     assert _stamp_ns(bench.torques[-1].header.stamp) < 1000 * NS_PER_S
 
 
+def test_a_stall_on_wall_time_counts_every_tick_not_published(
+    executor: SingleThreadedExecutor, spin_until: SpinUntil
+) -> None:
+    twin = _twin(executor, fidelity="catalog", sim_rate_hz=100.0)
+    bench = Bench(executor)
+    assert spin_until(executor, lambda: len(bench.torques) >= 3)
+    skipped = twin.skipped_total
+    with twin.tick_lock:  # the tick thread cannot run: a 1.5 s stall (> the 1 s jump limit)
+        time.sleep(1.5)
+    published = twin.published_count
+    assert spin_until(executor, lambda: twin.published_count >= published + 3)
+    assert twin.clock_jumps_forward == 1
+    # ~150 ticks of 10 ms were due in the stall: counted as skipped, not lost.
+    assert 130 <= twin.skipped_total - skipped <= 170
+
+
 def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
     executor: SingleThreadedExecutor, spin_until: SpinUntil
 ) -> None:
