@@ -162,12 +162,15 @@ class TickWindow:
             self.late += 1
 
 
-def _finite_output(out: TwinOutput) -> bool:
-    """Whether every number of ``out`` that goes into the torque message is finite."""
+def torque_values(out: TwinOutput) -> tuple[float, ...]:
+    """The nine torques of ``out`` in DragTorque's order (total, master, slave, then the
+    breakdown: lubricant shear, dry contact, rolling resistance, hysteresis, curvature,
+    spin) [N m]."""
     b = out.breakdown
-    values = (
+    return (
         out.drag_torque,
-        *out.nut_torque,
+        out.nut_torque[0],
+        out.nut_torque[1],
         b.lubricant_shear,
         b.dry_contact,
         b.rolling_resistance,
@@ -175,7 +178,11 @@ def _finite_output(out: TwinOutput) -> bool:
         b.curvature,
         b.spin,
     )
-    return all(math.isfinite(v) for v in values)
+
+
+def _finite_output(out: TwinOutput) -> bool:
+    """Whether every number of ``out`` that goes into the torque message is finite."""
+    return all(math.isfinite(v) for v in torque_values(out))
 
 
 class TwinNode(Node):
@@ -894,21 +901,10 @@ class TwinNode(Node):
             real_time_factor: step / model compute time, >= 1 keeps up [-].
         """
         op = out.operating_point
-        b = out.breakdown
         return self._torque_encoder.encode(
             sec,
             nanosec,
-            (
-                out.drag_torque,
-                out.nut_torque[0],
-                out.nut_torque[1],
-                b.lubricant_shear,
-                b.dry_contact,
-                b.rolling_resistance,
-                b.hysteresis,
-                b.curvature,
-                b.spin,
-            ),
+            torque_values(out),
             out.fidelity,
             real_time_factor,
             op.screw_speed,
