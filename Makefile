@@ -24,7 +24,7 @@ unexport _ROS_WHEELS_BOOTSTRAP_COMPLETE
 
 help:
 	@echo "make demo       set up if needed, run the twin node, a command script and a console view ($(DEMO_DURATION) s)"
-	@echo "make test       set up if needed, then ruff check, mypy, pytest"
+	@echo "make test       set up if needed, then ruff check and format check, mypy, pytest"
 	@echo "make setup      create/update .venv (ROS 2 Jazzy wheels, messages, editable install)"
 	@echo "make node       run the twin node with config/twin_node.yaml until Ctrl-C"
 	@echo "make clean      remove caches and the message build dir; distclean also removes .venv"
@@ -34,11 +34,13 @@ setup:
 
 test: setup
 	$(BIN)/ruff check ballscrew_twin test
+	$(BIN)/ruff format --check ballscrew_twin test
 	$(BIN)/mypy ballscrew_twin
 	$(ROS_ENV) $(BIN)/pytest -q
 
 lint: setup
 	$(BIN)/ruff check ballscrew_twin test
+	$(BIN)/ruff format --check ballscrew_twin test
 
 typecheck: setup
 	$(BIN)/mypy ballscrew_twin

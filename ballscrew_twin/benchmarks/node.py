@@ -12,7 +12,8 @@ in each round, over ``--duration`` seconds in all:
 
 - share of ticks published on time (within 1 ms of their due time; skipped ticks count as
   late), tick latency p50/p99/max (due time to publish returned, node clock = wall time);
-- CPU share of one core of the node process (all its threads), and the machine's load;
+- CPU share of one core of the node process (all its threads), the machine's load average
+  and its steal share (time the hypervisor gave this virtual machine's cores to others);
 - torque and contact-state messages received per second by another process.
 
 Model: ``--fidelity``, by default the real-time model when it is installed, otherwise the
@@ -65,8 +66,37 @@ class NodeRun:
     received_contacts: int
     duration: float  # s
     load_before: tuple[float, float, float]
-    system_cpu: float  # % of all cores during the run
+    steal: float  # % of all cores' time stolen by the hypervisor during the run
     commander_cpu: float = 0.0  # of one core, this process (commands, counting)
+
+
+def steal_share(before: Any, after: Any) -> float:
+    """Stolen share of all cores' time between two ``psutil.cpu_times()`` readings [%].
+
+    Steal is the time a hypervisor ran something else while this virtual machine's cores had
+    work (the paravirtual steal clock, exact; 0 on bare metal). The busy share of the same
+    counters is not reported: they are sampled at the timer tick, which a thread waking every
+    millisecond aliases (a loop busy 17 % of all cores read as 0.5 %; docs/benchmarks.md).
+    """
+    delta = {k: getattr(after, k) - getattr(before, k) for k in after._fields}
+    # guest time is already part of user time (proc(5), /proc/stat)
+    total = sum(v for k, v in delta.items() if k not in ("guest", "guest_nice"))
+    return 100.0 * delta.get("steal", 0.0) / total if total > 0.0 else 0.0
+
+
+class StealMeter:
+    """The stolen share of all cores between ``start()`` (or creation) and ``read()``."""
+
+    def __init__(self) -> None:
+        self._start = psutil.cpu_times()
+
+    def start(self) -> None:
+        """Begin the interval now."""
+        self._start = psutil.cpu_times()
+
+    def read(self) -> float:
+        """Stolen share of all cores' time since the interval began [%]."""
+        return steal_share(self._start, psutil.cpu_times())
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -170,12 +200,17 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
     latencies: list[int] = []
     done = threading.Event()
     grid = {"origin": time.time_ns(), "k": 0}
+    # Process CPU time and wall time when the measurement began [s] (empty: not yet).
+    mark: list[float] = []
     end = time.monotonic() + WARMUP + measure
 
     def run_due() -> float | None:
         now = time.time_ns()
         due_index = (now - grid["origin"]) // period_ns
         if grid["k"] and time.monotonic() > end - measure:
+            if not mark:
+                mark.extend((time.process_time(), time.monotonic()))
+                conn.send(MEASURING)  # the parent measures the machine from here
             # Every grid point passed since the last wake-up, as the node would run it late.
             latencies.extend(
                 now - (grid["origin"] + k * period_ns) for k in range(grid["k"], due_index + 1)
@@ -186,12 +221,11 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
         grid["k"] = due_index + 1
         return (grid["origin"] + grid["k"] * period_ns - time.time_ns()) / 1e9
 
-    cpu0, wall0 = time.process_time(), time.monotonic()
     thread = TickThread(run_due, lambda err: None, priority=priority)
     thread.start()
     done.wait()
     thread.stop()
-    cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
+    cpu, wall = time.process_time() - mark[0], time.monotonic() - mark[1]
     conn.send(
         {
             "model": f"none; {thread.scheduling}",
@@ -209,15 +243,22 @@ def _run_floor(args: argparse.Namespace, priority: int, duration: float) -> Node
     parent_conn, child_conn = spawn.Pipe()
     proc = spawn.Process(target=_floor_process, args=(args.rate, duration, priority, child_conn))
     load_before = os.getloadavg()
-    psutil.cpu_percent()
+    meter = StealMeter()
     proc.start()
+    result: Any = None
     with tqdm(total=int(WARMUP + duration), desc="bench node floor", unit="s", leave=False) as bar:
         start = time.monotonic()
-        while not parent_conn.poll(0.5):
-            bar.update(int(time.monotonic() - start) - bar.n)
-            if not proc.is_alive() and not parent_conn.poll():
+        while result is None:
+            bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
+            if parent_conn.poll(0.5):
+                message = parent_conn.recv()
+                if message == MEASURING:
+                    meter.start()
+                else:
+                    result = message
+            elif not proc.is_alive():
                 raise RuntimeError(f"sleep-loop process died with exit code {proc.exitcode}")
-    result = parent_conn.recv()
+    steal = meter.read()
     proc.join(timeout=30.0)
     return NodeRun(
         executor="sleep loop" + (f"/fifo{priority}" if priority else ""),
@@ -231,7 +272,7 @@ def _run_floor(args: argparse.Namespace, priority: int, duration: float) -> Node
         received_contacts=0,
         duration=float(result["duration"]),
         load_before=load_before,
-        system_cpu=psutil.cpu_percent(),
+        steal=steal,
     )
 
 
@@ -296,7 +337,7 @@ def _run_one(
     executor = EventsExecutor(context=context)
     executor.add_node(node)
     load_before = os.getloadavg()
-    psutil.cpu_percent()
+    meter = StealMeter()
     total = WARMUP + duration
     start = time.monotonic()
     name = f"{tick_source}/{executor_name}" + (f"/fifo{priority}" if priority else "")
@@ -318,13 +359,13 @@ def _run_one(
                 message = parent_conn.recv()
                 if message == MEASURING:
                     base = dict(counts)
-                    psutil.cpu_percent()
+                    meter.start()
                     cpu0, wall0 = time.process_time(), time.monotonic()
                 else:
                     result, end = message, dict(counts)
             elif not proc.is_alive():
                 raise RuntimeError(f"node process died with exit code {proc.exitcode}")
-    system_cpu = psutil.cpu_percent()
+    steal = meter.read()
     commander_cpu = (time.process_time() - cpu0) / max(time.monotonic() - wall0, 1e-9)
     stop.set()
     receiver.join(timeout=5.0)
@@ -345,14 +386,14 @@ def _run_one(
         received_contacts=end["contacts"] - base["contacts"],
         duration=float(result["duration"]),
         load_before=load_before,
-        system_cpu=system_cpu,
+        steal=steal,
         commander_cpu=commander_cpu,
     )
 
 
 def merge(runs: list[NodeRun]) -> NodeRun:
     """The rounds ``runs`` of one variant as one run (counts and times added, CPU share
-    weighted by duration, load before the first round, machine CPU averaged)."""
+    weighted by duration, load before the first round, steal weighted by duration)."""
     duration = sum(r.duration for r in runs)
     return NodeRun(
         executor=runs[0].executor,
@@ -366,7 +407,7 @@ def merge(runs: list[NodeRun]) -> NodeRun:
         received_contacts=sum(r.received_contacts for r in runs),
         duration=duration,
         load_before=runs[0].load_before,
-        system_cpu=sum(r.system_cpu for r in runs) / len(runs),
+        steal=sum(r.steal * r.duration for r in runs) / duration,
         commander_cpu=sum(r.commander_cpu * r.duration for r in runs) / duration,
     )
 
@@ -434,7 +475,8 @@ def _print_run(run: NodeRun) -> None:
         )
     print(
         f"{line}; machine: load {run.load_before[0]:.2f} before, "
-        f"{run.system_cpu:.0f} % of all cores during\n      ({run.model})"
+        f"{run.steal:.1f} % of all cores' time stolen by the hypervisor during\n"
+        f"      ({run.model})"
     )
 
 
@@ -481,7 +523,8 @@ def run(args: argparse.Namespace) -> int:
                 s = summary(run_)
                 print(
                     f"    round {index + 1}/{args.rounds} {run_.executor:<26} on time "
-                    f"{s['on_time']:.3%}, p99 {s['p99']:.3f} ms, CPU {run_.cpu_share:.1%}",
+                    f"{s['on_time']:.3%}, p99 {s['p99']:.3f} ms, CPU {run_.cpu_share:.1%}, "
+                    f"stolen {run_.steal:.1f} %",
                     flush=True,
                 )
     runs = [merge(rounds[v]) for v in variants]

@@ -11,8 +11,9 @@ from ballscrew_twin.ros.console_view import ConsoleView
 
 
 def _torque(sec: int, total: float) -> DragTorque:
-    msg = DragTorque(total=total, screw_speed=10.47, temperature=293.15, preload=1500.0,
-                     fidelity="catalog-zhou")
+    msg = DragTorque(
+        total=total, screw_speed=10.47, temperature=293.15, preload=1500.0, fidelity="catalog-zhou"
+    )
     msg.header.stamp.sec = sec
     return msg
 

@@ -60,12 +60,15 @@ def test_stamps() -> None:
     age = NS_PER_S
     assert check_stamp(0, last_stamp_ns=now, now_ns=now, max_age_ns=age) is None  # unstamped
     assert check_stamp(now - 10, last_stamp_ns=now - 20, now_ns=now, max_age_ns=age) is None
-    assert "out of order" in (check_stamp(now - 20, last_stamp_ns=now - 10, now_ns=now,
-                                          max_age_ns=age) or "")
-    assert "stale" in (check_stamp(now - 2 * age, last_stamp_ns=None, now_ns=now,
-                                   max_age_ns=age) or "")
-    assert "ahead" in (check_stamp(now + 2 * age, last_stamp_ns=None, now_ns=now,
-                                   max_age_ns=age) or "")
+    assert "out of order" in (
+        check_stamp(now - 20, last_stamp_ns=now - 10, now_ns=now, max_age_ns=age) or ""
+    )
+    assert "stale" in (
+        check_stamp(now - 2 * age, last_stamp_ns=None, now_ns=now, max_age_ns=age) or ""
+    )
+    assert "ahead" in (
+        check_stamp(now + 2 * age, last_stamp_ns=None, now_ns=now, max_age_ns=age) or ""
+    )
     assert check_stamp(now - 50 * age, last_stamp_ns=None, now_ns=now, max_age_ns=0) is None
 
 

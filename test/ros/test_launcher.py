@@ -36,8 +36,7 @@ TIMEOUT = 30.0
 
 
 def _node(name: str, *args: str, required: bool = False) -> LaunchNode:
-    return LaunchNode(name=name, command=(sys.executable, "-c", SLEEPER, *args),
-                      required=required)
+    return LaunchNode(name=name, command=(sys.executable, "-c", SLEEPER, *args), required=required)
 
 
 class Output(io.StringIO):
@@ -50,8 +49,9 @@ class Output(io.StringIO):
             time.sleep(0.02)
 
 
-def _run(nodes: tuple[LaunchNode, ...], *, stop_after_ready: bool,
-         stop_timeout: float = 5.0) -> tuple[int, Launcher, Output]:
+def _run(
+    nodes: tuple[LaunchNode, ...], *, stop_after_ready: bool, stop_timeout: float = 5.0
+) -> tuple[int, Launcher, Output]:
     out = Output()
     launcher = Launcher(LaunchFile(nodes=nodes, stop_timeout=stop_timeout), out=out)
     launcher.start()
@@ -82,15 +82,17 @@ def test_a_dying_node_stops_the_rest_and_fails_the_launch() -> None:
 
 
 def test_required_node_ending_ends_the_launch() -> None:
-    code, launcher, _ = _run((_node("server"), _node("client", "die0", required=True)),
-                             stop_after_ready=False)
+    code, launcher, _ = _run(
+        (_node("server"), _node("client", "die0", required=True)), stop_after_ready=False
+    )
     assert code == 0
     assert launcher.processes["server"].returncode == 0
 
 
 def test_stubborn_node_is_killed_after_the_timeout() -> None:
-    code, launcher, _ = _run((_node("stubborn", "stubborn"),), stop_after_ready=True,
-                               stop_timeout=0.5)
+    code, launcher, _ = _run(
+        (_node("stubborn", "stubborn"),), stop_after_ready=True, stop_timeout=0.5
+    )
     assert code == 1
     assert launcher.processes["stubborn"].returncode == -signal.SIGKILL
     assert "did not stop" in " ".join(launcher.failures)
@@ -100,7 +102,8 @@ def test_launch_file_parsing(tmp_path: Path) -> None:
     params = tmp_path / "params.yaml"
     params.write_text("x:\n  ros__parameters: {}\n")
     file = tmp_path / "launch.yaml"
-    file.write_text(textwrap.dedent(f"""
+    file.write_text(
+        textwrap.dedent(f"""
         stop_timeout: 2.5
         nodes:
           - name: one
@@ -112,12 +115,21 @@ def test_launch_file_parsing(tmp_path: Path) -> None:
           - name: two
             module: ballscrew_twin.ros.console_view
             required: true
-    """))
+    """)
+    )
     launch = load_launch_file(file, env={"VALUE": "5"})
     one, two = launch.nodes
     assert launch.stop_timeout == 2.5
-    assert one.command == (sys.executable, "--duration", "7", "--ros-args", "--params-file",
-                           str(params.resolve()), "-p", "a:=5")
+    assert one.command == (
+        sys.executable,
+        "--duration",
+        "7",
+        "--ros-args",
+        "--params-file",
+        str(params.resolve()),
+        "-p",
+        "a:=5",
+    )
     assert one.env == (("FOO", "5"),) and not one.required
     assert two.command == (sys.executable, "-m", "ballscrew_twin.ros.console_view")
     assert two.required
@@ -152,15 +164,22 @@ def test_cli_stops_on_sigterm(tmp_path: Path) -> None:
     sleeper = tmp_path / "sleeper.py"
     sleeper.write_text(SLEEPER)
     file = tmp_path / "launch.yaml"
-    file.write_text(textwrap.dedent(f"""
+    file.write_text(
+        textwrap.dedent(f"""
         nodes:
           - {{name: a, executable: {sys.executable}, args: [{sleeper}]}}
           - {{name: b, executable: {sys.executable}, args: [{sleeper}]}}
-    """))
+    """)
+    )
     script = Path(sys.executable).parent / "ballscrew-twin"
-    proc = subprocess.Popen([str(script), "launch", str(file)], stdout=subprocess.PIPE,
-                            stderr=subprocess.STDOUT, text=True, stdin=subprocess.DEVNULL,
-                            env=dict(os.environ))
+    proc = subprocess.Popen(
+        [str(script), "launch", str(file)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        stdin=subprocess.DEVNULL,
+        env=dict(os.environ),
+    )
     try:
         assert proc.stdout is not None
         ready = 0
@@ -179,4 +198,3 @@ def test_cli_stops_on_sigterm(tmp_path: Path) -> None:
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-

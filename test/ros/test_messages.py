@@ -42,25 +42,48 @@ def _contact(i: int) -> ContactState:
 
 def _drag_torque() -> DragTorque:
     return DragTorque(
-        header=_header(11), total=0.0383, nut_master=0.0191, nut_slave=0.0192,
-        lubricant_shear=0.01, dry_contact=0.02, rolling_resistance=0.003,
-        hysteresis=0.004, curvature=0.0005, spin=0.0008, fidelity="catalog-zhou",
-        real_time_factor=0.004, screw_speed=-10.47, temperature=313.15, preload=3000.0,
+        header=_header(11),
+        total=0.0383,
+        nut_master=0.0191,
+        nut_slave=0.0192,
+        lubricant_shear=0.01,
+        dry_contact=0.02,
+        rolling_resistance=0.003,
+        hysteresis=0.004,
+        curvature=0.0005,
+        spin=0.0008,
+        fidelity="catalog-zhou",
+        real_time_factor=0.004,
+        screw_speed=-10.47,
+        temperature=313.15,
+        preload=3000.0,
     )
 
 
 def _health() -> HealthResidual:
     return HealthResidual(
-        header=_header(12), signal="drag_torque", measured=0.041, predicted=0.038,
-        residual=0.003, normalized_residual=1.5, test_statistic=7.25, threshold=10.0,
-        verdict=HealthResidual.WARN, fault_class="lubricant_degradation", confidence=0.6,
+        header=_header(12),
+        signal="drag_torque",
+        measured=0.041,
+        predicted=0.038,
+        residual=0.003,
+        normalized_residual=1.5,
+        test_statistic=7.25,
+        threshold=10.0,
+        verdict=HealthResidual.WARN,
+        fault_class="lubricant_degradation",
+        confidence=0.6,
     )
 
 
 SAMPLES: list[tuple[type, Any]] = [
     (ContactState, _contact(0)),
-    (ContactStateArray, ContactStateArray(
-        header=_header(10), fidelity="quasi-static", contacts=[_contact(0), _contact(1)])),
+    (
+        ContactStateArray,
+        ContactStateArray(
+            header=_header(10), fidelity="quasi-static", contacts=[_contact(0), _contact(1)]
+        ),
+    ),
     (DragTorque, _drag_torque()),
     (HealthResidual, _health()),
 ]
@@ -86,8 +109,12 @@ def test_round_trip(
 def test_constants() -> None:
     assert (ContactState.NUT_MASTER, ContactState.NUT_SLAVE) == (0, 1)
     assert (ContactState.S1, ContactState.S2, ContactState.N1, ContactState.N2) == (0, 1, 2, 3)
-    assert (HealthResidual.OK, HealthResidual.WARN, HealthResidual.FAULT,
-            HealthResidual.UNKNOWN) == (0, 1, 2, 3)
+    assert (
+        HealthResidual.OK,
+        HealthResidual.WARN,
+        HealthResidual.FAULT,
+        HealthResidual.UNKNOWN,
+    ) == (0, 1, 2, 3)
 
 
 def test_field_types() -> None:
@@ -97,6 +124,7 @@ def test_field_types() -> None:
     assert fields["half_groove"] == "uint8"
     assert fields["in_contact"] == "boolean"
     assert ContactStateArray.get_fields_and_field_types()["contacts"] == (
-        "sequence<ballscrew_twin_msgs/ContactState>")
+        "sequence<ballscrew_twin_msgs/ContactState>"
+    )
     assert DragTorque.get_fields_and_field_types()["header"] == "std_msgs/Header"
     assert HealthResidual.get_fields_and_field_types()["verdict"] == "uint8"

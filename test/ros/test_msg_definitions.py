@@ -18,7 +18,11 @@ UNIT = re.compile(r"\[[^\]]+\]")
 
 def test_all_messages_present() -> None:
     assert {p.stem for p in MSG_FILES} == {
-        "ContactState", "ContactStateArray", "DragTorque", "HealthResidual"}
+        "ContactState",
+        "ContactStateArray",
+        "DragTorque",
+        "HealthResidual",
+    }
 
 
 @pytest.mark.parametrize("path", MSG_FILES, ids=lambda p: p.stem)

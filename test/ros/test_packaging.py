@@ -16,8 +16,15 @@ def test_python_package_manifest() -> None:
     assert pkg.name == "ballscrew_twin"
     exec_deps = {d.name for d in pkg.exec_depends}
     assert exec_deps >= {
-        "rclpy", "std_msgs", "sensor_msgs", "geometry_msgs", "diagnostic_msgs",
-        "ballscrew_twin_msgs", "python3-numpy", "python3-scipy", "python3-yaml",
+        "rclpy",
+        "std_msgs",
+        "sensor_msgs",
+        "geometry_msgs",
+        "diagnostic_msgs",
+        "ballscrew_twin_msgs",
+        "python3-numpy",
+        "python3-scipy",
+        "python3-yaml",
     }
     assert {d.name for d in pkg.test_depends} >= {"python3-pytest"}
     assert pkg.get_build_type() == "ament_python"

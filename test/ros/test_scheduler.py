@@ -77,8 +77,10 @@ def test_bad_arguments(period: int, catch_up: int) -> None:
         TickScheduler(period, catch_up)
 
 
-@given(st.lists(st.integers(min_value=0, max_value=30 * PERIOD), min_size=1, max_size=60),
-       st.integers(min_value=1, max_value=20))
+@given(
+    st.lists(st.integers(min_value=0, max_value=30 * PERIOD), min_size=1, max_size=60),
+    st.integers(min_value=1, max_value=20),
+)
 def test_no_drift(steps: list[int], max_catch_up: int) -> None:
     """Over any monotonic clock: ticks run + ticks skipped = periods elapsed, every tick handed
     out is due, and the ticks are consecutive or separated by the skipped ones."""

@@ -33,8 +33,18 @@ from .conftest import SpinUntil
 
 SPEED = 10.47  # rad/s (100 rpm)
 TORQUE_FIELDS = (
-    "total", "nut_master", "nut_slave", "lubricant_shear", "dry_contact", "rolling_resistance",
-    "hysteresis", "curvature", "spin", "real_time_factor", "screw_speed", "temperature",
+    "total",
+    "nut_master",
+    "nut_slave",
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
+    "real_time_factor",
+    "screw_speed",
+    "temperature",
     "preload",
 )
 
@@ -87,8 +97,12 @@ def _all_finite(msg: DragTorque) -> bool:
 
 
 def _reach(
-    spin_until: SpinUntil, executor: SingleThreadedExecutor, bench: Bench,
-    speed: float, temp_c: float, preload: float,
+    spin_until: SpinUntil,
+    executor: SingleThreadedExecutor,
+    bench: Bench,
+    speed: float,
+    temp_c: float,
+    preload: float,
 ) -> DragTorque:
     """Command an operating point until a torque computed at it arrives; return that torque."""
 
@@ -96,11 +110,15 @@ def _reach(
         if not bench.torques:
             return False
         m = bench.torques[-1]
-        return (math.isclose(m.screw_speed, speed) and math.isclose(m.preload, preload)
-                and math.isclose(m.temperature, temp_c + 273.15))
+        return (
+            math.isclose(m.screw_speed, speed)
+            and math.isclose(m.preload, preload)
+            and math.isclose(m.temperature, temp_c + 273.15)
+        )
 
     assert spin_until(executor, arrived, every=bench.command(speed, temp_c, preload)), (
-        f"no drag_torque at speed {speed} rad/s, {temp_c} deg C, {preload} N")
+        f"no drag_torque at speed {speed} rad/s, {temp_c} deg C, {preload} N"
+    )
     return bench.torques[-1]
 
 
@@ -148,9 +166,16 @@ def test_command_moves_torque_the_right_way_within_a_few_ticks(
     assert first.total == pytest.approx(3.0 * low.total, rel=1e-12)
     assert all(_all_finite(m) for m in bench.torques)
     config = load_config(None).screw
-    assert low.total == pytest.approx(drag_torque_zhou(
-        1000.0, 0.002, config.nominal_contact_angle, config.pitch_radius, config.ball_radius,
-        config.helix_angle))
+    assert low.total == pytest.approx(
+        drag_torque_zhou(
+            1000.0,
+            0.002,
+            config.nominal_contact_angle,
+            config.pitch_radius,
+            config.ball_radius,
+            config.helix_angle,
+        )
+    )
 
     backward = _reach(spin_until, executor, bench, -SPEED, 20.0, 3000.0)
     assert backward.total == pytest.approx(-first.total)
@@ -178,8 +203,14 @@ def test_contact_states_carry_every_sphere(
     why = unavailable(fidelity_mode, ModelSettings(config=load_config(None)))
     if why is not None:
         pytest.skip(f"{fidelity_mode} model not available here: {why}")
-    twin = _twin(executor, fidelity=fidelity_mode, steady_mode="full", sim_rate_hz=200.0,
-                 contact_rate_hz=50.0, initial_screw_speed=SPEED)
+    twin = _twin(
+        executor,
+        fidelity=fidelity_mode,
+        steady_mode="full",
+        sim_rate_hz=200.0,
+        contact_rate_hz=50.0,
+        initial_screw_speed=SPEED,
+    )
     bench = Bench(executor)
     assert spin_until(executor, lambda: len(bench.contacts) >= 2, timeout=30.0)
     msg = bench.contacts[-1]
@@ -187,8 +218,7 @@ def test_contact_states_carry_every_sphere(
     rows = {(c.nut, c.sphere_index, c.half_groove) for c in msg.contacts}
     assert rows == {(n, i, g) for n in (0, 1) for i in range(z) for g in range(4)}
     loaded = [c for c in msg.contacts if c.in_contact]
-    assert {(c.nut, c.sphere_index) for c in loaded} == {(n, i) for n in (0, 1)
-                                                          for i in range(z)}
+    assert {(c.nut, c.sphere_index) for c in loaded} == {(n, i) for n in (0, 1) for i in range(z)}
     assert all(c.normal_force > 0.0 and math.isfinite(c.max_pressure) for c in loaded)
     assert msg.fidelity == bench.torques[-1].fidelity
 
@@ -224,8 +254,9 @@ def test_sim_time_follows_clock_and_survives_a_jump_back(
 
     def advance() -> None:  # 10 ms of sim time per spin step (much faster than wall time)
         sim["ns"] += 10_000_000
-        bench.clock.publish(Clock(clock=Time(sec=sim["ns"] // NS_PER_S,
-                                             nanosec=sim["ns"] % NS_PER_S)))
+        bench.clock.publish(
+            Clock(clock=Time(sec=sim["ns"] // NS_PER_S, nanosec=sim["ns"] % NS_PER_S))
+        )
 
     assert spin_until(executor, lambda: len(bench.torques) >= 30, every=advance)
     stamps = [_stamp_ns(m.header.stamp) for m in bench.torques[-20:]]
@@ -276,8 +307,9 @@ def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
 
     def advance() -> None:
         sim["ns"] += 10_000_000
-        bench.clock.publish(Clock(clock=Time(sec=sim["ns"] // NS_PER_S,
-                                             nanosec=sim["ns"] % NS_PER_S)))
+        bench.clock.publish(
+            Clock(clock=Time(sec=sim["ns"] // NS_PER_S, nanosec=sim["ns"] % NS_PER_S))
+        )
 
     def on_sim_time() -> list[int]:
         # Sim time is seconds since 7 s; wall time since 1970.
@@ -292,10 +324,14 @@ def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
     assert after.header.stamp.sec > 1_000_000  # wall time again (seconds since 1970)
 
 
-def test_joint_state_speed_input(executor: SingleThreadedExecutor,
-                                 spin_until: SpinUntil) -> None:
-    _twin(executor, fidelity="catalog", speed_type="joint_state", speed_topic="joint_states",
-          speed_joint="screw")
+def test_joint_state_speed_input(executor: SingleThreadedExecutor, spin_until: SpinUntil) -> None:
+    _twin(
+        executor,
+        fidelity="catalog",
+        speed_type="joint_state",
+        speed_topic="joint_states",
+        speed_joint="screw",
+    )
     bench = Bench(executor)
 
     def publish() -> None:
@@ -303,8 +339,11 @@ def test_joint_state_speed_input(executor: SingleThreadedExecutor,
         msg.header.stamp = bench.get_clock().now().to_msg()
         bench.joint.publish(msg)
 
-    assert spin_until(executor, lambda: bool(bench.torques)
-                      and bench.torques[-1].screw_speed == -SPEED, every=publish)
+    assert spin_until(
+        executor,
+        lambda: bool(bench.torques) and bench.torques[-1].screw_speed == -SPEED,
+        every=publish,
+    )
     assert bench.torques[-1].total < 0.0
 
 
@@ -315,8 +354,12 @@ def test_diagnostics_report_model_real_time_inputs_and_validity(
     bench = Bench(executor)
     assert spin_until(executor, lambda: len(bench.diagnostics) >= 1)
     names = {s.name for s in bench.diagnostics[-1].status}
-    assert {"ballscrew_twin: model", "ballscrew_twin: real time",
-            "ballscrew_twin: input preload", "ballscrew_twin: validity"} <= names
+    assert {
+        "ballscrew_twin: model",
+        "ballscrew_twin: real time",
+        "ballscrew_twin: input preload",
+        "ballscrew_twin: validity",
+    } <= names
 
     checks = {c.name: c for c in twin.diagnostic_checks()}
     assert checks["input preload"].level == diagnostics.WARN  # nothing received yet
@@ -427,8 +470,10 @@ def test_bad_start_up_parameters_refused(
     executor: SingleThreadedExecutor, params: dict[str, object], named: str
 ) -> None:
     with pytest.raises(ValueError, match=named):
-        TwinNode(context=executor.context,
-                 parameter_overrides=[Parameter(k, value=v) for k, v in params.items()])
+        TwinNode(
+            context=executor.context,
+            parameter_overrides=[Parameter(k, value=v) for k, v in params.items()],
+        )
 
 
 def test_outside_the_envelope_clamped_and_warned(
@@ -439,8 +484,11 @@ def test_outside_the_envelope_clamped_and_warned(
     inside = _reach(spin_until, executor, bench, SPEED, 20.0, 1000.0)
     # 20 kN: a plausible command (within limits.max_preload) beyond the validated 5 kN.
     bench.preload.publish(Float64(data=20_000.0))
-    assert spin_until(executor, lambda: twin.preload.value == 20_000.0,
-                      every=lambda: bench.preload.publish(Float64(data=20_000.0)))
+    assert spin_until(
+        executor,
+        lambda: twin.preload.value == 20_000.0,
+        every=lambda: bench.preload.publish(Float64(data=20_000.0)),
+    )
     after = _published_after(spin_until, executor, bench, twin._now_ns())
     envelope_max = DEFAULT_MAX_PRELOAD  # N
     assert after.preload == envelope_max

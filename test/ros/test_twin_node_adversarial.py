@@ -23,29 +23,58 @@ from .conftest import SpinUntil
 
 COMMANDS = 4000
 #: Values no input may take, and values only some inputs may take.
-NASTY = (math.nan, math.inf, -math.inf, -1.0, -1e-300, 1e300, -1e300, 1e9, 0.0, 5e-324,
-         3000.0, 3000.0 / RAD_S_PER_RPM, 293.15, -273.15, 1.0e4)
+NASTY = (
+    math.nan,
+    math.inf,
+    -math.inf,
+    -1.0,
+    -1e-300,
+    1e300,
+    -1e300,
+    1e9,
+    0.0,
+    5e-324,
+    3000.0,
+    3000.0 / RAD_S_PER_RPM,
+    293.15,
+    -273.15,
+    1.0e4,
+)
 
 
 def _value(rng: random.Random) -> float:
     if rng.random() < 0.6:
         return rng.choice(NASTY)
-    return rng.choice((rng.uniform(-2500.0, 2500.0), rng.uniform(0.0, 6.0e4),
-                       rng.uniform(-60.0, 250.0)))
+    return rng.choice(
+        (rng.uniform(-2500.0, 2500.0), rng.uniform(0.0, 6.0e4), rng.uniform(-60.0, 250.0))
+    )
 
 
 def _stamp(rng: random.Random, now_ns: int) -> Time:
     """Unset, current, stale, future, far past or random header stamps."""
-    ns = rng.choice((0, now_ns, now_ns - 5 * NS_PER_S, now_ns + 5 * NS_PER_S,
-                     now_ns - NS_PER_S // 10, rng.randrange(0, 2**31) * NS_PER_S))
+    ns = rng.choice(
+        (
+            0,
+            now_ns,
+            now_ns - 5 * NS_PER_S,
+            now_ns + 5 * NS_PER_S,
+            now_ns - NS_PER_S // 10,
+            rng.randrange(0, 2**31) * NS_PER_S,
+        )
+    )
     return Time(sec=ns // NS_PER_S, nanosec=ns % NS_PER_S)
 
 
 def test_adversarial_commands_never_stop_or_corrupt_the_output(
     executor: SingleThreadedExecutor, spin_until: SpinUntil
 ) -> None:
-    twin = TwinNode(context=executor.context, parameter_overrides=[
-        Parameter("fidelity", value="catalog"), Parameter("sim_rate_hz", value=500.0)])
+    twin = TwinNode(
+        context=executor.context,
+        parameter_overrides=[
+            Parameter("fidelity", value="catalog"),
+            Parameter("sim_rate_hz", value=500.0),
+        ],
+    )
     executor.add_node(twin)
     bench = Node("bench", context=executor.context)
     executor.add_node(bench)
@@ -58,8 +87,12 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
         "axial": bench.create_publisher(Float64, "axial_load_command", qos),
         "temperature": bench.create_publisher(Temperature, "temperature", qos),
     }
-    handlers = {"speed": twin._on_speed, "preload": twin._on_preload,
-                "axial": twin._on_axial_load, "temperature": twin._on_temperature}
+    handlers = {
+        "speed": twin._on_speed,
+        "preload": twin._on_preload,
+        "axial": twin._on_axial_load,
+        "temperature": twin._on_temperature,
+    }
     assert spin_until(executor, lambda: len(torques) >= 5)
 
     rng = random.Random(20261121)
@@ -84,8 +117,18 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
 
     limits = twin.limits
     for m in torques:
-        values = [getattr(m, f) for f in ("total", "nut_master", "nut_slave", "screw_speed",
-                                          "temperature", "preload", "real_time_factor")]
+        values = [
+            getattr(m, f)
+            for f in (
+                "total",
+                "nut_master",
+                "nut_slave",
+                "screw_speed",
+                "temperature",
+                "preload",
+                "real_time_factor",
+            )
+        ]
         assert all(math.isfinite(v) for v in values), m
         assert abs(m.screw_speed) <= limits.max_screw_speed
         assert limits.min_temperature <= m.temperature <= limits.max_temperature
