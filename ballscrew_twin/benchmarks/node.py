@@ -3,12 +3,14 @@
 For each tick source (the node's tick thread, or the executor's timer) and each executor
 (``SingleThreadedExecutor`` and rclpy's ``EventsExecutor``), one after the other in the same
 run, the twin node runs in a process of its own at ``--rate`` (1 kHz) with contact states at
-``--contact-rate`` (100 Hz), while this process publishes commands at 100 Hz and counts what
-arrives. First, as the machine's floor, a process with nothing but the tick thread's sleep
-loop (no ROS, no model) measures how late the operating system wakes a thread that sleeps until
-each tick is due. ``--duration`` is split into ``--rounds`` interleaved rounds of every variant,
-so that a change of the shared machine's load hits all of them alike. Measured after a warm-up
-in each round, over ``--duration`` seconds in all:
+``--contact-rate`` (100 Hz), while this process publishes a varying speed command at
+``--command-rate`` (100 Hz; a bench streaming its encoder speed runs at 1 kHz), temperature and
+preload at up to 100 Hz, and counts what arrives. First, as the machine's floor, a process
+with nothing but the tick thread's sleep loop (no ROS, no model) measures how late the operating
+system wakes a thread that sleeps until each tick is due. ``--duration`` is split into
+``--rounds`` interleaved rounds of every variant, so that a change of the shared machine's load
+hits all of them alike. Measured after a warm-up in each round, over ``--duration`` seconds in
+all:
 
 - share of ticks published on time (within 1 ms of their due time; skipped ticks count as
   late), tick latency p50/p99/max (due time to publish returned, node clock = wall time);
@@ -107,6 +109,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rate", type=float, default=1000.0, help="simulation rate [Hz]")
     parser.add_argument("--contact-rate", type=float, default=100.0, help="contact states [Hz]")
     parser.add_argument(
+        "--command-rate",
+        type=float,
+        default=100.0,
+        help="speed commands [Hz] (each a new value; temperature and preload at <= 100 Hz)",
+    )
+    parser.add_argument(
         "--executors", default="events,single_threaded", help="comma-separated: events,..."
     )
     parser.add_argument(
@@ -147,6 +155,31 @@ def _model_parameters(requested: str) -> dict[str, Any]:
     if unavailable("realtime", ModelSettings(config=load_config(None))) is None:
         return {"fidelity": "realtime"}
     return {"fidelity": "quasi_static", "steady_mode": "full"}
+
+
+def step_costs(count: int = 2000) -> dict[tuple[bool, bool], float]:
+    """Median wall time of one real-time model step on a command it has not seen [s], keyed
+    by (compiled interpolation, with contact states); the compiled and the numpy reference
+    model are stepped alternately, so a change of the machine's load hits both alike."""
+    from ..models.base import OperatingPoint
+    from ..models.realtime import RealTimeModel
+    from ..params import load_config
+
+    config = load_config(None)
+    models = {compiled: RealTimeModel(config, compiled=compiled) for compiled in (True, False)}
+    times: dict[tuple[bool, bool], list[float]] = {
+        (compiled, contacts): [] for compiled in (True, False) for contacts in (False, True)
+    }
+    for i in range(count):
+        # A new speed each call: an unchanged command would return the cached output.
+        speed = SPEED * (1.0 + 1e-5 * i)
+        op = OperatingPoint(screw_speed=speed, temperature=293.15, preload=1500.0)
+        for (compiled, contacts), samples in times.items():
+            model = models[compiled]
+            start = time.perf_counter()
+            model.step(op, 1e-3, contacts=contacts)
+            samples.append(time.perf_counter() - start)
+    return {key: float(np.median(samples)) for key, samples in times.items()}
 
 
 def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> None:
@@ -324,14 +357,20 @@ def _run_one(
     temp_pub = node.create_publisher(Temperature, "temperature", qos)
     preload_pub = node.create_publisher(Float64, "preload_command", qos)
 
+    # Temperature and preload with every speed command up to 100 Hz, then every n-th.
+    every = max(round(args.command_rate / 100.0), 1)
+    calls = [0]
+
     def command() -> None:
         t = time.monotonic()
         speed = SPEED * (1.0 + 0.5 * math.sin(t)) if vary else SPEED
         speed_pub.publish(Float64(data=speed))
-        temp_pub.publish(Temperature(temperature=20.0))
-        preload_pub.publish(Float64(data=1500.0))
+        if calls[0] % every == 0:
+            temp_pub.publish(Temperature(temperature=20.0))
+            preload_pub.publish(Float64(data=1500.0))
+        calls[0] += 1
 
-    node.create_timer(0.01, command)
+    node.create_timer(1.0 / args.command_rate, command)
     # The events executor: this process receives ~1100 messages a second and must not load
     # the machine the node runs on (with SingleThreadedExecutor it took ~45 % of a core).
     executor = EventsExecutor(context=context)
@@ -487,6 +526,8 @@ def run(args: argparse.Namespace) -> int:
     sources = _names(args.tick_sources, TICK_SOURCES, "--tick-sources")
     if not (args.duration > 0.0 and args.rate > 0.0 and 0.0 <= args.contact_rate <= args.rate):
         raise SystemExit("need --duration > 0, --rate > 0, 0 <= --contact-rate <= --rate")
+    if not 0.1 <= args.command_rate <= 10_000.0:
+        raise SystemExit(f"--command-rate {args.command_rate:g} Hz: must be in [0.1, 10000] Hz")
     if args.rounds < 1:
         raise SystemExit(f"--rounds {args.rounds}: must be >= 1")
     try:
@@ -496,11 +537,21 @@ def run(args: argparse.Namespace) -> int:
     if not priorities or not all(0 <= p <= 99 for p in priorities):
         raise SystemExit(f"--priorities {args.priorities!r}: each 0 (off) or 1..99")
     print(
-        f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, "
+        f"twin node at {args.rate:g} Hz, contact states at {args.contact_rate:g} Hz, speed "
+        f"commands at {args.command_rate:g} Hz, "
         f"{args.duration:g} s measured per variant in {args.rounds} interleaved rounds, each "
         f"after {WARMUP:g} s warm-up; "
         f"{psutil.cpu_count()} cores, load average before {os.getloadavg()[0]:.2f}"
     )
+    if _model_parameters(args.fidelity)["fidelity"] == "realtime":
+        cost = step_costs()
+        print(
+            "  real-time model step on a new command (median of 2000, alternating): "
+            f"torque only {cost[True, False] * 1e6:.1f} us compiled / "
+            f"{cost[False, False] * 1e6:.1f} us numpy reference, with the contact states "
+            f"{cost[True, True] * 1e6:.1f} / {cost[False, True] * 1e6:.1f} us",
+            flush=True,
+        )
     # (tick source or "floor", executor, priority); a priority only matters on a thread.
     variants: list[tuple[str, str, int]] = (
         [] if args.no_floor else [("floor", "", p) for p in priorities]

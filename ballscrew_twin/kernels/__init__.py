@@ -6,4 +6,6 @@ Each kernel mirrors a readable numpy reference elsewhere in the package and is t
   :func:`ballscrew_twin.models.contact_forces.evaluate_contacts`.
 - :mod:`ballscrew_twin.kernels.dynamic_step`: one time step of the dynamic model, the compiled
   twin of ``DynamicModel._step``.
+- :mod:`ballscrew_twin.kernels.map_sample`: the real-time map's interpolation, the compiled twin
+  of ``SteadyMap._interpolate_reference``.
 """

@@ -42,6 +42,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from ..errors import BallscrewTwinError, SolverError
@@ -92,6 +93,8 @@ LOG_SCALES: dict[str, float] = {
 _LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])
 _LOG_SCALE_VALUES = np.array([LOG_SCALES[name] for name in CONTACT_FIELDS if name in LOG_SCALES])
 #: Lower bound of each field after interpolation: 0 except for the contact angle.
+#: The scales by field, 1 where the field is interpolated as it is (the compiled kernel's form).
+_LOG_SCALES_FULL = np.array([LOG_SCALES.get(name, 1.0) for name in CONTACT_FIELDS])
 _LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in CONTACT_FIELDS])
 HALF_GROOVES = 4
 NUTS = 2
@@ -410,12 +413,20 @@ class AxisPosition:
     clamped: bool
 
 
-def locate(u: float, count: int) -> AxisPosition:
-    """Position ``u`` in node units (0 .. count-1) of an axis of ``count`` nodes, clamped."""
-    clamped = not 0.0 <= u <= count - 1
+def axis_cell(u: float, count: int) -> tuple[int, float]:
+    """Cell index and fraction in it [-] of ``u`` in node units (0 .. count-1) on an axis of
+    ``count`` nodes, clamped to the axis."""
     u = min(max(u, 0.0), count - 1.0)
     cell = min(int(u), count - 2)
-    return AxisPosition(start=cell, weights=catmull_rom_weights(u - cell), clamped=clamped)
+    return cell, u - cell
+
+
+def locate(u: float, count: int) -> AxisPosition:
+    """Position ``u`` in node units (0 .. count-1) of an axis of ``count`` nodes, clamped."""
+    cell, fraction = axis_cell(u, count)
+    return AxisPosition(
+        start=cell, weights=catmull_rom_weights(fraction), clamped=not 0.0 <= u <= count - 1
+    )
 
 
 @dataclass(frozen=True)
@@ -427,24 +438,40 @@ class _Positions:
     preload: AxisPosition
 
 
-def _speed_position(grid: MapGrid, speed: float) -> AxisPosition:
-    """Stencil of |speed| [rad/s] on ``grid`` (uniform in log |speed|)."""
+def speed_node(grid: MapGrid, speed: float) -> float:
+    """|speed| [rad/s] in node units of ``grid``'s speed axis (uniform in log |speed|) [-]."""
     u = math.log(max(speed, grid.speed_min) / grid.speed_min) / math.log(
         grid.speed_max / grid.speed_min
     )
-    return locate(u * (grid.speed_nodes - 1), grid.speed_nodes)
+    return u * (grid.speed_nodes - 1)
+
+
+def temperature_node(grid: MapGrid, temperature: float) -> float:
+    """The temperature [K] in node units of ``grid``'s temperature axis (uniform) [-]."""
+    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
+    return u * (grid.temperature_nodes - 1)
+
+
+def preload_node(grid: MapGrid, preload: float) -> float:
+    """The equivalent preload [N] in node units of ``grid``'s preload axis (uniform in
+    sqrt(preload)) [-]."""
+    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
+    return u * (grid.preload_nodes - 1)
+
+
+def _speed_position(grid: MapGrid, speed: float) -> AxisPosition:
+    """Stencil of |speed| [rad/s] on ``grid``."""
+    return locate(speed_node(grid, speed), grid.speed_nodes)
 
 
 def _temperature_position(grid: MapGrid, temperature: float) -> AxisPosition:
-    """Stencil of the temperature [K] on ``grid`` (uniform)."""
-    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
-    return locate(u * (grid.temperature_nodes - 1), grid.temperature_nodes)
+    """Stencil of the temperature [K] on ``grid``."""
+    return locate(temperature_node(grid, temperature), grid.temperature_nodes)
 
 
 def _preload_position(grid: MapGrid, preload: float) -> AxisPosition:
-    """Stencil of the equivalent preload [N] on ``grid`` (uniform in sqrt(preload))."""
-    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
-    return locate(u * (grid.preload_nodes - 1), grid.preload_nodes)
+    """Stencil of the equivalent preload [N] on ``grid``."""
+    return locate(preload_node(grid, preload), grid.preload_nodes)
 
 
 def _stencil(table: FloatArray, pos: _Positions) -> FloatArray:
@@ -516,6 +543,9 @@ class SteadyMap:
     _padded: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
     _coarse: MapGrid | None = field(default=None, compare=False, repr=False)
     _any_filled: bool = field(default=False, compare=False, repr=False)
+    _filled_window: NDArray[np.bool_] = field(
+        default_factory=lambda: np.zeros((2, 1, 1, 1), dtype=bool), compare=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         self.grid.check_buildable()
@@ -548,6 +578,11 @@ class SteadyMap:
         self._padded.update(torque=torque, contacts=contacts, static=static)
         object.__setattr__(self, "_coarse", c)
         object.__setattr__(self, "_any_filled", bool(self.filled.any()))
+        # [sign, s, t, p]: whether filled[sign, s:s+4, t:t+4, p:p+4] holds a filled node.
+        ends = ((0, 0), (0, 3), (0, 3), (0, 3))
+        padded_filled = np.pad(np.asarray(self.filled, dtype=bool), ends)
+        window = sliding_window_view(padded_filled, (4, 4, 4), axis=(1, 2, 3))
+        object.__setattr__(self, "_filled_window", window.any(axis=(-3, -2, -1)))
 
     @property
     def node_count(self) -> int:
@@ -583,10 +618,11 @@ class SteadyMap:
                 )
         return notes
 
-    def _filled_near(self, sign: int, pos: _Positions) -> bool:
-        """Whether the stencil at ``pos`` uses a filled node."""
-        s, t, p = (max(a.start - 1, 0) for a in (pos.speed, pos.temperature, pos.preload))
-        return bool(self.filled[sign, s : s + 4, t : t + 4, p : p + 4].any())
+    def _filled_near(self, sign: int, cells: tuple[int, int, int]) -> bool:
+        """Whether the fine stencil of the (speed, temperature, preload) ``cells`` of ``sign``
+        uses a filled node (or one next to it)."""
+        s, t, p = (max(cell - 1, 0) for cell in cells)
+        return bool(self._filled_window[sign, s, t, p])
 
     def sample(
         self,
@@ -594,6 +630,7 @@ class SteadyMap:
         temperature: float,
         preloads: tuple[float, float],
         contacts: bool = True,
+        compiled: bool = True,
     ) -> MapSample:
         """Interpolate both nuts.
 
@@ -604,60 +641,123 @@ class SteadyMap:
                 :func:`equivalent_preloads`.
             contacts: interpolate the contact states too (False: torque only, about half the
                 work; ``MapSample.contacts`` is None).
+            compiled: the numba kernels of ``kernels/map_sample.py`` (~10 us); False: the numpy
+                reference :meth:`_interpolate_reference` (~100 us), equal to rounding.
         """
         g = self.grid
         sign = 0 if screw_speed >= 0.0 else 1
         speed = abs(screw_speed)
         notes = self._clamp_notes(speed, temperature, preloads)
         blend = min(speed / g.speed_min, 1.0)  # 1 on the map, -> 0 at standstill
+        interpolate = self._interpolate_compiled if compiled else self._interpolate_reference
+        torque, states = interpolate(sign, speed, temperature, preloads, contacts, blend)
+        if self._any_filled:
+            s = axis_cell(speed_node(g, speed), g.speed_nodes)[0]
+            t = axis_cell(temperature_node(g, temperature), g.temperature_nodes)[0]
+            for nut, preload in enumerate(preloads):
+                p = axis_cell(preload_node(g, preload), g.preload_nodes)[0]
+                if self._filled_near(sign, (s, t, p)):
+                    notes.append(
+                        f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady "
+                        "solver failed (filled from the nearest solved speed)"
+                    )
+        return MapSample(torque, states, tuple(notes))
+
+    def _interpolate_reference(
+        self,
+        sign: int,
+        speed: float,
+        temperature: float,
+        preloads: tuple[float, float],
+        contacts: bool,
+        blend: float,
+    ) -> tuple[FloatArray, FloatArray | None]:
+        """(2, 6) torques [N m] and (2, 4, F) contact states or None (``contacts`` False) at
+        |``speed``| [rad/s] of ``sign`` (0: >= 0), ``temperature`` [K], ``preloads`` [N] and
+        standstill ``blend`` [-]: the readable numpy reference."""
+        g = self.grid
         fine_s, fine_t = _speed_position(g, speed), _temperature_position(g, temperature)
+        values = np.empty((NUTS, len(MECHANISMS) + 1))
         if not contacts:
-            values = np.empty((NUTS, len(MECHANISMS) + 1))
             stencils: dict[float, FloatArray] = {}
             for nut, preload in enumerate(preloads):
-                pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
                 if preload not in stencils:
+                    pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
                     stencils[preload] = _stencil(self._padded["torque"][sign], pos)
                 values[nut] = stencils[preload][nut]
-                self._note_filled(notes, nut, sign, pos)
-            return MapSample(_nut_torques(values, blend), None, tuple(notes))
+            return _nut_torques(values, blend), None
         c = self._coarse
         assert c is not None
         coarse_s, coarse_t = _speed_position(c, speed), _temperature_position(c, temperature)
-        values = np.empty((NUTS, len(MECHANISMS) + 1))
         rows = np.empty((NUTS, HALF_GROOVES * len(CONTACT_FIELDS)))
         still = np.empty_like(rows)
-        solved: dict[float, tuple[_Positions, FloatArray, FloatArray, FloatArray | None]] = {}
+        solved: dict[float, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
         for nut, preload in enumerate(preloads):
             if preload not in solved:  # both nuts at once; one stencil when the loads agree
                 pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
                 coarse = _Positions(coarse_s, coarse_t, _preload_position(c, preload))
                 solved[preload] = (
-                    pos,
                     _stencil(self._padded["torque"][sign], pos),
                     _stencil(self._padded["contacts"][sign], coarse),
                     _stencil_2d(self._padded["static"], coarse) if blend < 1.0 else None,
                 )
-            pos, nut_values, nut_rows, nut_still = solved[preload]
+            nut_values, nut_rows, nut_still = solved[preload]
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
             if nut_still is not None:
                 still[nut] = nut_still[nut]
-            self._note_filled(notes, nut, sign, pos)
         torque = _nut_torques(values, blend)
         states = rows.reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
         states[..., _LOG_FIELDS] = _LOG_SCALE_VALUES * np.sinh(states[..., _LOG_FIELDS])
         if blend < 1.0:
             states = states * blend + still.reshape(states.shape) * (1.0 - blend)
         np.maximum(states, _LOWER_BOUND, out=states)
-        return MapSample(torque=torque, contacts=states, notes=tuple(notes))
+        return torque, states
 
-    def _note_filled(self, notes: list[str], nut: int, sign: int, pos: _Positions) -> None:
-        """Append a note when the stencil of ``nut`` at ``pos`` uses a filled node."""
-        if self._any_filled and self._filled_near(sign, pos):
-            notes.append(
-                f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady solver "
-                "failed (filled from the nearest solved speed)"
-            )
+    def _interpolate_compiled(
+        self,
+        sign: int,
+        speed: float,
+        temperature: float,
+        preloads: tuple[float, float],
+        contacts: bool,
+        blend: float,
+    ) -> tuple[FloatArray, FloatArray | None]:
+        """As :meth:`_interpolate_reference`, by the kernels of ``kernels/map_sample.py``."""
+        from ..kernels import map_sample
+
+        g = self.grid
+        cells = np.empty(NUTS, dtype=np.int64)
+        fractions = np.empty(NUTS)
+        for nut, preload in enumerate(preloads):
+            cells[nut], fractions[nut] = axis_cell(preload_node(g, preload), g.preload_nodes)
+        torque = map_sample.nut_torques(
+            self._padded["torque"][sign],
+            axis_cell(speed_node(g, speed), g.speed_nodes),
+            axis_cell(temperature_node(g, temperature), g.temperature_nodes),
+            cells,
+            fractions,
+            blend,
+            TORQUE_SCALE,
+        )
+        if not contacts:
+            return torque, None
+        c = self._coarse
+        assert c is not None
+        for nut, preload in enumerate(preloads):
+            cells[nut], fractions[nut] = axis_cell(preload_node(c, preload), c.preload_nodes)
+        states = map_sample.contact_states(
+            self._padded["contacts"][sign],
+            self._padded["static"],
+            axis_cell(speed_node(c, speed), c.speed_nodes),
+            axis_cell(temperature_node(c, temperature), c.temperature_nodes),
+            cells,
+            fractions,
+            blend,
+            _LOG_FIELDS,
+            _LOG_SCALES_FULL,
+            _LOWER_BOUND,
+        )
+        return torque, states
 
     # ------------------------------------------------------------------ files
 

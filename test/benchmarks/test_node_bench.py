@@ -64,6 +64,10 @@ def test_short_run_accounts_for_every_tick_and_message(
     # Another process received what was published (as CDR bytes) at the configured rates.
     assert 150 <= torque_rate <= 220 and 15 <= contact_rate <= 22 and 15 <= published <= 22
     assert "ticks: thread (" in out and model.split("_")[0] in out
+    if model == "realtime":  # the model's step cost, compiled against the numpy reference
+        costs = re.search(r"torque only ([\d.]+) us compiled / ([\d.]+) us numpy reference", out)
+        assert costs is not None, out
+        assert min(float(costs.group(1)), float(costs.group(2))) > 0.0
     assert plot.stat().st_size > 10_000
 
 
