@@ -104,7 +104,10 @@ class StealMeter:
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``bench node``."""
     parser.add_argument(
-        "--duration", type=float, default=60.0, help="measured time per executor [s]"
+        "--duration",
+        type=float,
+        default=60.0,
+        help="measured time per variant, split into --rounds [s]",
     )
     parser.add_argument("--rate", type=float, default=1000.0, help="simulation rate [Hz]")
     parser.add_argument("--contact-rate", type=float, default=100.0, help="contact states [Hz]")
