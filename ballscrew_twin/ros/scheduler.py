@@ -5,7 +5,10 @@ under ``use_sim_time``). Each time the node wakes up it asks :meth:`TickSchedule
 ticks to run: every tick that fell due since the last one (catching up after a short stall),
 only the newest one when more than ``max_catch_up`` are due (the others are counted as
 skipped), and a fresh start when the clock jumped backwards or far forwards. So the simulation
-never drifts from the clock: it either keeps up, catches up, or skips and says so.
+never drifts from the clock: it either keeps up, catches up, or skips and says so. On a wall
+clock a far forward leap is time the caller did not run (a stall, or a stepped system clock),
+so the ticks that fell due in it are counted as skipped too; on a replayed ``/clock`` it is a
+seek, and nothing was missed.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ class TickPlan(NamedTuple):
 
     Attributes:
         ticks: indices of the ticks to run, oldest first (times: :meth:`TickScheduler.time_of`).
-        skipped: ticks that fell due but are not run (too far behind) [-].
+        skipped: ticks that fell due but are not run (too far behind, or a forward jump of a wall
+            clock) [-].
         jumped_back: the clock went backwards: the schedule restarted at ``now`` [-].
         jumped_forward: the clock leapt ahead by more than :data:`FORWARD_JUMP_NS`: restarted.
     """
@@ -38,15 +42,17 @@ class TickScheduler:
     Args:
         period_ns: simulation step [ns], > 0.
         max_catch_up: most ticks run in one wake-up; more due ticks are skipped [-], >= 1.
+        wall_clock: the clock is wall time: the ticks passed in a forward jump count as skipped.
     """
 
-    def __init__(self, period_ns: int, max_catch_up: int) -> None:
+    def __init__(self, period_ns: int, max_catch_up: int, *, wall_clock: bool = False) -> None:
         if period_ns <= 0:
             raise ValueError(f"period_ns = {period_ns} must be > 0")
         if max_catch_up < 1:
             raise ValueError(f"max_catch_up = {max_catch_up} must be >= 1")
         self.period_ns = period_ns
         self.max_catch_up = max_catch_up
+        self.wall_clock = wall_clock
         self.origin_ns: int | None = None
         #: Index of the last tick handed out.
         self.last_index = 0
@@ -79,7 +85,9 @@ class TickScheduler:
             return TickPlan(range(0))
         if backlog > self.max_catch_up:
             if backlog * self.period_ns > FORWARD_JUMP_NS:
-                return self._start(now_ns, jumped_forward=True)
+                # The restart runs one tick of the backlog; on a wall clock the rest were missed.
+                missed = backlog - 1 if self.wall_clock else 0
+                return self._start(now_ns, jumped_forward=True, skipped=missed)
             self.last_index = due_index
             return TickPlan(range(due_index, due_index + 1), skipped=backlog - 1)
         first = self.last_index + 1
@@ -87,9 +95,14 @@ class TickScheduler:
         return TickPlan(range(first, due_index + 1))
 
     def _start(
-        self, now_ns: int, *, jumped_back: bool = False, jumped_forward: bool = False
+        self,
+        now_ns: int,
+        *,
+        jumped_back: bool = False,
+        jumped_forward: bool = False,
+        skipped: int = 0,
     ) -> TickPlan:
-        """Restart at ``now_ns`` and hand out tick 0."""
+        """Restart at ``now_ns`` and hand out tick 0 (``skipped`` ticks missed before)."""
         self.origin_ns = now_ns
         self.last_index = 0
-        return TickPlan(range(1), jumped_back=jumped_back, jumped_forward=jumped_forward)
+        return TickPlan(range(1), skipped, jumped_back, jumped_forward)

@@ -592,8 +592,11 @@ class TwinNode(Node):
         """(Re)start the tick schedule at the current rates, driven by the tick thread on wall
         time (``tick_source: thread``) or by an executor timer (also under use_sim_time)."""
         self.period_ns = max(round(NS_PER_S / self.sim_rate), 1)
+        self._wall_time = not self.get_parameter("use_sim_time").value
         self.scheduler = TickScheduler(
-            self.period_ns, int(self.get_parameter("max_catch_up_ticks").value)
+            self.period_ns,
+            int(self.get_parameter("max_catch_up_ticks").value),
+            wall_clock=self._wall_time,
         )
         contact_rate = self._float("contact_rate_hz")
         self.contact_every = (
@@ -602,7 +605,6 @@ class TwinNode(Node):
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
-        self._wall_time = not self.get_parameter("use_sim_time").value
         on_thread = self._str("tick_source") == "thread" and self._wall_time
         if not on_thread:
             self._timer = self.create_timer(self.period_ns / NS_PER_S, self._on_timer)
@@ -766,11 +768,6 @@ class TwinNode(Node):
             return
         last_due = self.scheduler.time_of(self.scheduler.last_index)
         plan = self.scheduler.due(now)
-        skipped = plan.skipped
-        if plan.jumped_forward and self._wall_time:
-            # On wall time a leap forward is the node not running for that long (a stall) or
-            # the system clock being stepped: either way no tick was published in between.
-            skipped = max((now - last_due) // self.period_ns - 1, 0)
         if plan.jumped_back:
             self.clock_jumps_back += 1
             for channel in self.channels:
@@ -788,13 +785,13 @@ class TwinNode(Node):
                 "tick; on wall time: the node stalled or the system clock was stepped): "
                 "simulation restarted there"
             )
-        if skipped:
-            self.window.skipped += skipped
-            self._auto_window.skipped += skipped
-            self.skipped_total += skipped
+        if plan.skipped:
+            self.window.skipped += plan.skipped
+            self._auto_window.skipped += plan.skipped
+            self.skipped_total += plan.skipped
             self._log_throttled(
                 "skipped",
-                f"{skipped} ticks skipped: the node fell "
+                f"{plan.skipped} ticks skipped: the node fell "
                 f"more than {self.scheduler.max_catch_up} ticks behind",
             )
         for index in plan.ticks:

@@ -65,6 +65,20 @@ def test_far_forward_jump_restarts_instead_of_skipping() -> None:
     assert s.time_of(0) == later
 
 
+def test_forward_jump_of_a_wall_clock_counts_the_ticks_passed_as_skipped() -> None:
+    """On wall time the leap is a stall: the restart runs one tick, the rest were missed."""
+    s = TickScheduler(PERIOD, 3, wall_clock=True)
+    s.start(1_000 * PERIOD)
+    s.due(s.origin_ns + 2 * PERIOD)  # ticks 1, 2 run: the last one handed out is due here
+    last_due = s.time_of(2)
+    later = last_due + FORWARD_JUMP_NS + 5 * PERIOD + PERIOD // 2
+    plan = s.due(later)
+    passed = (later - last_due) // PERIOD  # grid points due since the last tick handed out
+    assert plan.jumped_forward and list(plan.ticks) == [0]
+    assert plan.skipped == passed - 1
+    assert s.time_of(0) == later
+
+
 def test_first_call_without_start_begins_there() -> None:
     s = TickScheduler(PERIOD, 3)
     assert list(s.due(123).ticks) == [0]
