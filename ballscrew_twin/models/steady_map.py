@@ -40,6 +40,7 @@ import sys
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -403,39 +404,17 @@ def pad_axis(table: FloatArray, axis: int) -> FloatArray:
     return np.concatenate([2.0 * first - second, table, 2.0 * last - before], axis=axis)
 
 
-@dataclass(frozen=True)
-class AxisPosition:
-    """Where a query falls on one axis: first node of its 4-node stencil in the padded table
-    (= its cell index in the unpadded one), the stencil's weights, and whether it was clamped."""
-
-    start: int
-    weights: FloatArray
-    clamped: bool
+#: Where a query falls on one axis: index of its cell (= the first node of its 4-node stencil
+#: in the padded table) and the fraction of the cell [-].
+AxisCell = tuple[int, float]
 
 
-def axis_cell(u: float, count: int) -> tuple[int, float]:
-    """Cell index and fraction in it [-] of ``u`` in node units (0 .. count-1) on an axis of
-    ``count`` nodes, clamped to the axis."""
+def axis_cell(u: float, count: int) -> AxisCell:
+    """Cell and fraction of ``u`` in node units (0 .. count-1) on an axis of ``count`` nodes,
+    clamped to the axis."""
     u = min(max(u, 0.0), count - 1.0)
     cell = min(int(u), count - 2)
     return cell, u - cell
-
-
-def locate(u: float, count: int) -> AxisPosition:
-    """Position ``u`` in node units (0 .. count-1) of an axis of ``count`` nodes, clamped."""
-    cell, fraction = axis_cell(u, count)
-    return AxisPosition(
-        start=cell, weights=catmull_rom_weights(fraction), clamped=not 0.0 <= u <= count - 1
-    )
-
-
-@dataclass(frozen=True)
-class _Positions:
-    """Stencils of one query on the three axes."""
-
-    speed: AxisPosition
-    temperature: AxisPosition
-    preload: AxisPosition
 
 
 def speed_node(grid: MapGrid, speed: float) -> float:
@@ -459,19 +438,50 @@ def preload_node(grid: MapGrid, preload: float) -> float:
     return u * (grid.preload_nodes - 1)
 
 
-def _speed_position(grid: MapGrid, speed: float) -> AxisPosition:
-    """Stencil of |speed| [rad/s] on ``grid``."""
-    return locate(speed_node(grid, speed), grid.speed_nodes)
+class QueryCells(NamedTuple):
+    """Where one query falls on the axes of one grid (one preload cell per nut)."""
+
+    speed: AxisCell
+    temperature: AxisCell
+    preloads: tuple[AxisCell, ...]
 
 
-def _temperature_position(grid: MapGrid, temperature: float) -> AxisPosition:
-    """Stencil of the temperature [K] on ``grid``."""
-    return locate(temperature_node(grid, temperature), grid.temperature_nodes)
+def query_cells(
+    grid: MapGrid, speed: float, temperature: float, preloads: tuple[float, float]
+) -> QueryCells:
+    """The cells of |``speed``| [rad/s], ``temperature`` [K] and each nut's equivalent preload
+    [N] on ``grid``."""
+    return QueryCells(
+        axis_cell(speed_node(grid, speed), grid.speed_nodes),
+        axis_cell(temperature_node(grid, temperature), grid.temperature_nodes),
+        tuple(axis_cell(preload_node(grid, p), grid.preload_nodes) for p in preloads),
+    )
 
 
-def _preload_position(grid: MapGrid, preload: float) -> AxisPosition:
-    """Stencil of the equivalent preload [N] on ``grid``."""
-    return locate(preload_node(grid, preload), grid.preload_nodes)
+@dataclass(frozen=True)
+class AxisPosition:
+    """A 4-node stencil on one axis: its first node in the padded table and its weights."""
+
+    start: int
+    weights: FloatArray
+
+
+def _position(cell: AxisCell) -> AxisPosition:
+    """The Catmull-Rom stencil of ``cell``."""
+    return AxisPosition(start=cell[0], weights=catmull_rom_weights(cell[1]))
+
+
+#: One nut's interpolated torque values, contact rows and standstill rows (None: not needed).
+_NutStencils = tuple[FloatArray, FloatArray, FloatArray | None]
+
+
+@dataclass(frozen=True)
+class _Positions:
+    """Stencils of one query on the three axes."""
+
+    speed: AxisPosition
+    temperature: AxisPosition
+    preload: AxisPosition
 
 
 def _stencil(table: FloatArray, pos: _Positions) -> FloatArray:
@@ -644,19 +654,19 @@ class SteadyMap:
             compiled: the numba kernels of ``kernels/map_sample.py`` (~10 us); False: the numpy
                 reference :meth:`_interpolate_reference` (~100 us), equal to rounding.
         """
-        g = self.grid
+        g, c = self.grid, self._coarse
+        assert c is not None
         sign = 0 if screw_speed >= 0.0 else 1
         speed = abs(screw_speed)
         notes = self._clamp_notes(speed, temperature, preloads)
         blend = min(speed / g.speed_min, 1.0)  # 1 on the map, -> 0 at standstill
+        fine = query_cells(g, speed, temperature, preloads)
+        coarse = query_cells(c, speed, temperature, preloads) if contacts else None
         interpolate = self._interpolate_compiled if compiled else self._interpolate_reference
-        torque, states = interpolate(sign, speed, temperature, preloads, contacts, blend)
+        torque, states = interpolate(sign, fine, coarse, blend)
         if self._any_filled:
-            s = axis_cell(speed_node(g, speed), g.speed_nodes)[0]
-            t = axis_cell(temperature_node(g, temperature), g.temperature_nodes)[0]
-            for nut, preload in enumerate(preloads):
-                p = axis_cell(preload_node(g, preload), g.preload_nodes)[0]
-                if self._filled_near(sign, (s, t, p)):
+            for nut, (preload_cell, _) in enumerate(fine.preloads):
+                if self._filled_near(sign, (fine.speed[0], fine.temperature[0], preload_cell)):
                     notes.append(
                         f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady "
                         "solver failed (filled from the nearest solved speed)"
@@ -664,44 +674,36 @@ class SteadyMap:
         return MapSample(torque, states, tuple(notes))
 
     def _interpolate_reference(
-        self,
-        sign: int,
-        speed: float,
-        temperature: float,
-        preloads: tuple[float, float],
-        contacts: bool,
-        blend: float,
+        self, sign: int, fine: QueryCells, coarse: QueryCells | None, blend: float
     ) -> tuple[FloatArray, FloatArray | None]:
-        """(2, 6) torques [N m] and (2, 4, F) contact states or None (``contacts`` False) at
-        |``speed``| [rad/s] of ``sign`` (0: >= 0), ``temperature`` [K], ``preloads`` [N] and
-        standstill ``blend`` [-]: the readable numpy reference."""
-        g = self.grid
-        fine_s, fine_t = _speed_position(g, speed), _temperature_position(g, temperature)
+        """(2, 6) torques [N m] and (2, 4, F) contact states, or None without ``coarse``, of
+        speed ``sign`` (0: >= 0) at the query's cells on the fine (torque) and coarse
+        (contact) grids, with the standstill ``blend`` [-]: the readable numpy reference."""
+        torque_table = self._padded["torque"][sign]
+        speed, temperature = _position(fine.speed), _position(fine.temperature)
         values = np.empty((NUTS, len(MECHANISMS) + 1))
-        if not contacts:
-            stencils: dict[float, FloatArray] = {}
-            for nut, preload in enumerate(preloads):
-                if preload not in stencils:
-                    pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
-                    stencils[preload] = _stencil(self._padded["torque"][sign], pos)
-                values[nut] = stencils[preload][nut]
+        if coarse is None:
+            stencils: dict[AxisCell, FloatArray] = {}
+            for nut, cell in enumerate(fine.preloads):
+                if cell not in stencils:  # one stencil when the nuts' loads agree
+                    pos = _Positions(speed, temperature, _position(cell))
+                    stencils[cell] = _stencil(torque_table, pos)
+                values[nut] = stencils[cell][nut]
             return _nut_torques(values, blend), None
-        c = self._coarse
-        assert c is not None
-        coarse_s, coarse_t = _speed_position(c, speed), _temperature_position(c, temperature)
+        coarse_speed, coarse_temperature = _position(coarse.speed), _position(coarse.temperature)
         rows = np.empty((NUTS, HALF_GROOVES * len(CONTACT_FIELDS)))
         still = np.empty_like(rows)
-        solved: dict[float, tuple[FloatArray, FloatArray, FloatArray | None]] = {}
-        for nut, preload in enumerate(preloads):
-            if preload not in solved:  # both nuts at once; one stencil when the loads agree
-                pos = _Positions(fine_s, fine_t, _preload_position(g, preload))
-                coarse = _Positions(coarse_s, coarse_t, _preload_position(c, preload))
-                solved[preload] = (
-                    _stencil(self._padded["torque"][sign], pos),
-                    _stencil(self._padded["contacts"][sign], coarse),
-                    _stencil_2d(self._padded["static"], coarse) if blend < 1.0 else None,
+        solved: dict[tuple[AxisCell, AxisCell], _NutStencils] = {}
+        for nut, cells in enumerate(zip(fine.preloads, coarse.preloads, strict=True)):
+            if cells not in solved:  # both nuts at once; one stencil when the loads agree
+                pos = _Positions(speed, temperature, _position(cells[0]))
+                coarse_pos = _Positions(coarse_speed, coarse_temperature, _position(cells[1]))
+                solved[cells] = (
+                    _stencil(torque_table, pos),
+                    _stencil(self._padded["contacts"][sign], coarse_pos),
+                    _stencil_2d(self._padded["static"], coarse_pos) if blend < 1.0 else None,
                 )
-            nut_values, nut_rows, nut_still = solved[preload]
+            nut_values, nut_rows, nut_still = solved[cells]
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
             if nut_still is not None:
                 still[nut] = nut_still[nut]
@@ -714,42 +716,31 @@ class SteadyMap:
         return torque, states
 
     def _interpolate_compiled(
-        self,
-        sign: int,
-        speed: float,
-        temperature: float,
-        preloads: tuple[float, float],
-        contacts: bool,
-        blend: float,
+        self, sign: int, fine: QueryCells, coarse: QueryCells | None, blend: float
     ) -> tuple[FloatArray, FloatArray | None]:
         """As :meth:`_interpolate_reference`, by the kernels of ``kernels/map_sample.py``."""
         from ..kernels import map_sample
 
-        g = self.grid
-        cells = np.empty(NUTS, dtype=np.int64)
-        fractions = np.empty(NUTS)
-        for nut, preload in enumerate(preloads):
-            cells[nut], fractions[nut] = axis_cell(preload_node(g, preload), g.preload_nodes)
+        cells = np.array([cell for cell, _ in fine.preloads], dtype=np.int64)
+        fractions = np.array([fraction for _, fraction in fine.preloads])
         torque = map_sample.nut_torques(
             self._padded["torque"][sign],
-            axis_cell(speed_node(g, speed), g.speed_nodes),
-            axis_cell(temperature_node(g, temperature), g.temperature_nodes),
+            fine.speed,
+            fine.temperature,
             cells,
             fractions,
             blend,
             TORQUE_SCALE,
         )
-        if not contacts:
+        if coarse is None:
             return torque, None
-        c = self._coarse
-        assert c is not None
-        for nut, preload in enumerate(preloads):
-            cells[nut], fractions[nut] = axis_cell(preload_node(c, preload), c.preload_nodes)
+        cells = np.array([cell for cell, _ in coarse.preloads], dtype=np.int64)
+        fractions = np.array([fraction for _, fraction in coarse.preloads])
         states = map_sample.contact_states(
             self._padded["contacts"][sign],
             self._padded["static"],
-            axis_cell(speed_node(c, speed), c.speed_nodes),
-            axis_cell(temperature_node(c, temperature), c.temperature_nodes),
+            coarse.speed,
+            coarse.temperature,
             cells,
             fractions,
             blend,
