@@ -32,6 +32,7 @@ import multiprocessing
 import os
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
@@ -272,6 +273,32 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
     )
 
 
+def _await_result(
+    proc: multiprocessing.process.BaseProcess,
+    conn: Connection,
+    what: str,
+    total: float,
+    on_measuring: Callable[[], None],
+) -> Any:
+    """Show progress while the child process ``proc`` (``what``) runs for about ``total`` [s];
+    call ``on_measuring()`` when it sends :data:`MEASURING`; return the result it sends next.
+
+    Raises:
+        RuntimeError: the child died before sending its result.
+    """
+    with tqdm(total=int(total), desc=f"bench node {what}", unit="s", leave=False) as bar:
+        start = time.monotonic()
+        while True:
+            bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
+            if conn.poll(0.25):
+                message = conn.recv()
+                if message != MEASURING:
+                    return message
+                on_measuring()
+            elif not proc.is_alive():
+                raise RuntimeError(f"{what}: its process died with exit code {proc.exitcode}")
+
+
 def _run_floor(args: argparse.Namespace, priority: int, duration: float) -> NodeRun:
     """The bare sleep loop at ``args.rate`` for ``duration`` [s] with the tick thread's
     SCHED_FIFO ``priority`` (0: normal scheduling; see the module docstring)."""
@@ -281,19 +308,7 @@ def _run_floor(args: argparse.Namespace, priority: int, duration: float) -> Node
     load_before = os.getloadavg()
     meter = StealMeter()
     proc.start()
-    result: Any = None
-    with tqdm(total=int(WARMUP + duration), desc="bench node floor", unit="s", leave=False) as bar:
-        start = time.monotonic()
-        while result is None:
-            bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
-            if parent_conn.poll(0.5):
-                message = parent_conn.recv()
-                if message == MEASURING:
-                    meter.start()
-                else:
-                    result = message
-            elif not proc.is_alive():
-                raise RuntimeError(f"sleep-loop process died with exit code {proc.exitcode}")
+    result = _await_result(proc, parent_conn, "sleep loop", WARMUP + duration, meter.start)
     steal = meter.read()
     proc.join(timeout=30.0)
     return NodeRun(
@@ -380,11 +395,10 @@ def _run_one(
     executor.add_node(node)
     load_before = os.getloadavg()
     meter = StealMeter()
-    total = WARMUP + duration
-    start = time.monotonic()
     name = f"{tick_source}/{executor_name}" + (f"/fifo{priority}" if priority else "")
-    base: dict[str, int] | None = None
-    result: Any = None
+    # Message counts and this process's CPU and wall time when the node's measurement began.
+    base = {"torque": 0, "contacts": 0}
+    marks = {"cpu": 0.0, "wall": 0.0}
     stop = threading.Event()
 
     def receive() -> None:  # the messages on a thread of their own, the pipe here
@@ -393,26 +407,21 @@ def _run_one(
 
     receiver = threading.Thread(target=receive, daemon=True)
     receiver.start()
-    cpu0 = wall0 = 0.0
-    with tqdm(total=int(total), desc=f"bench node {name}", unit="s", leave=False) as bar:
-        while result is None:
-            bar.update(min(int(time.monotonic() - start), bar.total) - bar.n)
-            if parent_conn.poll(0.25):
-                message = parent_conn.recv()
-                if message == MEASURING:
-                    base = dict(counts)
-                    meter.start()
-                    cpu0, wall0 = time.process_time(), time.monotonic()
-                else:
-                    result, end = message, dict(counts)
-            elif not proc.is_alive():
-                raise RuntimeError(f"node process died with exit code {proc.exitcode}")
+
+    def measuring() -> None:
+        base.update(counts)
+        meter.start()
+        marks.update(cpu=time.process_time(), wall=time.monotonic())
+
+    result = _await_result(proc, parent_conn, name, WARMUP + duration, measuring)
+    end = dict(counts)
     steal = meter.read()
-    commander_cpu = (time.process_time() - cpu0) / max(time.monotonic() - wall0, 1e-9)
+    commander_cpu = (time.process_time() - marks["cpu"]) / max(
+        time.monotonic() - marks["wall"], 1e-9
+    )
     stop.set()
     receiver.join(timeout=5.0)
     proc.join(timeout=30.0)
-    base = base or {"torque": 0, "contacts": 0}
     executor.shutdown()
     node.destroy_node()
     rclpy.try_shutdown(context=context)
