@@ -13,6 +13,21 @@ from rclpy.executors import SingleThreadedExecutor
 #: Longest a test waits for a message to arrive [s]; discovery on loopback takes ~0.1 s.
 DEFAULT_TIMEOUT = 10.0
 
+#: DragTorque's torque fields, in message order (the ``values`` of ``DragTorqueEncoder.encode``).
+TORQUES = (
+    "total",
+    "nut_master",
+    "nut_slave",
+    "lubricant_shear",
+    "dry_contact",
+    "rolling_resistance",
+    "hysteresis",
+    "curvature",
+    "spin",
+)
+#: DragTorque's float fields after ``fidelity``, in message order.
+OPERATING_POINT = ("real_time_factor", "screw_speed", "temperature", "preload")
+
 
 @pytest.fixture
 def ros_context() -> Iterator[Context]:

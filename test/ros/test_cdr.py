@@ -32,22 +32,8 @@ from std_msgs.msg import Header
 from ballscrew_twin.results import make_typestore
 from ballscrew_twin.ros.cdr import CONTACT_FLOAT_FIELDS, DragTorqueEncoder, encode_contact_states
 
-from .conftest import SpinUntil
+from .conftest import OPERATING_POINT, TORQUES, SpinUntil
 
-#: DragTorque's torque fields, in message order (the ``values`` of ``encode``).
-TORQUES = (
-    "total",
-    "nut_master",
-    "nut_slave",
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-)
-#: DragTorque's float fields after ``fidelity``, in message order.
-OPERATING_POINT = ("real_time_factor", "screw_speed", "temperature", "preload")
 #: Sizes [byte] of the primitive field types as rclpy names them.
 PRIMITIVE_SIZES = {"boolean": 1, "uint8": 1, "uint16": 2, "int32": 4, "uint32": 4, "double": 8}
 #: ASCII strings of every length 0..9 (all alignments of what follows them).

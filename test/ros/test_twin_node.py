@@ -29,24 +29,9 @@ from ballscrew_twin.ros.fidelity import ModelSettings, unavailable
 from ballscrew_twin.ros.inputs import NS_PER_S
 from ballscrew_twin.ros.twin_node import TwinNode
 
-from .conftest import SpinUntil
+from .conftest import OPERATING_POINT, TORQUES, SpinUntil
 
 SPEED = 10.47  # rad/s (100 rpm)
-TORQUE_FIELDS = (
-    "total",
-    "nut_master",
-    "nut_slave",
-    "lubricant_shear",
-    "dry_contact",
-    "rolling_resistance",
-    "hysteresis",
-    "curvature",
-    "spin",
-    "real_time_factor",
-    "screw_speed",
-    "temperature",
-    "preload",
-)
 
 
 class Bench(Node):
@@ -93,7 +78,7 @@ def twin(executor: SingleThreadedExecutor) -> TwinNode:
 
 
 def _all_finite(msg: DragTorque) -> bool:
-    return all(math.isfinite(getattr(msg, f)) for f in TORQUE_FIELDS)
+    return all(math.isfinite(getattr(msg, f)) for f in TORQUES + OPERATING_POINT)
 
 
 def _reach(
