@@ -38,6 +38,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": ("ballscrew_twin.ros.record", "record topics into a bag"),
     "bench-data": ("ballscrew_twin.health.bench_data", "generate recorded bench data"),
     "detect": ("ballscrew_twin.health.detect", "run the fault detector on a bag"),
+    "commission": ("ballscrew_twin.health.commission", "fit a healthy unit's baseline to a bag"),
     "health-node": ("ballscrew_twin.ros.health_node", "run the health monitor node"),
 }
 

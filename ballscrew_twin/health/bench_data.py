@@ -40,14 +40,26 @@ from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
 from .bags import CELSIUS_ZERO, TRUTH_KEY, BagError, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
+from .duty_cycles import Trajectory
 from .fault_profiles import (
     FaultedTwin,
+    FaultSpec,
+    FaultState,
     defect_frequencies,
     fault_state,
+    faults_from_list,
     growth_fraction,
     ripple_torque,
 )
-from .sensors import cumulative_angle, measure, quantise, sample_times, speed_with_ripple
+from .sensors import (
+    SensorSet,
+    cumulative_angle,
+    measure,
+    quantise,
+    sample_times,
+    speed_with_ripple,
+)
+from .units import BenchUnit, UnitTorqueTable, presliding_reference
 
 FloatArray = NDArray[np.float64]
 
@@ -77,7 +89,7 @@ class BenchData:
     """A generated recording: the twin's truth on its grid and every sensor's samples (SI).
 
     Attributes:
-        scene: the scene.
+        scene: the scene (None for a duty cycle of a drawn unit, :func:`generate_unit_data`).
         seed: seed of the noise.
         model_time: instants of the twin's evaluations [s].
         model_torque: drag torque of the (faulted) twin there, without ripple [N m].
@@ -88,7 +100,7 @@ class BenchData:
         truth: the ground truth (JSON-ready).
     """
 
-    scene: BenchScene
+    scene: BenchScene | None
     seed: int
     model_time: FloatArray
     model_torque: FloatArray
@@ -103,6 +115,35 @@ class BenchData:
     preload_time: FloatArray
     preload: FloatArray
     truth: dict[str, Any]
+
+    @property
+    def name(self) -> str:
+        """Name of the recording (the scene's, or the truth's)."""
+        return self.scene.name if self.scene is not None else str(self.truth.get("scene", ""))
+
+    @property
+    def duration(self) -> float:
+        """Length of the recording [s]."""
+        return float(self.truth["duration_s"])
+
+    @property
+    def faults(self) -> tuple[FaultSpec, ...]:
+        """The injected faults."""
+        if self.scene is not None:
+            return self.scene.faults
+        return faults_from_list(
+            [
+                {
+                    "class": f["class"],
+                    "onset": f["onset_s"],
+                    "severity": f["severity"],
+                    "growth": f["growth"],
+                    "growth_time": f["growth_time_s"],
+                }
+                for f in self.truth["faults"]
+            ],
+            "truth",
+        )
 
 
 def model_grid(scene: BenchScene) -> FloatArray:
@@ -157,11 +198,13 @@ def _model_torque(
     return out
 
 
-def _ripple_amplitudes(scene: BenchScene, time: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _ripple_amplitudes(
+    faults: tuple[FaultSpec, ...], time: FloatArray
+) -> tuple[FloatArray, FloatArray]:
     """Relative ripple amplitudes s g(t) of raceway and sphere defects at ``time`` [-]."""
     raceway = np.zeros_like(time)
     sphere = np.zeros_like(time)
-    for spec in scene.faults:
+    for spec in faults:
         if spec.fault_class == "raceway_defect":
             raceway += spec.severity * growth_fraction(spec, time)
         elif spec.fault_class == "sphere_defect":
@@ -199,7 +242,7 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
     tt = times["torque"]
     on_torque = np.searchsorted(fine, tt)
     drag = np.interp(tt, grid, grid_torque)
-    raceway, sphere = _ripple_amplitudes(scene, tt)
+    raceway, sphere = _ripple_amplitudes(scene.faults, tt)
     ripple = ripple_torque(config, tt, speed[on_torque], drag, raceway, sphere)
     inertia = config.screw.screw_inertia * acceleration[on_torque]
     meter = sensors.torque
@@ -237,6 +280,201 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
         seed=int(seed),
         model_time=grid,
         model_torque=grid_torque,
+        torque_time=tt,
+        torque=torque,
+        speed_time=ts,
+        speed=measured_speed,
+        angle=measured_angle,
+        temperature_time=t_temp,
+        temperature=temperature,
+        temperature_variance=np.full_like(t_temp, th.noise**2),
+        preload_time=t_pre,
+        preload=preload,
+        truth=truth,
+    )
+
+
+#: Growth fractions g at which a unit's model-changing fault (viscosity loss, debris) is
+#: tabulated; the torque is linear in g in between.
+FAULT_GROWTH_NODES = (0.0, 0.25, 0.5, 0.75, 1.0)
+#: Fault classes that change the unit's parameter set (the others act on the operating point
+#: or add ripple).
+MODEL_CHANGING = ("lubricant_degradation", "jam_onset")
+
+
+def _node_states(faults: tuple[FaultSpec, ...]) -> tuple[FaultSpec | None, list[FaultState]]:
+    """The one model-changing fault of ``faults`` and its state at each growth node."""
+    changing = [f for f in faults if f.fault_class in MODEL_CHANGING]
+    if len(changing) > 1:
+        raise ConfigError("a unit recording takes at most one lubricant or jam fault")
+    if not changing:
+        return None, [FaultState()]
+    spec = changing[0]
+    states = []
+    for g in FAULT_GROWTH_NODES:
+        at_g = FaultSpec(
+            fault_class=spec.fault_class,
+            onset=0.0,
+            severity=spec.severity,
+            growth="ramp",
+            growth_time=1.0,
+            starvation=spec.starvation,
+            roughness_increase=spec.roughness_increase,
+        )
+        states.append(fault_state((at_g,), g))
+    return spec, states
+
+
+def preload_factor(faults: tuple[FaultSpec, ...], time: FloatArray) -> FloatArray:
+    """Contact preload over its healthy value at ``time`` [s] under preload-loss faults [-]."""
+    out = np.ones_like(time)
+    for spec in faults:
+        if spec.fault_class == "preload_loss":
+            out *= 1.0 - spec.severity * growth_fraction(spec, time)
+    return out
+
+
+def unit_table_for(
+    config: TwinConfig,
+    unit: BenchUnit,
+    trajectory: Trajectory,
+    faults: tuple[FaultSpec, ...] = (),
+) -> UnitTorqueTable:
+    """The torque table of ``unit`` covering ``trajectory`` (and the model changes of
+    ``faults``)."""
+    _, states = _node_states(faults)
+    contact = unit.preload_scale * trajectory.preload
+    low = float(np.min(contact)) * min(1.0, float(np.min(preload_factor(faults, trajectory.time))))
+    return UnitTorqueTable(
+        config,
+        unit,
+        (float(np.min(trajectory.temperature)), float(np.max(trajectory.temperature))),
+        (low, float(np.max(contact))),
+        tuple(states),
+    )
+
+
+def unit_drag_torque(
+    table: UnitTorqueTable,
+    time: FloatArray,
+    speed: FloatArray,
+    angle: FloatArray,
+    temperature: FloatArray,
+    set_preload: FloatArray,
+    faults: tuple[FaultSpec, ...],
+    compiled: bool = True,
+) -> FloatArray:
+    """Friction torque of a unit along a trajectory [N m]: its steady torque (own parameters,
+    Stribeck rise, faults) lagged by its Dahl presliding over the screw ``angle`` [rad]."""
+    unit = table.unit
+    contact = unit.preload_scale * set_preload * preload_factor(faults, time)
+    spec, states = _node_states(faults)
+    if spec is None:
+        steady = table.steady_torque(speed, temperature, contact)
+    else:
+        g = growth_fraction(spec, time)
+        nodes = np.array(FAULT_GROWTH_NODES)
+        per_node = np.stack(
+            [table.steady_torque(speed, temperature, contact, [st] * len(time)) for st in states]
+        )
+        upper = np.clip(np.searchsorted(nodes, g, side="right"), 1, len(nodes) - 1)
+        weight = (g - nodes[upper - 1]) / (nodes[upper] - nodes[upper - 1])
+        cols = np.arange(len(time))
+        steady = per_node[upper - 1, cols] * (1.0 - weight) + per_node[upper, cols] * weight
+    if unit.presliding_angle <= 0.0:
+        return steady
+    if compiled:
+        from ..kernels.presliding import presliding_lag
+
+        return np.asarray(presliding_lag(steady, angle, unit.presliding_angle, float(steady[0])))
+    return presliding_reference(steady, angle, unit.presliding_angle)
+
+
+def generate_unit_data(
+    config: TwinConfig,
+    unit: BenchUnit,
+    trajectory: Trajectory,
+    *,
+    faults: tuple[FaultSpec, ...] = (),
+    sensors: SensorSet | None = None,
+    seed: int = 0,
+    table: UnitTorqueTable | None = None,
+    name: str = "unit",
+) -> BenchData:
+    """A recording of ``unit`` (not the twin: :mod:`.units`) driven through ``trajectory``.
+
+    The torque meter reads gain (drag + ripple + J_unit dw/dt) + bias + noise; the encoder,
+    thermometer and load cell are those of ``sensors``; ``table`` reuses a unit table built by
+    :func:`unit_table_for` (it must cover the trajectory and the faults).
+    """
+    sensors = sensors or SensorSet()
+    for spec in faults:
+        if spec.onset >= trajectory.duration:
+            raise ConfigError(f"fault {spec.fault_class}: onset {spec.onset} s after the end")
+    table = table or unit_table_for(config, unit, trajectory, faults)
+    rng = np.random.default_rng(seed)
+    duration = trajectory.duration
+    times = {
+        name_: sample_times(getattr(sensors, name_).rate, duration)
+        for name_ in ("torque", "speed", "temperature", "preload")
+    }
+    enc = sensors.speed
+    fine = trajectory.time
+    nominal = trajectory.speed
+    speed = speed_with_ripple(
+        nominal, cumulative_angle(fine, nominal), enc.ripple, enc.ripple_order
+    )
+    angle = cumulative_angle(fine, speed)
+    acceleration = np.gradient(speed, fine)
+
+    tt = times["torque"]
+    w_t = np.interp(tt, fine, speed)
+    a_t = np.interp(tt, fine, angle)
+    temperature_t = np.interp(tt, fine, trajectory.temperature)
+    preload_t = np.interp(tt, fine, trajectory.preload)
+    drag = unit_drag_torque(table, tt, w_t, a_t, temperature_t, preload_t, faults)
+    raceway, sphere = _ripple_amplitudes(faults, tt)
+    ripple = ripple_torque(config, tt, w_t, drag, raceway, sphere)
+    inertia = unit.inertia_scale * config.screw.screw_inertia * np.interp(tt, fine, acceleration)
+    meter = sensors.torque
+    torque = measure(
+        unit.torque_gain * (drag + ripple + inertia),
+        meter.noise,
+        meter.bias + unit.torque_bias,
+        meter.resolution,
+        rng,
+    )
+
+    ts = times["speed"]
+    measured_speed = measure(np.interp(ts, fine, speed), enc.noise, 0.0, 0.0, rng)
+    measured_angle = quantise(np.interp(ts, fine, angle), enc.angle_resolution)
+    th = sensors.temperature
+    t_temp = times["temperature"]
+    true_temperature = np.interp(t_temp, fine, trajectory.temperature)
+    temperature = measure(true_temperature + th.drift * t_temp, th.noise, 0.0, th.resolution, rng)
+    cell = sensors.preload
+    t_pre = times["preload"]
+    preload = measure(
+        np.interp(t_pre, fine, trajectory.preload), cell.noise, cell.bias, cell.resolution, rng
+    )
+    truth = {
+        "seed": int(seed),
+        "scene": name,
+        "scene_file": "",
+        "duration_s": duration,
+        "start_ns": START_NS,
+        "model": "unit",
+        "unit": unit.to_dict(),
+        "duty_cycle": [list(seg) for seg in trajectory.segments],
+        "config": config.name,
+        "sensors": sensors.to_dict(),
+        "faults": [spec.to_truth() for spec in faults],
+    }
+    return BenchData(
+        scene=None,
+        seed=int(seed),
+        model_time=tt,
+        model_torque=drag,
         torque_time=tt,
         torque=torque,
         speed_time=ts,
@@ -384,7 +622,7 @@ def plot_bench_data(data: BenchData, path: str | Path) -> Path:
     axes[3].plot(data.preload_time, data.preload, lw=0.7)
     axes[3].set_ylabel("load cell [N]")
     axes[3].set_xlabel("time [s]")
-    for spec in data.scene.faults:
+    for spec in data.faults:
         for a in axes:
             a.axvline(spec.onset, color="r", ls="--", lw=1)
         axes[0].annotate(
@@ -394,7 +632,7 @@ def plot_bench_data(data: BenchData, path: str | Path) -> Path:
             color="r",
             fontsize=8,
         )
-    fig.suptitle(f"bench data {data.scene.name} (seed {data.seed})")
+    fig.suptitle(f"bench data {data.name} (seed {data.seed})")
     fig.tight_layout()
     file = Path(path)
     try:
@@ -472,7 +710,7 @@ def run(args: argparse.Namespace) -> int:
     data = generate_bag(args.scene, args.out, seed=args.seed, storage=args.storage, progress=True)
     print(
         f"wrote {args.out} ({len(data.torque)} torque samples, "
-        f"{len(data.scene.faults)} fault(s)) and {truth_path(args.out)}"
+        f"{len(data.faults)} fault(s)) and {truth_path(args.out)}"
     )
     if args.plot:
         print(f"wrote {plot_bench_data(data, args.plot)}")

@@ -15,15 +15,19 @@ change per unit severity at that block's operating point):
   contact and more friction in it, a rise that is largest where the film is thin (low speed,
   hot). "Sudden rise" is not assumed: the twin says how the torque changes.
 
-The severity may grow during the window: it is fitted as a(t) = a0 + a1 t (t since the
-estimated onset) by weighted least squares, r_j = a(t_j) s_j, whose log-likelihood ratio
-against "no change" is ``LLR = beta' X' W r / 2`` (X = [s, s t], W = 1/sigma^2). A class whose
+The severity may grow during the window (a step, a ramp, an exponential approach): it is
+fitted as a piecewise-linear a(t) on knots at 0, 0.5, 1, 2, 4 and 8 s after the estimated onset
+(:func:`growth_basis`) by weighted least squares, r_j = a(t_j) s_j, whose log-likelihood ratio
+against "no change" is ``LLR = beta' X' W r / 2`` (X = [s phi_k(t)], W = 1/sigma^2): every
+class gets the same free time profile, so classes compete only on how the change depends on
+the operating point. A class whose
 fitted severity is not positive on average, or passes its physical limit by the end
 (a <= 1 for a fraction lost: :data:`SEVERITY_LIMITS`), is fitted with a constant severity
 restricted to [0, limit] instead: ``LLR = a sum(s r W) - a^2 sum(s^2 W) / 2`` (0 for the wrong
 sign). With equal priors the posterior of class c is ``exp(LLR_c / phi) / sum exp(LLR / phi)``,
-its confidence, where ``phi = max(1, RSS / (n - 2))`` is the reduced chi-square of the best
-fit (RSS its weighted residual sum of squares over n blocks): when even the best class does
+its confidence, where ``phi = max(1, RSS / (n - K))`` is the reduced chi-square of the best
+fit (RSS its weighted residual sum of squares over n blocks, K fitted values), times the
+blocks per independent piece of evidence (``correlation``): when even the best class does
 not explain the residuals to the noise level (model error, a non-linear response, growth that
 is not linear), the sigmas are scaled up by sqrt(phi) before the classes are compared, so
 small differences in fit do not look decisive.
@@ -56,8 +60,16 @@ FAULT_CLASSES: tuple[str, ...] = (
 )
 #: Classes decided from the mean torque change.
 MEAN_SHIFT_CLASSES: tuple[str, ...] = ("preload_loss", "lubricant_degradation", "jam_onset")
-#: Largest physical severity of the classes whose severity is a fraction lost [-].
-SEVERITY_LIMITS: dict[str, float] = {"preload_loss": 1.0, "lubricant_degradation": 1.0}
+#: Largest physical severity of each mean-shift class [-]: a fraction lost cannot pass 1; a
+#: debris rise of mu_dry and roughness beyond x11 is a seizure, not a jam onset.
+SEVERITY_LIMITS: dict[str, float] = {
+    "preload_loss": 1.0,
+    "lubricant_degradation": 1.0,
+    "jam_onset": 10.0,
+}
+#: A class is named only when its fit leaves a reduced chi-square at most this [-]; above it
+#: no class explains the residual and the alarm is ``unclassified``.
+MAX_REDUCED_CHI_SQUARE = 4.0
 #: Spectral orders tested, and the class each one indicates.
 ORDER_CLASSES: dict[str, str] = {
     "nut_raceway": "raceway_defect",
@@ -86,12 +98,17 @@ class Classification:
         scores: log-likelihood ratio of each class considered [-].
         severities: unconstrained least-squares severity of each mean-shift class (fraction of
             preload or viscosity lost, relative rise of mu_dry for a jam) [-].
+        reason: why no class is named ("" when one is).
+        reduced_chi_square: weighted residual sum of squares of the best fit per degree of
+            freedom [-] (nan for ripple classes).
     """
 
     fault_class: str
     confidence: float
     scores: dict[str, float]
     severities: dict[str, float]
+    reason: str = ""
+    reduced_chi_square: float = math.nan
 
 
 def _posterior(scores: dict[str, float], phi: float) -> dict[str, float]:
@@ -101,17 +118,47 @@ def _posterior(scores: dict[str, float], phi: float) -> dict[str, float]:
     return {c: w / total for c, w in weights.items()}
 
 
+#: Knots of the severity's time profile after the onset [s] (hat functions; the last ones
+#: beyond the data are dropped).
+GROWTH_KNOTS = (0.0, 0.5, 1.0, 2.0, 4.0, 8.0)
+
+
+def growth_basis(elapsed: FloatArray) -> FloatArray:
+    """(n, K) piecewise-linear (hat) basis in time since the onset [s] at the
+    :data:`GROWTH_KNOTS` that the data reach, held flat after the last one."""
+    t = np.maximum(np.asarray(elapsed, dtype=np.float64), 0.0)
+    knots = [k for k in GROWTH_KNOTS if k <= float(np.max(t))] if len(t) else [0.0]
+    if len(knots) < 2:
+        return np.ones((len(t), 1))
+    columns = []
+    for i, knot in enumerate(knots):
+        column = np.zeros_like(t)
+        if i > 0:
+            left = knots[i - 1]
+            rising = (t >= left) & (t <= knot)
+            column[rising] = (t[rising] - left) / (knot - left)
+        if i + 1 < len(knots):
+            right = knots[i + 1]
+            falling = (t >= knot) & (t <= right)
+            column[falling] = (right - t[falling]) / (right - knot)
+        else:
+            column[t >= knot] = 1.0
+        columns.append(column)
+    return np.column_stack(columns)
+
+
 def _growing_fit(
-    residuals: FloatArray, weight: FloatArray, s: FloatArray, elapsed: FloatArray
+    residuals: FloatArray, weight: FloatArray, s: FloatArray, basis: FloatArray
 ) -> tuple[float, float, float] | None:
-    """Weighted least squares of r = (a0 + a1 tau) s: (LLR, mean severity, end severity)."""
-    design = np.column_stack([s, s * elapsed])
+    """Weighted least squares of r = a(t) s with a(t) piecewise linear on ``basis``:
+    (LLR, mean severity, end severity), None when the profile is not identifiable."""
+    design = basis * s[:, None]
     normal = design.T @ (weight[:, None] * design)
     rhs = design.T @ (weight * residuals)
-    if np.linalg.cond(normal) > 1e12:
+    if np.linalg.cond(normal) > 1e10:
         return None
     beta = np.linalg.solve(normal, rhs)
-    severity = beta[0] + beta[1] * elapsed
+    severity = basis @ beta
     return 0.5 * float(beta @ rhs), float(np.mean(severity)), float(severity[-1])
 
 
@@ -120,6 +167,7 @@ def classify_mean_shift(
     sigmas: FloatArray,
     signatures: dict[str, FloatArray],
     elapsed: FloatArray | None = None,
+    correlation: float = 1.0,
 ) -> Classification:
     """Fit every class's signature to the residuals (see the module docstring).
 
@@ -130,9 +178,13 @@ def classify_mean_shift(
         elapsed: time of each block since the estimated onset [s]; given, the severity may
             grow linearly in time, a(t) = a0 + a1 t (a ramp, or the start of any growth),
             which a constant-severity fit would misread as a change of shape.
+        correlation: blocks per independent one [-] (>= 1): the twin's error is systematic
+            over a regime, so neighbouring blocks do not bring independent evidence; the
+            log-likelihood ratios are divided by it before the posterior is formed.
     """
     r = np.asarray(residuals, dtype=float)
     weight = 1.0 / np.asarray(sigmas) ** 2
+    basis = None if elapsed is None else growth_basis(elapsed)
     scores: dict[str, float] = {}
     severities: dict[str, float] = {}
     for name, s in signatures.items():
@@ -142,19 +194,34 @@ def classify_mean_shift(
             continue
         limit = SEVERITY_LIMITS.get(name, math.inf)
         severities[name] = sr / ss
-        growing = None if elapsed is None else _growing_fit(r, weight, s, elapsed)
+        growing = None if basis is None else _growing_fit(r, weight, s, basis)
         if growing is not None and growing[1] > 0.0 and growing[2] <= limit:
             scores[name] = growing[0]
             continue
         severity = min(max(sr / ss, 0.0), limit)
         scores[name] = severity * sr - 0.5 * severity * severity * ss
     if not scores or max(scores.values()) <= 0.0:
-        return Classification("", 0.0, scores, severities)
+        return Classification(
+            "", 0.0, scores, severities, reason="no class changes the torque the way measured"
+        )
     rss = float(np.sum(weight * r**2)) - 2.0 * max(scores.values())
-    phi = max(1.0, rss / max(len(r) - 2, 1))
+    fitted = 1 if basis is None else basis.shape[1]
+    reduced = rss / max(len(r) - fitted, 1)
+    phi = max(1.0, reduced) * max(correlation, 1.0)
     posterior = _posterior(scores, phi)
     best = max(posterior, key=posterior.__getitem__)
-    return Classification(best, posterior[best], scores, severities)
+    limit = SEVERITY_LIMITS.get(best, math.inf)
+    severity = severities.get(best, math.nan)
+    if not 0.0 < severity <= limit:
+        reason = f"fitted {best} severity {severity:.3g} is outside its range (0, {limit:g}]"
+        return Classification("", 0.0, scores, severities, reason, reduced)
+    if reduced > MAX_REDUCED_CHI_SQUARE:
+        reason = (
+            f"no class explains the residual: the best fit ({best}) leaves a reduced "
+            f"chi-square of {reduced:.3g} > {MAX_REDUCED_CHI_SQUARE:g}"
+        )
+        return Classification("", 0.0, scores, severities, reason, reduced)
+    return Classification(best, posterior[best], scores, severities, "", reduced)
 
 
 def classify_ripple(ratios: dict[str, float], threshold: float) -> Classification:
@@ -164,7 +231,7 @@ def classify_ripple(ratios: dict[str, float], threshold: float) -> Classificatio
     """
     excess = {name: r - threshold for name, r in ratios.items() if r > threshold}
     if not excess:
-        return Classification("", 0.0, dict(ratios), {})
+        return Classification("", 0.0, dict(ratios), {}, reason="no order above its threshold")
     by_class: dict[str, float] = {}
     for name, value in excess.items():
         cls = ORDER_CLASSES[name]

@@ -32,6 +32,7 @@ import numpy as np
 from ..errors import BallscrewTwinError, ConfigError
 from ..params import TwinConfig, load_config
 from .bags import BenchRecording, BenchTopics, read_bench_bag
+from .baseline import Baseline, load_baseline
 from .monitor import (
     DETECTORS,
     FAULT,
@@ -84,10 +85,12 @@ def run_monitor(
     settings: MonitorSettings | None = None,
     start: float = 0.0,
     predictor: TwinPredictor | None = None,
+    baseline: Baseline | None = None,
 ) -> DetectionResult:
     """Run a fresh monitor over channels of absolute stamps [s] (see :func:`.monitor.feed`);
-    ``predictor`` shares the twin's cache between runs."""
-    monitor = HealthMonitor(config, settings, predictor=predictor)
+    ``predictor`` shares the twin's cache between runs; ``baseline``: the commissioned unit
+    (default: the nominal twin)."""
+    monitor = HealthMonitor(config, settings, predictor=predictor, baseline=baseline)
     samples = feed(monitor, channels)
     return DetectionResult(overall_verdict(monitor, samples), samples, monitor, start)
 
@@ -125,8 +128,11 @@ def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, 
             "spectral": monitor.spectral.threshold,
         },
         "false_alarm_rate_per_h": monitor.settings.false_alarm_rate,
-        "model": monitor.predictor.model.name,
-        "model_evaluations": monitor.predictor.evaluations,
+        "model": monitor.twin_name,
+        "model_note": monitor.twin_note,
+        "baseline": monitor.baseline.source,
+        "gated_s": monitor.gated_time,
+        "compared_s": monitor.compared_time,
     }
     if alarm is not None:
         data["alarm"] = {
@@ -135,6 +141,7 @@ def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, 
             "onset_estimate_s": alarm.onset - result.start,
             "scores": alarm.classification.scores,
             "severities": alarm.classification.severities,
+            "unclassified_reason": alarm.classification.reason,
         }
     if truth is not None:
         faults = truth.get("faults") or []
@@ -255,6 +262,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="output directory (created)")
     parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
     parser.add_argument(
+        "--baseline",
+        default=None,
+        help="baseline of the commissioned unit (ballscrew-twin commission); default: the "
+        "nominal twin with its default model error",
+    )
+    parser.add_argument(
         "--false-alarm-rate",
         type=float,
         default=MonitorSettings.false_alarm_rate,
@@ -293,7 +306,10 @@ def run(args: argparse.Namespace) -> int:
         raise BallscrewTwinError(f"cannot create output directory {out}: {err}") from err
     start = recording.start_ns * 1e-9
     predictor = shared_predictor(config, settings.residual)
-    result = run_monitor(recording_channels(recording), config, settings, start, predictor)
+    baseline = load_baseline(args.baseline) if args.baseline else None
+    result = run_monitor(
+        recording_channels(recording), config, settings, start, predictor, baseline
+    )
     data = summary(result, recording.truth)
     data["bag"] = str(recording.path)
     data["issues"] = list(recording.issues)
@@ -309,6 +325,8 @@ def run(args: argparse.Namespace) -> int:
             f": {data['fault_class'] or 'unclassified'} (confidence {data['confidence']:.2f}), "
             f"alarm at {data['alarm']['time_s']:.2f} s by {data['alarm']['detector']}"
         )
+        if not data["fault_class"]:
+            line += f" ({data['alarm']['unclassified_reason']})"
     if "detection_delay_s" in data:
         line += f", delay {data['detection_delay_s']:.2f} s after the true onset"
     print(line)

@@ -219,7 +219,7 @@ class OrderSpectralTest:
         must span enough revolutions for the neighbours not to overlap the order (checked by
         the caller).
         """
-        revolutions = max(abs(float(angle[-1] - angle[0])) / (2.0 * math.pi), 1e-9)
+        revolutions = max(float(np.ptp(angle)) / (2.0 * math.pi), 1e-9)
         steps = np.arange(2, self.neighbours + 2) / revolutions
         offsets = np.concatenate([[0.0], -steps, steps])
         probes = (np.asarray(orders)[:, None] + offsets[None, :]).ravel()

@@ -7,10 +7,19 @@ on the innovations and on the raw torque (:mod:`.detectors`) -> verdict and faul
 them for the bag's messages merged in stamp order (:func:`feed`), so both see the same blocks
 in the same order and reach the same verdict.
 
+The prediction follows the measured trajectory: the twin (the real-time map adjusted to the
+commissioned unit, :class:`.residuals.UnitTwin` and :class:`.baseline.Baseline`) is evaluated
+at every torque sample's speed and averaged over the block, never at the block's mean speed;
+the inertia torque is the block mean of J dw/dt, (w_end - w_start) / span, from the speed at
+the block's edges; every block carries its own uncertainty (:mod:`.baseline`). Blocks that
+reach below ``gate_speed`` or lie within ``gate_angle`` of screw rotation after a reversal are
+gated (UNKNOWN, counted in :attr:`HealthMonitor.gated_time`): there the unit's breakaway and
+presliding friction, which the quasi-static twin does not have, dominate.
+
 Verdicts: UNKNOWN during the warm-up (the sensor noise is learnt then; the data must be healthy)
-and at standstill or an invalid operating point; OK; WARN when a detector's statistic passes
-``warn_fraction`` of its threshold; FAULT from the first alarm on (latched, the Kalman filter
-is frozen so that it does not learn the fault). The class is refined for
+and at standstill, gated blocks or an invalid operating point; OK; WARN when a detector's
+statistic passes ``warn_fraction`` of its threshold; FAULT from the first alarm on (latched,
+the Kalman filter is frozen so that it does not learn the fault). The class is refined for
 ``classification_window`` [s] after the alarm and then kept.
 """
 
@@ -25,7 +34,9 @@ import numpy as np
 
 from ..errors import BallscrewTwinError, ConfigError
 from ..models.base import OperatingPoint
+from ..models.steady_map import MapError
 from ..params import TwinConfig
+from .baseline import Baseline
 from .classify import (
     Classification,
     classify_mean_shift,
@@ -38,10 +49,10 @@ from .residuals import (
     Block,
     BlockAligner,
     FloatArray,
-    Prediction,
     ResidualSettings,
+    ReversalGate,
     TwinPredictor,
-    block_acceleration,
+    UnitTwin,
     make_twin_model,
     nearest_probe,
     within_block_variance,
@@ -54,6 +65,12 @@ VERDICT_NAMES = {OK: "OK", WARN: "WARN", FAULT: "FAULT", UNKNOWN: "UNKNOWN"}
 DETECTORS: tuple[str, ...] = ("cusum", "chi_square", "spectral")
 #: Blocks of history kept for classification after an alarm.
 HISTORY_BLOCKS = 1200
+#: Samples of a block at which the twin is evaluated (evenly spread) [-].
+EVALUATED_SAMPLES = 20
+#: Speeds of a block kept for the classification's signatures (evenly picked) [-].
+SIGNATURE_SPEEDS = 5
+#: Relative preload step of the preload sensitivity [-].
+PRELOAD_STEP = 0.05
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -71,6 +88,8 @@ class MonitorSettings:
         classification_window: time after the alarm over which the class is refined [s]; the
             longer, the likelier the operating point moves, which separates the classes.
         warn_fraction: statistic / threshold from which the verdict is WARN [-].
+        error_correlation_time: time over which the twin's error stays alike [s]: blocks
+            within it count as one piece of evidence for the class posterior.
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -84,6 +103,7 @@ class MonitorSettings:
     min_revolutions: float = 4.0
     classification_window: float = 8.0
     warn_fraction: float = 0.5
+    error_correlation_time: float = 1.0
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning."""
@@ -95,6 +115,7 @@ class MonitorSettings:
             ("spectral_period", "s"),
             ("min_revolutions", "-"),
             ("classification_window", "s"),
+            ("error_correlation_time", "s"),
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
@@ -174,11 +195,39 @@ class _Record:
     time: float
     measured: float
     predicted: float
-    prediction: Prediction
+    drag: float
+    preload_sensitivity: float
+    speeds: FloatArray
     operating_point: OperatingPoint
     noise_variance: float
     state: FloatArray
     covariance: FloatArray
+
+
+class _SteadyTwin:
+    """The steady model through the cached :class:`.residuals.TwinPredictor`, for a screw with
+    no real-time map (slower: a steady solve per new grid cell)."""
+
+    def __init__(self, predictor: TwinPredictor, baseline: Baseline) -> None:
+        self.predictor = predictor
+        self.baseline = baseline
+
+    def drag(
+        self,
+        speed: FloatArray,
+        temperature: float,
+        preload: float,
+        *,
+        preload_factor: float = 1.0,
+    ) -> FloatArray:
+        """Drag torque [N m] at each speed [rad/s] (the baseline's temperature shift too)."""
+        temperature = temperature + self.baseline.temperature_shift
+        load = self.baseline.preload_scale * preload_factor * preload
+        out = []
+        for w in speed:
+            op = OperatingPoint(screw_speed=float(w), temperature=temperature, preload=load)
+            out.append(self.predictor.predict(op).at(op))
+        return np.array(out)
 
 
 class HealthMonitor:
@@ -198,6 +247,8 @@ class HealthMonitor:
         settings: MonitorSettings | None = None,
         model_factory: object = make_twin_model,
         predictor: TwinPredictor | None = None,
+        baseline: Baseline | None = None,
+        twin: UnitTwin | None = None,
     ) -> None:
         self.config = config
         self.settings = settings or MonitorSettings()
@@ -207,6 +258,36 @@ class HealthMonitor:
         ):
             raise ConfigError("health monitor: the shared predictor has another config/settings")
         self.predictor = predictor or TwinPredictor(config, s.residual, model_factory)
+        if baseline is None:
+            from dataclasses import replace as _replace
+
+            baseline = _replace(
+                Baseline.nominal(config),
+                error_relative=s.residual.model_error_relative,
+                error_absolute=s.residual.model_error_absolute,
+                sensor_noise=s.residual.sensor_noise,
+            )
+        else:
+            baseline.check_config(config)
+        self.baseline = baseline
+        self.twin: UnitTwin | _SteadyTwin
+        #: Why the twin is what it is (e.g. no real-time map for this screw).
+        self.twin_note = ""
+        try:
+            if twin is not None:
+                self.twin = twin.adjusted(baseline.preload_scale, baseline.temperature_shift)
+            else:
+                self.twin = UnitTwin(config, baseline.preload_scale, baseline.temperature_shift)
+            self.twin_name = "realtime_map"
+        except MapError as err:
+            self.twin = _SteadyTwin(self.predictor, baseline)
+            self.twin_name = self.predictor.model.name
+            self.twin_note = f"no real-time map ({err}); the steady model predicts"
+        #: Time of the blocks gated near standstill / reversals, and of those compared [s].
+        self.gated_time = 0.0
+        self.compared_time = 0.0
+        self.gate = ReversalGate(s.residual)
+        self._angle_at: tuple[float, float, float] | None = None
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(s.tracker)
         block_rate = 1.0 / s.residual.block_duration
@@ -258,7 +339,7 @@ class HealthMonitor:
     @property
     def sensor_variance(self) -> float | None:
         """Variance of one torque sample [N m^2]: given, or learnt in the warm-up (None yet)."""
-        given = self.settings.residual.sensor_noise
+        given = self.baseline.sensor_noise
         if given is not None:
             return given * given
         if self._noise_count == 0:
@@ -267,7 +348,6 @@ class HealthMonitor:
 
     # ------------------------------------------------------------------ one block
     def _unknown(self, block: Block, note: str, op: OperatingPoint | None) -> HealthSample:
-        self._raw.clear()
         return HealthSample(
             time=block.time,
             measured=float(np.mean(block.torque)),
@@ -286,23 +366,68 @@ class HealthMonitor:
             note=note,
         )
 
+    def block_sigma(self, block: Block, drag: float, inertia: float) -> float:
+        """1-sigma error of the twin's block mean [N m] without the sensor noise (see
+        :mod:`.baseline`)."""
+        b = self.baseline
+        span = block.span
+        edge = (
+            b.inertia * (block.edge_curvature[0] + block.edge_curvature[1]) / (4.0 * span)
+            if span > 0.0
+            else 0.0
+        )
+        outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
+        error = b.error_at(float(np.mean(block.speed)))
+        return b.torque_gain * math.sqrt(
+            (error * drag) ** 2
+            + b.error_absolute**2
+            + (b.inertia_error * inertia) ** 2
+            + edge**2
+            + outside**2
+        )
+
     def _process(self, block: Block) -> HealthSample:
         s = self.settings
+        b = self.baseline
         if self._start is None:
             self._start = block.time
         in_warmup = block.time - self._start < s.warmup
         speed = float(np.mean(block.speed))
         op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
-        if abs(speed) < s.residual.min_speed:
-            return self._unknown(block, f"standstill (|speed| {abs(speed):.3g} rad/s)", op)
+        angle = self._block_angle(block)
+        gate = self.gate.check(block)
+        if gate:
+            self.gated_time += block.span
+            return self._unknown(block, gate, op)
         try:
-            prediction = self.predictor.predict(op)
+            op.validate()
+            # The twin at up to EVALUATED_SAMPLES evenly spread samples, linear in time in
+            # between (the drag is smooth over a block; a 1 kHz meter need not cost 100 maps).
+            every = max(math.ceil(len(block.speed) / EVALUATED_SAMPLES), 1)
+            at = np.unique(np.append(np.arange(0, len(block.speed), every), len(block.speed) - 1))
+            evaluated = self.twin.drag(block.speed[at], block.temperature, block.preload)
+            drags = np.interp(block.stamps, block.stamps[at], evaluated * b.shape(block.speed[at]))
+            few = at[:: max(len(at) // SIGNATURE_SPEEDS, 1)]
+            lighter = self.twin.drag(
+                block.speed[few],
+                block.temperature,
+                block.preload,
+                preload_factor=1.0 - PRELOAD_STEP,
+            ) * b.shape(block.speed[few])
         except BallscrewTwinError as err:  # invalid operating point, solver failure
             return self._unknown(block, f"no prediction: {err}", None)
+        picked = block.speed[few]
+        drag = float(np.mean(drags))
+        heavy = float(np.mean(drags[few]))
+        load = max(block.preload, 1e-9)
+        preload_sensitivity = (
+            b.torque_gain * (heavy - float(np.mean(lighter))) / (PRELOAD_STEP * load)
+        )
+        self.compared_time += block.span
 
         n = len(block.torque)
         measured = float(np.mean(block.torque))
-        if in_warmup and s.residual.sensor_noise is None:
+        if in_warmup and b.sensor_noise is None:
             variance = within_block_variance(block)
             if variance is not None:
                 self._noise_sum += variance
@@ -311,11 +436,12 @@ class HealthMonitor:
         if sensor_var is None:
             return self._unknown(block, "warm-up: sensor noise not known yet", op)
 
-        predicted = prediction.at(op) + self.config.screw.screw_inertia * block_acceleration(block)
+        inertia = b.inertia * block.mean_acceleration
+        predicted = b.torque_gain * (drag + inertia) + b.torque_bias
         residual = measured - predicted
-        model_error = s.residual.model_error(predicted)
-        normalized = residual / math.sqrt(sensor_var / n + model_error**2)
-        noise_var = sensor_var / n + (s.residual.model_noise_relative * predicted) ** 2
+        model_sigma = self.block_sigma(block, drag, inertia)
+        noise_var = sensor_var / n + model_sigma**2
+        normalized = residual / math.sqrt(noise_var)
         gap = 1 if self._last_index is None else max(block.index - self._last_index, 1)
         self._last_index = block.index
         prior_state = self.tracker.state
@@ -323,16 +449,25 @@ class HealthMonitor:
         step = self.tracker.step(
             measured,
             predicted,
-            prediction.preload_sensitivity,
+            preload_sensitivity,
             noise_var,
             gap * s.residual.block_duration,
         )
         self._history.append(
             _Record(
-                block.time, measured, predicted, prediction, op, noise_var, prior_state, prior_cov
+                block.time,
+                measured,
+                predicted,
+                b.torque_gain * drag,
+                preload_sensitivity,
+                np.array(picked, dtype=float),
+                op,
+                noise_var,
+                prior_state,
+                prior_cov,
             )
         )
-        self._buffer_raw(block)
+        self._buffer_raw(block, block.torque - (b.torque_gain * drags + b.torque_bias), angle)
         e = step.normalized
         if in_warmup:
             return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
@@ -426,8 +561,25 @@ class HealthMonitor:
         )
 
     # ------------------------------------------------------------------ spectral test
-    def _buffer_raw(self, block: Block) -> None:
-        self._raw.append((block.stamps, block.torque, block.speed))
+    def _block_angle(self, block: Block) -> FloatArray:
+        """Screw angle at the block's stamps [rad]: the trapezoidal integral of the speed,
+        continued over every block (gated ones too) so that the order test keeps the phase
+        across the gaps it skips."""
+        t, w = block.stamps, block.speed
+        if self._angle_at is None:
+            self._angle_at = (float(t[0]), float(w[0]), 0.0)
+        t0, w0, a0 = self._angle_at
+        times = np.concatenate([[t0], t])
+        speeds = np.concatenate([[w0], w])
+        steps = 0.5 * (speeds[1:] + speeds[:-1]) * np.diff(times)
+        angle = a0 + np.cumsum(steps)
+        self._angle_at = (float(t[-1]), float(w[-1]), float(angle[-1]))
+        return np.asarray(angle)
+
+    def _buffer_raw(self, block: Block, residual: FloatArray, angle: FloatArray) -> None:
+        """Keep the per-sample residual [N m] and angle [rad] of the last ``spectral_window``
+        of compared blocks for the order test."""
+        self._raw.append((block.stamps, residual, angle))
         while self._raw and self._raw[0][0][0] < block.stamps[-1] - self.settings.spectral_window:
             self._raw.popleft()
 
@@ -439,15 +591,16 @@ class HealthMonitor:
         self._next_spectral = now + s.spectral_period
         t = np.concatenate([r[0] for r in self._raw])
         x = np.concatenate([r[1] for r in self._raw])
-        w = np.concatenate([r[2] for r in self._raw])
+        angle = np.concatenate([r[2] for r in self._raw])
         if len(t) < 16 or t[-1] - t[0] < 0.9 * s.spectral_window:
             return
-        angle = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
-        if abs(angle[-1]) < 2.0 * math.pi * s.min_revolutions:
+        travel = np.abs(np.diff(angle))
+        if float(np.ptp(angle)) < 2.0 * math.pi * s.min_revolutions:
             self._spectral_stat = 0.0
             return
-        nyquist = 0.5 / float(np.median(np.diff(t)))
-        rotation = float(np.max(np.abs(w))) / (2.0 * math.pi)
+        step = float(np.median(np.diff(t)))
+        nyquist = 0.5 / step
+        rotation = float(np.max(travel)) / step / (2.0 * math.pi)
         names = [n for n, m in self.orders.items() if m * rotation < 0.9 * nyquist]
         if not names:
             self._spectral_stat = 0.0
@@ -468,20 +621,20 @@ class HealthMonitor:
             return classify_ripple(self._spectral_ratios, self.spectral.threshold)
         records = [r for r in self._history if r.time >= self.alarm.onset]
         if not records:
-            return Classification("", 0.0, {}, {})
+            return Classification("", 0.0, {}, {}, reason="no compared block since the onset")
         base = records[0]
         residuals, sigmas, preload = [], [], []
         for r in records:
-            p = r.prediction
-            expected = self.tracker.expected(r.predicted, p.preload_sensitivity, base.state)
-            h = np.array([1.0, r.predicted, p.preload_sensitivity])
+            expected = self.tracker.expected(r.predicted, r.preload_sensitivity, base.state)
+            h = np.array([1.0, r.predicted, r.preload_sensitivity])
             residuals.append(r.measured - expected)
             sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
-            preload.append(-r.operating_point.preload * p.preload_sensitivity)
+            preload.append(-r.operating_point.preload * r.preload_sensitivity)
+        gain = self.baseline.torque_gain
 
         def twin_signature(name: str, probe: float | None) -> FloatArray:
             return np.array(
-                [self.predictor.signature(name, r.operating_point, probe) for r in records]
+                [gain * self.predictor.signature(name, r.operating_point, probe) for r in records]
             )
 
         signatures = {
@@ -490,14 +643,22 @@ class HealthMonitor:
         }
         r_arr, s_arr = np.array(residuals), np.array(sigmas)
         elapsed = np.array([r.time - self.alarm.onset for r in records])
-        first = classify_mean_shift(r_arr, s_arr, signatures, elapsed)
-        # The twin's response is not linear in the severity: take its secants again near the
-        # severities just fitted, and fit once more.
-        for name in SIGNATURE_CHANGES:
-            probe = nearest_probe(name, first.severities.get(name, math.nan))
+        correlation = self.settings.error_correlation_time / self.settings.residual.block_duration
+        first = classify_mean_shift(r_arr, s_arr, signatures, elapsed, correlation)
+        # The response is not linear in the severity: take the twin's secant again near the
+        # fitted severity of the steady-model signatures, and fit once more.
+        probes = {
+            name: nearest_probe(name, first.severities.get(name, math.nan))
+            for name in SIGNATURE_CHANGES
+        }
+        changed = False
+        for name, probe in probes.items():
             if probe != SIGNATURE_CHANGES[name][2]:
                 signatures[name] = twin_signature(name, probe)
-        return classify_mean_shift(r_arr, s_arr, signatures, elapsed)
+                changed = True
+        if not changed:
+            return first
+        return classify_mean_shift(r_arr, s_arr, signatures, elapsed, correlation)
 
 
 def feed(

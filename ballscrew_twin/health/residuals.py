@@ -140,6 +140,11 @@ class ResidualSettings:
         temperature_step: temperature step of the prediction cache [K].
         preload_step: preload step of the prediction cache [N].
         min_speed: below this |speed| the drag torque is not compared (standstill) [rad/s].
+        gate_speed: a block with any sample below this |speed| is not compared: near
+            standstill the unit's breakaway (Stribeck) friction is not in the twin [rad/s].
+        gate_angle: nor one with a sample within this screw rotation since the last
+            reversal: the friction's presliding lag (a few Dahl angles) is not in the quasi-
+            static twin [rad].
         slow_smoothing: causal moving average of temperature and preload [s]: both change
             slowly, their sensor noise would otherwise go into the prediction.
     """
@@ -154,6 +159,8 @@ class ResidualSettings:
     temperature_step: float = 0.5
     preload_step: float = 10.0
     min_speed: float = 0.5
+    gate_speed: float = 2.0
+    gate_angle: float = 1.0
     slow_smoothing: float = 1.0
 
     def __post_init__(self) -> None:
@@ -169,6 +176,8 @@ class ResidualSettings:
         _positive(self.temperature_step, "temperature_step", "K")
         _positive(self.preload_step, "preload_step", "N")
         _positive(self.min_speed, "min_speed", "rad/s", allow_zero=True)
+        _positive(self.gate_speed, "gate_speed", "rad/s", allow_zero=True)
+        _positive(self.gate_angle, "gate_angle", "rad", allow_zero=True)
         _positive(self.slow_smoothing, "slow_smoothing", "s", allow_zero=True)
 
     def model_error(self, predicted: float) -> float:
@@ -312,6 +321,65 @@ class TwinPredictor:
         return change
 
 
+class UnitTwin:
+    """The real-time map of the twin (:class:`~ballscrew_twin.models.realtime.RealTimeModel`),
+    adjusted to a commissioned unit and evaluated along a measured trajectory.
+
+    The unit's drag torque is ``T_map(w, T + dT, k_F F)``: k_F the preload scale, dT the
+    temperature shift (a thermometer offset, or a lubricant whose torque-temperature curve
+    lies a few kelvin off; a scale of the viscosity alone is *not* a shift in temperature in
+    this model, whose density, Roelands indices and thermal film reduction all move with the
+    temperature: measured in docs/model.md section 16); the sensor's gain and bias and the
+    inertia are applied by the caller (:mod:`.monitor`). All the speeds of a call are
+    interpolated at once (:meth:`~ballscrew_twin.models.steady_map.SteadyMap.total_torque`).
+
+    Args:
+        config: the nominal parameter set (the one the map was built for).
+        preload_scale: k_F [-].
+        temperature_shift: dT [K].
+
+    Raises:
+        MapError: no map for ``config``.
+    """
+
+    def __init__(
+        self, config: TwinConfig, preload_scale: float = 1.0, temperature_shift: float = 0.0
+    ) -> None:
+        from ..models.realtime import RealTimeModel
+
+        self.config = config
+        self.model = RealTimeModel(config)
+        self.preload_scale = preload_scale
+        self.temperature_shift = temperature_shift
+        self.evaluations = 0
+
+    def adjusted(self, preload_scale: float, temperature_shift: float) -> UnitTwin:
+        """A twin of other scales sharing this one's map."""
+        other = UnitTwin.__new__(UnitTwin)
+        other.__dict__.update(self.__dict__)
+        other.preload_scale = preload_scale
+        other.temperature_shift = temperature_shift
+        return other
+
+    def drag(
+        self,
+        speed: FloatArray,
+        temperature: float,
+        preload: float,
+        *,
+        preload_factor: float = 1.0,
+    ) -> FloatArray:
+        """Drag torque [N m] at each ``speed`` [rad/s], one ``temperature`` [K] and measured
+        ``preload`` [N], the preload times ``preload_factor`` [-] (a preload loss)."""
+        load = max(self.preload_scale * preload_factor * preload, 0.0)
+        self.evaluations += len(speed)
+        return self.model.map.total_torque(
+            np.asarray(speed, dtype=np.float64),
+            temperature + self.temperature_shift,
+            (load, load),
+        )
+
+
 @functools.lru_cache(maxsize=4)
 def shared_predictor(config: TwinConfig, settings: ResidualSettings) -> TwinPredictor:
     """One :class:`TwinPredictor` (with the default twin) per screw and residual settings in
@@ -348,6 +416,19 @@ class SlowSignal:
             self.stamps.popleft()
             self.values.popleft()
 
+    def curvature_near(self, times: FloatArray) -> FloatArray:
+        """|v[k+1] - 2 v[k] + v[k-1]| at the sample k nearest each of ``times`` [s] (0 where
+        a neighbour is missing): the size of the error of a straight line between samples,
+        in the signal's unit."""
+        stamps = np.fromiter(self.stamps, float)
+        values = np.fromiter(self.values, float)
+        out = np.zeros(len(times))
+        if len(stamps) < 3:
+            return out
+        k = np.clip(np.searchsorted(stamps, times), 1, len(stamps) - 2)
+        out[:] = np.abs(values[k + 1] - 2.0 * values[k] + values[k - 1])
+        return out
+
     @property
     def latest(self) -> float:
         """Stamp of the newest sample [s], -inf without samples."""
@@ -382,6 +463,10 @@ class Block:
         temperature: temperature at the block's mid time [K].
         preload: measured preload at the block's mid time [N].
         held: names of slow signals whose last value was held (late beyond ``max_wait``).
+        speed_edges: speed half a torque interval before the first and after the last stamp
+            [rad/s]: their difference over the block's span is the block mean of dw/dt.
+        edge_curvature: second difference of the speed samples nearest those edges [rad/s]
+            (how far a straight line between speed samples may be off there).
     """
 
     index: int
@@ -391,6 +476,22 @@ class Block:
     temperature: float
     preload: float
     held: tuple[str, ...]
+    speed_edges: tuple[float, float] = (0.0, 0.0)
+    edge_curvature: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def span(self) -> float:
+        """Time the block's samples stand for [s]: n torque intervals."""
+        n = len(self.stamps)
+        if n < 2:
+            return 0.0
+        return float(self.stamps[-1] - self.stamps[0]) * n / (n - 1)
+
+    @property
+    def mean_acceleration(self) -> float:
+        """Block mean of dw/dt [rad/s^2]: (w at the end edge - w at the start edge) / span."""
+        span = self.span
+        return (self.speed_edges[1] - self.speed_edges[0]) / span if span > 0.0 else 0.0
 
     @property
     def time(self) -> float:
@@ -425,11 +526,14 @@ class BlockAligner:
                 f"torque: stamp {stamp:.6f} s is earlier than the last one "
                 f"{self._last_torque_stamp:.6f} s (clock jump?)"
             )
+        index = self._index(stamp)
+        # Nothing can close while the newest block stays open and is the only one pending.
+        quiet = len(self._pending) == 1 and index in self._pending
         self._last_torque_stamp = stamp
-        stamps, values = self._pending.setdefault(self._index(stamp), ([], []))
+        stamps, values = self._pending.setdefault(index, ([], []))
         stamps.append(stamp)
         values.append(value)
-        return self._ready(flush=False)
+        return [] if quiet else self._ready(flush=False)
 
     def add_speed(self, stamp: float, value: float) -> list[Block]:
         """Add a speed sample [s, rad/s]."""
@@ -456,6 +560,16 @@ class BlockAligner:
     def _ready(self, *, flush: bool) -> list[Block]:
         out: list[Block] = []
         current = self._index(self._last_torque_stamp) if self._pending else 0
+        if not flush and self._pending:
+            # Quick answer for the common case: the oldest block still waits (open, or for a
+            # slow signal that has not timed out).
+            first = min(self._pending)
+            end = (first + 1) * self.settings.block_duration
+            waiting = min(s.latest for s in self._signals()) < end
+            if first >= current or (
+                waiting and self._last_torque_stamp < end + self.settings.max_wait
+            ):
+                return out
         for index in sorted(self._pending):
             end = (index + 1) * self.settings.block_duration
             closed = index < current or flush
@@ -473,6 +587,10 @@ class BlockAligner:
             stamps, values = self._pending.pop(index)
             t = np.asarray(stamps)
             mid = np.array([0.5 * (t[0] + t[-1])])
+            half = 0.5 * float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+            edges = np.array([t[0] - half, t[-1] + half])
+            at_edges = self.speed.at(edges)
+            bends = self.speed.curvature_near(edges)
             out.append(
                 Block(
                     index=index,
@@ -482,9 +600,46 @@ class BlockAligner:
                     temperature=float(self.temperature.at(mid)[0]),
                     preload=float(self.preload.at(mid)[0]),
                     held=late,
+                    speed_edges=(float(at_edges[0]), float(at_edges[1])),
+                    edge_curvature=(float(bends[0]), float(bends[1])),
                 )
             )
         return out
+
+
+class ReversalGate:
+    """Which blocks the quasi-static twin may be compared on (see ``gate_speed`` and
+    ``gate_angle`` of :class:`ResidualSettings`): it follows the screw rotation since the last
+    reversal or stop over the blocks it is shown, in order."""
+
+    def __init__(self, settings: ResidualSettings) -> None:
+        self.settings = settings
+        self._sign = 0.0
+        self._travel = math.inf
+        self._last_stamp = -math.inf
+
+    def check(self, block: Block) -> str:
+        """Why ``block`` is not compared ("" when it is); updates the rotation count."""
+        r = self.settings
+        reason = ""
+        for stamp, w in zip(block.stamps.tolist(), block.speed.tolist(), strict=True):
+            dt = stamp - self._last_stamp if math.isfinite(self._last_stamp) else 0.0
+            self._last_stamp = stamp
+            sign = math.copysign(1.0, w) if abs(w) >= r.min_speed else 0.0
+            if sign != self._sign:
+                self._sign, self._travel = sign, 0.0
+            else:
+                self._travel += abs(w) * max(dt, 0.0)
+            if reason:
+                continue
+            if abs(w) < r.gate_speed:
+                reason = f"gated: |speed| {abs(w):.3g} rad/s below {r.gate_speed:g} rad/s"
+            elif self._travel < r.gate_angle:
+                reason = (
+                    f"gated: {self._travel:.3g} rad since the last reversal or stop "
+                    f"(< {r.gate_angle:g} rad)"
+                )
+        return reason
 
 
 def within_block_variance(block: Block) -> float | None:

@@ -397,6 +397,14 @@ def catmull_rom_weights(t: float) -> FloatArray:
     )
 
 
+def _catmull_rom_rows(t: FloatArray) -> FloatArray:
+    """(N, 4) weights of :func:`catmull_rom_weights` for each fraction of ``t`` (N,)."""
+    t2, t3 = t * t, t * t * t
+    return 0.5 * np.column_stack(
+        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
+    )
+
+
 def pad_axis(table: FloatArray, axis: int) -> FloatArray:
     """Add a linearly extrapolated ghost node at both ends of ``axis``."""
     first, second = np.take(table, [0], axis=axis), np.take(table, [1], axis=axis)
@@ -672,6 +680,41 @@ class SteadyMap:
                         "solver failed (filled from the nearest solved speed)"
                     )
         return MapSample(torque, states, tuple(notes))
+
+    def total_torque(
+        self, screw_speeds: FloatArray, temperature: float, preloads: tuple[float, float]
+    ) -> FloatArray:
+        """Total drag torque of both nuts [N m] at many speeds [rad/s] and one temperature [K]
+        and pair of equivalent preloads [N] (numpy, vectorised over the speeds; no notes).
+
+        The same tensor Catmull-Rom of the nut torque as :meth:`sample` (its total is the sum
+        of ``sample(...).torque``), for a caller that follows a measured speed trajectory;
+        queries beyond the map are clamped to it as there.
+        """
+        g = self.grid
+        speeds = np.asarray(screw_speeds, dtype=np.float64)
+        magnitude = np.abs(speeds)
+        u = np.log(np.maximum(magnitude, g.speed_min) / g.speed_min) / math.log(
+            g.speed_max / g.speed_min
+        )
+        u = np.clip(u * (g.speed_nodes - 1), 0.0, g.speed_nodes - 1.0)
+        cell = np.minimum(u.astype(np.int64), g.speed_nodes - 2)
+        ws = _catmull_rom_rows(u - cell)
+        t_cell, t_fraction = axis_cell(temperature_node(g, temperature), g.temperature_nodes)
+        wt = catmull_rom_weights(t_fraction)
+        total = np.zeros(len(speeds))
+        sign = (speeds < 0.0).astype(np.int64)
+        offsets = np.arange(4)
+        for nut, preload in enumerate(preloads):
+            p_cell, p_fraction = axis_cell(preload_node(g, preload), g.preload_nodes)
+            wp = catmull_rom_weights(p_fraction)
+            # (S, T, P) columns of asinh(nut torque) around the temperature and preload cells.
+            table = self._padded["torque"][:, :, t_cell : t_cell + 4, p_cell : p_cell + 4, nut, 0]
+            plane = np.einsum("abjk,j,k->ab", table, wt, wp)  # (sign, speed node)
+            rows = plane[sign[:, None], cell[:, None] + offsets[None, :]]  # (N, 4)
+            total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))
+        blend = np.minimum(magnitude / g.speed_min, 1.0)
+        return np.asarray(total * blend)
 
     def _interpolate_reference(
         self, sign: int, fine: QueryCells, coarse: QueryCells | None, blend: float

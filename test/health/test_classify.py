@@ -8,7 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ballscrew_twin.health.classify import classify_mean_shift, classify_ripple, defect_orders
+from ballscrew_twin.health.classify import (
+    MAX_REDUCED_CHI_SQUARE,
+    classify_mean_shift,
+    classify_ripple,
+    defect_orders,
+)
 from ballscrew_twin.health.fault_profiles import defect_frequencies
 from ballscrew_twin.params import load_config
 
@@ -100,21 +105,59 @@ def test_a_fraction_lost_beyond_one_is_not_a_valid_explanation() -> None:
     assert result.fault_class == "jam_onset"
 
 
-def test_a_misfit_beyond_the_noise_tempers_the_confidence() -> None:
-    # Two shapes that differ by 10 %; the residual has the first shape plus an unexplained
-    # pattern 20 sigma large: the reduced chi-square of the best fit scales the comparison.
-    n = 40
+def _two_close_shapes(n: int) -> dict[str, np.ndarray]:
     low = np.arange(n) < n // 2
-    signatures = {
+    return {
         "preload_loss": np.where(low, -0.010, -0.020),
-        "lubricant_degradation": np.where(low, -0.011, -0.020),
+        "lubricant_degradation": np.where(low, -0.0103, -0.020),
     }
-    unexplained = 2e-3 * np.sin(np.arange(n))
+
+
+def test_a_misfit_beyond_the_noise_tempers_the_confidence() -> None:
+    # Two shapes that differ by 3 % on half the blocks; the residual has the first shape plus
+    # an unexplained pattern about 1.6 sigma large (reduced chi-square ~1.3): the best fit's
+    # reduced chi-square scales the comparison, so the choice is no longer near-certain.
+    n = 40
+    signatures = _two_close_shapes(n)
+    unexplained = 2.2e-4 * np.sin(np.arange(n))
     residuals = 0.2 * signatures["preload_loss"] + unexplained
     clean = classify_mean_shift(0.2 * signatures["preload_loss"], np.full(n, 1e-4), signatures)
     muddy = classify_mean_shift(residuals, np.full(n, 1e-4), signatures)
-    assert clean.fault_class == "preload_loss" and clean.confidence > 0.999
-    assert 0.5 <= muddy.confidence < 0.9
+    assert clean.fault_class == "preload_loss" and clean.confidence > 0.9
+    assert 1.0 < muddy.reduced_chi_square < MAX_REDUCED_CHI_SQUARE
+    assert muddy.fault_class == "preload_loss"
+    assert 0.5 <= muddy.confidence < clean.confidence
+
+
+def test_a_residual_no_class_explains_is_unclassified_with_the_reason() -> None:
+    # The same shapes, the unexplained pattern 20 sigma large: no class is named.
+    n = 40
+    signatures = _two_close_shapes(n)
+    residuals = 0.2 * signatures["preload_loss"] + 2e-3 * np.sin(np.arange(n))
+    result = classify_mean_shift(residuals, np.full(n, 1e-4), signatures)
+    assert result.fault_class == "" and result.confidence == 0.0
+    assert result.reduced_chi_square > MAX_REDUCED_CHI_SQUARE
+    assert "reduced chi-square" in result.reason
+
+
+def test_a_severity_outside_the_class_range_is_unclassified() -> None:
+    # A torque rise that only a viscosity *increase* (negative loss) or a preload gain would
+    # explain: no class in its range, so no class is named.
+    n = 30
+    signatures = {"preload_loss": np.full(n, -0.01), "lubricant_degradation": np.full(n, -0.004)}
+    result = classify_mean_shift(np.full(n, 0.002), np.full(n, 1e-4), signatures)
+    assert result.fault_class == ""
+    assert result.reason
+
+
+def test_correlated_blocks_count_as_fewer_pieces_of_evidence() -> None:
+    n = 40
+    signatures = _two_close_shapes(n)
+    residuals = 0.2 * signatures["preload_loss"]
+    alone = classify_mean_shift(residuals, np.full(n, 1e-4), signatures)
+    grouped = classify_mean_shift(residuals, np.full(n, 1e-4), signatures, correlation=10.0)
+    assert grouped.fault_class == alone.fault_class == "preload_loss"
+    assert 0.5 < grouped.confidence < alone.confidence
 
 
 def test_a_growing_fault_at_one_operating_point_stays_unseparable() -> None:

@@ -9,6 +9,7 @@ import pytest
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.health.bags import read_bench_bag
+from ballscrew_twin.health.baseline import load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR, SAMPLE_NAMES
 from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary
 from ballscrew_twin.health.monitor import FAULT, OK, MonitorSettings
@@ -26,9 +27,17 @@ def predictor() -> TwinPredictor:
     return shared_predictor(load_config(None), MonitorSettings().residual)
 
 
+@pytest.fixture(scope="module")
+def baseline(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The sample unit commissioned on its healthy bag, as a user does before monitoring."""
+    file = tmp_path_factory.mktemp("baseline") / "samples.yaml"
+    assert main(["commission", str(SAMPLE_DIR / "healthy"), "--out", str(file)]) == 0
+    return file
+
+
 @pytest.mark.parametrize("name", SAMPLE_NAMES)
 def test_each_sample_bag_gets_the_true_verdict_and_class(
-    name: str, predictor: TwinPredictor
+    name: str, predictor: TwinPredictor, baseline: Path
 ) -> None:
     bag = SAMPLE_DIR / name
     recording = read_bench_bag(bag, required=CHANNELS)
@@ -36,7 +45,11 @@ def test_each_sample_bag_gets_the_true_verdict_and_class(
     faults = recording.truth["faults"]
     start = recording.start_ns * 1e-9
     result = run_monitor(
-        recording_channels(recording), predictor.config, start=start, predictor=predictor
+        recording_channels(recording),
+        predictor.config,
+        start=start,
+        predictor=predictor,
+        baseline=load_baseline(baseline),
     )
     data = summary(result, recording.truth)
     if not faults:

@@ -1,0 +1,218 @@
+"""The commissioned unit: what the health monitor knows of one real screw, and its uncertainty.
+
+A :class:`Baseline` holds the parameters that differ from unit to unit and that the torque
+alone can identify: the contact preload over the load cell's reading (preload tolerance of
+the nut pair), a shift of the torque-temperature curve (thermometer offset, lubricant batch),
+the torque sensor's gain (which also takes a friction level common to every mechanism) and
+bias, a correction of the speed dependence (the unit's mu_dry and Eyring stress), and the
+rotating inertia the sensor sees. The monitor predicts the measured block mean as
+
+    z = g (mean_i S(w_i) T_map(w_i, T + dT, k_F F) + J dw/dt) + b,
+    S(w) = 1 + beta_1 x + beta_2 x^2,  x = log10(|w| / 30 rad/s),
+
+T_map the real-time map along the measured speeds w_i of the block (:class:`.residuals.UnitTwin`),
+and compares with the 1-sigma uncertainty
+
+    sigma^2 = sigma_s^2 / n + (e_rel |T|)^2 + e_abs^2 + (e_J J dw/dt)^2
+              + (J (c_0 + c_1) / (4 span))^2 + (e_T |T| d_T)^2,
+
+the sensor noise of the block mean, the twin's own error after commissioning (relative and
+absolute), the inertia's, the speed interpolation's at the block edges (c_k the second
+differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`) and the growth
+of the error with the distance d_T [K] of the temperature from the commissioned range.
+:func:`.commission.commission` fits all of them on a healthy recording; without one the nominal
+baseline (:meth:`Baseline.nominal`) is used with the default model error of the accuracy
+benchmark. Saved as YAML (SI units, every field documented in the file).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from ..errors import ConfigError
+from ..params import TwinConfig, read_yaml
+
+FloatArray = NDArray[np.float64]
+
+#: Format version of baseline files.
+BASELINE_VERSION = 1
+#: Speed about which the shape correction is taken [rad/s].
+SHAPE_REFERENCE_SPEED = 30.0
+#: Edges of the speed bands of the model error [rad/s].
+ERROR_BAND_EDGES = (10.0, 100.0)
+
+FIELD_DOCS: dict[str, str] = {
+    "config": "screw parameter set the baseline was fitted with (its name)",
+    "fingerprint": "SHA-256 of that parameter set's physical values",
+    "source": "recording the baseline was fitted on",
+    "torque_gain": "g, torque sensor gain times common friction level [-]",
+    "torque_bias": "b, torque sensor bias [N m]",
+    "preload_scale": "k_F, contact preload over the load cell's reading [-]",
+    "temperature_shift": "dT, the twin is read at the measured temperature + dT [K]",
+    "inertia": "J, rotating inertia between torque sensor and screw [kg m^2]",
+    "shape_slope": "beta_1, drag change per decade of speed about 30 rad/s [-]",
+    "shape_curvature": "beta_2, drag change per decade of speed squared [-]",
+    "sensor_noise": "sigma_s, noise of one torque sample [N m]",
+    "error_relative": "e_rel, twin error relative to the drag torque after the fit (1 sigma) [-]",
+    "error_bands": "e_rel in the speed bands below 10, 10-100, above 100 rad/s [-] (empty: one)",
+    "error_absolute": "e_abs, twin error floor (1 sigma) [N m]",
+    "inertia_error": "e_J, relative error of the inertia torque (1 sigma) [-]",
+    "temperature_error": "e_T, relative error growth per K outside the commissioned range [1/K]",
+    "temperature_min": "lowest temperature of the commissioning recording [K]",
+    "temperature_max": "highest temperature of the commissioning recording [K]",
+    "fit_rms": "rms relative block residual of the fit (not scaled) [-]",
+    "blocks": "blocks used by the fit [-]",
+}
+
+
+@dataclass(frozen=True, kw_only=True)
+class Baseline:
+    """A commissioned unit (see the module docstring; units in :data:`FIELD_DOCS`)."""
+
+    config: str
+    fingerprint: str
+    source: str = "nominal"
+    torque_gain: float = 1.0
+    torque_bias: float = 0.0
+    preload_scale: float = 1.0
+    temperature_shift: float = 0.0
+    inertia: float
+    shape_slope: float = 0.0
+    shape_curvature: float = 0.0
+    sensor_noise: float | None = None
+    error_relative: float = 0.03
+    error_bands: tuple[float, ...] = ()
+    error_absolute: float = 1.0e-4
+    inertia_error: float = 0.15
+    temperature_error: float = 0.0
+    temperature_min: float = 0.0
+    temperature_max: float = 1.0e4
+    fit_rms: float = math.nan
+    blocks: int = 0
+
+    def __post_init__(self) -> None:
+        positive = ("torque_gain", "preload_scale", "inertia")
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, float) and f.name != "fit_rms" and not math.isfinite(value):
+                raise ConfigError(f"baseline: {f.name} = {value!r} is not finite")
+            if f.name in positive and not value > 0.0:
+                raise ConfigError(f"baseline: {f.name} = {value!r} must be > 0")
+        if any(not (math.isfinite(e) and e >= 0.0) for e in self.error_bands):
+            raise ConfigError(f"baseline: error_bands = {self.error_bands!r} must be >= 0")
+        for name in ("error_relative", "error_absolute", "inertia_error", "temperature_error"):
+            if getattr(self, name) < 0.0:
+                raise ConfigError(f"baseline: {name} = {getattr(self, name)!r} must be >= 0")
+        if self.sensor_noise is not None and not self.sensor_noise > 0.0:
+            raise ConfigError(f"baseline: sensor_noise = {self.sensor_noise!r} N m must be > 0")
+        if self.temperature_min > self.temperature_max:
+            raise ConfigError("baseline: temperature_min is above temperature_max")
+
+    @classmethod
+    def nominal(cls, config: TwinConfig) -> Baseline:
+        """The nominal twin: scales 1, the screw's inertia, default model error."""
+        from ..models.steady_map import config_fingerprint
+
+        return cls(
+            config=config.name,
+            fingerprint=config_fingerprint(config),
+            inertia=config.screw.screw_inertia,
+        )
+
+    def shape(self, speed: FloatArray) -> FloatArray:
+        """1 + beta_1 x + beta_2 x^2, x = log10(|w| / 30 rad/s) [-] at ``speed`` [rad/s]: the
+        unit's departure from the twin's speed dependence (its mu_dry, which acts at low
+        speed, and its Eyring stress, at high speed, are not the nominal ones)."""
+        x = np.log10(np.maximum(np.abs(speed), 1e-6) / SHAPE_REFERENCE_SPEED)
+        return np.asarray(1.0 + self.shape_slope * x + self.shape_curvature * x * x)
+
+    def error_at(self, speed: float) -> float:
+        """e_rel at ``speed`` [rad/s]: the band's value, or ``error_relative``."""
+        if len(self.error_bands) != len(ERROR_BAND_EDGES) + 1:
+            return self.error_relative
+        band = int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))
+        return self.error_bands[band]
+
+    def temperature_distance(self, temperature: float) -> float:
+        """How far ``temperature`` [K] lies outside the commissioned range [K] (0 inside)."""
+        return max(self.temperature_min - temperature, temperature - self.temperature_max, 0.0)
+
+    def check_config(self, config: TwinConfig) -> None:
+        """ConfigError unless the baseline was fitted with ``config``'s physical values."""
+        from ..models.steady_map import config_fingerprint
+
+        if self.fingerprint != config_fingerprint(config):
+            raise ConfigError(
+                f"baseline fitted with parameter set {self.config!r}, not with {config.name!r} "
+                "(fingerprints differ): commission again with this parameter set"
+            )
+
+    def to_yaml(self) -> str:
+        """The baseline as a commented YAML document."""
+        lines = [
+            "# ballscrew_twin baseline of a commissioned unit (ballscrew-twin commission)",
+            f"# format {BASELINE_VERSION}; SI units; fields:",
+        ]
+        lines += [f"#   {name}: {doc}" for name, doc in FIELD_DOCS.items()]
+        body = {"format": BASELINE_VERSION, **asdict(self)}
+        body["error_bands"] = list(self.error_bands)
+        return "\n".join(lines) + "\n" + yaml.safe_dump(body, sort_keys=False)
+
+    def save(self, path: str | Path) -> Path:
+        """Write :meth:`to_yaml` to ``path``."""
+        file = Path(path)
+        try:
+            file.write_text(self.to_yaml(), encoding="utf-8")
+        except OSError as err:
+            raise ConfigError(f"{file}: cannot write baseline ({err.strerror})") from err
+        return file
+
+
+def baseline_from_mapping(data: Any, source: str) -> Baseline:
+    """Validate a parsed YAML mapping into a :class:`Baseline` (errors name ``source``)."""
+    if not isinstance(data, dict):
+        raise ConfigError(f"{source}: a baseline file holds a mapping of fields")
+    values = dict(data)
+    version = values.pop("format", None)
+    if version != BASELINE_VERSION:
+        raise ConfigError(f"{source}: format {version!r}, expected {BASELINE_VERSION}")
+    known = {f.name for f in fields(Baseline)}
+    unknown = sorted(set(map(str, values)) - known)
+    if unknown:
+        raise ConfigError(f"{source}: unknown field(s) {unknown}")
+    for name, value in values.items():
+        if name in ("config", "fingerprint", "source"):
+            if not isinstance(value, str):
+                raise ConfigError(f"{source}: {name} must be a string")
+        elif name == "error_bands":
+            if not isinstance(value, list) or not all(
+                isinstance(v, int | float) and not isinstance(v, bool) for v in value
+            ):
+                raise ConfigError(f"{source}: error_bands must be a list of numbers")
+            values[name] = tuple(float(v) for v in value)
+        elif name == "blocks":
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ConfigError(f"{source}: blocks must be a whole number")
+        elif value is not None and (isinstance(value, bool) or not isinstance(value, int | float)):
+            raise ConfigError(f"{source}: {name} = {value!r} must be a number")
+        elif isinstance(value, int) and not isinstance(value, bool):
+            values[name] = float(value)
+    try:
+        return Baseline(**values)
+    except TypeError as err:
+        raise ConfigError(f"{source}: {err}") from None
+    except ConfigError as err:
+        raise ConfigError(f"{source}: {err}") from None
+
+
+def load_baseline(path: str | Path) -> Baseline:
+    """Read a baseline file (ConfigError naming the file and the field)."""
+    file = Path(path)
+    return baseline_from_mapping(read_yaml(file, "baseline file"), str(file))

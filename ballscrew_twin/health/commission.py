@@ -1,0 +1,434 @@
+"""``ballscrew-twin commission BAG --out baseline.yaml``: learn the healthy unit from a recording.
+
+The monitor's faults are deviations from *this* unit, not from the nominal screw. On a healthy
+recording (a bag, or the first minutes of a live run) the blocks the monitor would compare
+(:class:`.residuals.ReversalGate`) are fitted with the unit model of :mod:`.baseline`:
+
+    z_j = g (mean_i S(w_ij) T_map(w_ij, T_j + dT, k_F F_j) + J a_j) + b,
+
+over theta = (g, b, ln k_F, dT, J, beta_1, beta_2), by scipy's trust-region least squares (the
+calibration's method) with the relative block residuals r_j / (|T_j| + e_abs) as the cost,
+plus Gaussian priors from the production spreads (one sigma: preload 15 %, gain 2 %,
+temperature shift 5 K, each shape coefficient 0.1: :data:`PRIOR_SIGMA`). The priors matter:
+at one set preload a preload scale and a gain change the torque nearly alike, and the priors
+split that change the way the spreads of a production lot make likeliest (a maximum a
+posteriori fit). The uncertainty of each fitted value
+comes from the Jacobian at the optimum, (J' J)^-1 times the reduced residual variance.
+
+The twin's error after the fit sets the baseline's error model: e_rel is ``error_scale`` times
+the 95th percentile of |r_j| / |T_j| over 1.96 (a 1-sigma equivalent that a few outliers do not
+inflate), e_abs the block-mean sensor noise floor, the sensor noise sigma_s the median scatter
+within the blocks at low acceleration. ``--plot`` draws measured against predicted (nominal and
+fitted), the relative residual, and the fitted values with their uncertainties.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import least_squares
+
+from ..errors import BallscrewTwinError, ConfigError
+from ..models.steady_map import config_fingerprint
+from ..params import TwinConfig, load_config
+from .baseline import ERROR_BAND_EDGES, Baseline
+from .residuals import (
+    Block,
+    BlockAligner,
+    FloatArray,
+    ResidualSettings,
+    ReversalGate,
+    UnitTwin,
+    within_block_variance,
+)
+
+#: One-sigma priors of the fitted values (the production spreads of issue 13) [-].
+PRIOR_SIGMA = {"torque_gain": 0.02, "preload_scale": 0.15, "temperature_shift": 5.0, "shape": 0.1}
+#: Most blocks the fit uses (evenly picked) and speeds per block for its drag mean [-].
+FIT_BLOCKS = 600
+FIT_SPEEDS = 8
+#: Default ``error_scale``: e_rel = scale x the fit's 95th-percentile relative error / 1.96.
+ERROR_SCALE = 1.5
+#: Floor of e_rel [-]: the real-time map's own interpolation error (bench accuracy: 0.7 %).
+ERROR_FLOOR = 0.007
+
+
+@dataclass(frozen=True)
+class FitBlock:
+    """A block the fit uses (SI units).
+
+    Attributes:
+        time: mid time [s]; measured: block mean torque [N m]; speeds: picked speeds [rad/s];
+        temperature [K]; preload [N]; acceleration: block mean dw/dt [rad/s^2]; samples: n.
+    """
+
+    time: float
+    measured: float
+    speeds: FloatArray
+    temperature: float
+    preload: float
+    acceleration: float
+    samples: int
+
+
+@dataclass(frozen=True)
+class CommissioningResult:
+    """A fitted baseline and what the plot shows.
+
+    Attributes:
+        baseline: the fitted unit.
+        uncertainty: 1-sigma uncertainty of each fitted value (baseline's units).
+        blocks: the blocks fitted.
+        nominal: predicted block means of the nominal twin [N m].
+        fitted: predicted block means of the fitted baseline [N m].
+        gated_share: share of the recording's blocks gated [-].
+    """
+
+    baseline: Baseline
+    uncertainty: dict[str, float]
+    blocks: list[FitBlock]
+    nominal: FloatArray
+    fitted: FloatArray
+    gated_share: float
+
+
+def aligned_blocks(
+    channels: Mapping[str, tuple[FloatArray, FloatArray]], settings: ResidualSettings
+) -> list[Block]:
+    """Every block of a recording's channels (absolute stamps [s], SI values), merged in
+    stamp order as the monitor sees them (:func:`.monitor.feed`)."""
+    aligner = BlockAligner(settings)
+    adders = {
+        "speed": aligner.add_speed,
+        "temperature": aligner.add_temperature,
+        "preload": aligner.add_preload,
+        "torque": aligner.add_torque,
+    }
+    names = list(adders)
+    for name in names:
+        if name not in channels:
+            raise ConfigError(f"commission: channel {name!r} is missing")
+    stamps = np.concatenate([np.asarray(channels[c][0], float) for c in names])
+    which = np.concatenate([np.full(len(channels[c][0]), k) for k, c in enumerate(names)])
+    values = np.concatenate([np.asarray(channels[c][1], float) for c in names])
+    blocks: list[Block] = []
+    calls = [adders[c] for c in names]
+    for i in np.lexsort((which, stamps)):
+        blocks.extend(calls[which[i]](float(stamps[i]), float(values[i])))
+    blocks.extend(aligner.flush())
+    return blocks
+
+
+def _pick(values: FloatArray, count: int) -> FloatArray:
+    step = max(len(values) // count, 1)
+    return np.asarray(values[::step], dtype=float)
+
+
+def _drags(
+    twin: UnitTwin, theta: FloatArray, blocks: list[FitBlock]
+) -> tuple[FloatArray, FloatArray]:
+    """Block means of the drag without and with the shape correction [N m]."""
+    unit = twin.adjusted(math.exp(theta[2]), theta[3])
+    shaped = Baseline(
+        config="", fingerprint="", inertia=1.0, shape_slope=theta[5], shape_curvature=theta[6]
+    )
+    plain, corrected = [], []
+    for b in blocks:
+        values = unit.drag(b.speeds, b.temperature, b.preload)
+        plain.append(float(np.mean(values)))
+        corrected.append(float(np.mean(values * shaped.shape(b.speeds))))
+    return np.array(plain), np.array(corrected)
+
+
+def _predict(twin: UnitTwin, theta: FloatArray, blocks: list[FitBlock]) -> FloatArray:
+    """Block means of the unit model with parameters
+    theta = (g, b, ln k_F, ln c_eta, J, beta_1, beta_2)."""
+    _, drag = _drags(twin, theta, blocks)
+    accel = np.array([b.acceleration for b in blocks])
+    return np.asarray(theta[0] * (drag + theta[4] * accel) + theta[1])
+
+
+def commission(
+    channels: Mapping[str, tuple[FloatArray, FloatArray]],
+    config: TwinConfig,
+    settings: ResidualSettings | None = None,
+    *,
+    source: str = "",
+    error_scale: float = ERROR_SCALE,
+    twin: UnitTwin | None = None,
+) -> CommissioningResult:
+    """Fit the baseline of the unit that made ``channels`` (see the module docstring).
+
+    Raises:
+        ConfigError: too few comparable blocks (the recording stands still or reverses all
+            the time), or no real-time map for ``config``.
+    """
+    settings = settings or ResidualSettings()
+    if not (math.isfinite(error_scale) and error_scale > 0.0):
+        raise ConfigError(f"commission: error_scale = {error_scale!r} must be > 0")
+    twin = twin or UnitTwin(config)
+    gate = ReversalGate(settings)
+    every = aligned_blocks(channels, settings)
+    usable: list[Block] = [b for b in every if not gate.check(b) and len(b.torque) >= 4]
+    if len(usable) < 20:
+        raise ConfigError(
+            f"commission{(' ' + source) if source else ''}: {len(usable)} of {len(every)} blocks "
+            "are comparable (moving, past a reversal); at least 20 are needed: record a healthy "
+            "run with motion at steady or slowly changing speed"
+        )
+    step = max(len(usable) // FIT_BLOCKS, 1)
+    fit_blocks = [
+        FitBlock(
+            b.time,
+            float(np.mean(b.torque)),
+            _pick(b.speed, FIT_SPEEDS),
+            b.temperature,
+            b.preload,
+            b.mean_acceleration,
+            len(b.torque),
+        )
+        for b in usable[::step]
+    ]
+    measured = np.array([b.measured for b in fit_blocks])
+    scale = np.abs(measured) + 1e-3 * float(np.max(np.abs(measured)))
+    nominal_theta = np.array([1.0, 0.0, 0.0, 0.0, config.screw.screw_inertia, 0.0, 0.0])
+    priors = np.array(
+        [
+            PRIOR_SIGMA["torque_gain"],
+            PRIOR_SIGMA["preload_scale"],
+            PRIOR_SIGMA["temperature_shift"],
+            PRIOR_SIGMA["shape"],
+            PRIOR_SIGMA["shape"],
+        ]
+    )
+    prior_weight = math.sqrt(len(fit_blocks))
+
+    def cost(theta: FloatArray) -> FloatArray:
+        misfit = (measured - _predict(twin, theta, fit_blocks)) / scale
+        deviation = np.array([theta[0] - 1.0, theta[2], theta[3], theta[5], theta[6]])
+        prior = (deviation / priors) / prior_weight
+        return np.concatenate([misfit / math.sqrt(len(fit_blocks)), prior])
+
+    j0 = config.screw.screw_inertia
+    fit = least_squares(
+        cost,
+        nominal_theta,
+        bounds=(
+            [0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5],
+            [1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5],
+        ),
+        x_scale=np.array([0.02, 1e-3, 0.1, 2.0, 0.1 * j0, 0.02, 0.02]),
+        diff_step=0.02,
+    )
+    theta = fit.x
+    residual_var = float(np.sum(fit.fun**2)) / max(len(fit.fun) - len(theta), 1)
+    try:
+        covariance = np.linalg.inv(fit.jac.T @ fit.jac) * residual_var
+        sigma = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    except np.linalg.LinAlgError:
+        sigma = np.full(len(theta), math.nan)
+
+    predicted = _predict(twin, theta, fit_blocks)
+    _, drag = _drags(twin, theta, fit_blocks)
+    relative = np.abs(measured - predicted) / np.maximum(np.abs(theta[0] * drag), 1e-12)
+
+    def band_error(inside: NDArray[np.bool_]) -> float:
+        values = relative[inside] if np.count_nonzero(inside) >= 10 else relative
+        return max(error_scale * float(np.percentile(values, 95)) / 1.96, ERROR_FLOOR)
+
+    speeds = np.array([abs(float(np.mean(b.speeds))) for b in fit_blocks])
+    band = np.searchsorted(ERROR_BAND_EDGES, speeds)
+    bands = tuple(band_error(band == k) for k in range(len(ERROR_BAND_EDGES) + 1))
+    error_relative = band_error(np.ones(len(relative), dtype=bool))
+    quiet = [
+        b for b in usable if abs(b.mean_acceleration) * theta[4] < 0.05 * np.mean(np.abs(b.torque))
+    ]
+    variances = [v for b in (quiet or usable) if (v := within_block_variance(b)) is not None]
+    noise = math.sqrt(float(np.median(variances))) if variances else None
+    mean_n = float(np.mean([b.samples for b in fit_blocks]))
+    temperatures = [b.temperature for b in usable]
+    baseline = Baseline(
+        config=config.name,
+        fingerprint=config_fingerprint(config),
+        source=source,
+        torque_gain=float(theta[0]),
+        torque_bias=float(theta[1]),
+        preload_scale=float(math.exp(theta[2])),
+        temperature_shift=float(theta[3]),
+        inertia=float(theta[4]),
+        shape_slope=float(theta[5]),
+        shape_curvature=float(theta[6]),
+        sensor_noise=noise,
+        error_relative=error_relative,
+        error_bands=bands,
+        error_absolute=(noise or 1e-4) / math.sqrt(mean_n),
+        temperature_error=0.002,
+        temperature_min=float(min(temperatures)),
+        temperature_max=float(max(temperatures)),
+        fit_rms=float(np.sqrt(np.mean(((measured - predicted) / scale) ** 2))),
+        blocks=len(fit_blocks),
+    )
+    uncertainty = {
+        "torque_gain": float(sigma[0]),
+        "torque_bias": float(sigma[1]),
+        "preload_scale": float(sigma[2] * math.exp(theta[2])),
+        "temperature_shift": float(sigma[3]),
+        "inertia": float(sigma[4]),
+        "shape_slope": float(sigma[5]),
+        "shape_curvature": float(sigma[6]),
+    }
+    return CommissioningResult(
+        baseline=baseline,
+        uncertainty=uncertainty,
+        blocks=fit_blocks,
+        nominal=_predict(twin, nominal_theta, fit_blocks),
+        fitted=predicted,
+        gated_share=1.0 - len(usable) / max(len(every), 1),
+    )
+
+
+def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
+    """PNG: measured and predicted block means, relative residuals, fitted values."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    t = np.array([b.time for b in result.blocks])
+    t = t - t[0]
+    measured = np.array([b.measured for b in result.blocks])
+    fig, axes = plt.subplots(3, 1, figsize=(9, 9), sharex=True)
+    axes[0].plot(t, measured * 1e3, ".", ms=2, label="measured (block mean)")
+    axes[0].plot(t, result.nominal * 1e3, ".", ms=2, label="nominal twin")
+    axes[0].plot(t, result.fitted * 1e3, ".", ms=2, label="commissioned twin")
+    axes[0].set_ylabel("drive torque [mN m]")
+    axes[0].legend(fontsize=8, markerscale=4)
+    scale = np.maximum(np.abs(measured), 1e-6)
+    axes[1].plot(t, (measured - result.nominal) / scale * 100, ".", ms=2, label="nominal")
+    axes[1].plot(t, (measured - result.fitted) / scale * 100, ".", ms=2, label="commissioned")
+    e = result.baseline.error_relative * 100
+    axes[1].axhline(e, color="k", ls=":", lw=1, label=f"+-e_rel ({e:.2f} %)")
+    axes[1].axhline(-e, color="k", ls=":", lw=1)
+    axes[1].set_ylabel("(measured - twin) / measured [%]")
+    axes[1].legend(fontsize=8, markerscale=4)
+    axes[2].plot(t, [b.speeds.mean() * 60 / (2 * math.pi) for b in result.blocks], ".", ms=2)
+    axes[2].set_ylabel("screw speed [rpm]")
+    axes[2].set_xlabel("time since the first fitted block [s]")
+    b, u = result.baseline, result.uncertainty
+    text = "\n".join(
+        [
+            f"gain g = {b.torque_gain:.4f} +- {u['torque_gain']:.4f}",
+            f"bias b = {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m",
+            f"preload scale k_F = {b.preload_scale:.3f} +- {u['preload_scale']:.3f}",
+            f"temperature shift dT = {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K",
+            f"inertia J = {b.inertia * 1e6:.3f} +- {u['inertia'] * 1e6:.3f} g m^2 x 1e-3",
+        ]
+    )
+    axes[0].text(
+        0.01,
+        0.02,
+        text,
+        transform=axes[0].transAxes,
+        fontsize=8,
+        family="monospace",
+        bbox={"facecolor": "white", "alpha": 0.8},
+    )
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"commissioning on {b.source or 'recording'} ({b.blocks} blocks)")
+    fig.tight_layout()
+    file = Path(path)
+    try:
+        fig.savefig(file, dpi=110)
+    except OSError as err:
+        raise BallscrewTwinError(f"{file}: cannot write plot ({err.strerror})") from err
+    finally:
+        plt.close(fig)
+    return file
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``commission``."""
+    from .bags import BenchTopics
+
+    parser.add_argument("bag", help="healthy recording: bag folder or file (mcap or sqlite3)")
+    parser.add_argument("--out", required=True, help="baseline YAML file to write")
+    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
+    parser.add_argument("--plot", default=None, help="also write a PNG of the fit here")
+    parser.add_argument(
+        "--error-scale",
+        type=float,
+        default=ERROR_SCALE,
+        help="model error = this x the fit's 95th-percentile error / 1.96 [-]",
+    )
+    parser.add_argument("--torque-topic", default=BenchTopics.torque)
+    parser.add_argument("--speed-topic", default=BenchTopics.speed)
+    parser.add_argument("--temperature-topic", default=BenchTopics.temperature)
+    parser.add_argument("--preload-topic", default=BenchTopics.preload)
+    parser.add_argument("--joint", default=BenchTopics.joint_name, help="joint of the screw")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Fit, write the baseline (and the plot), print the fitted values."""
+    from .bags import BenchTopics, read_bench_bag
+    from .detect import CHANNELS, recording_channels
+
+    topics = BenchTopics(
+        torque=args.torque_topic,
+        speed=args.speed_topic,
+        temperature=args.temperature_topic,
+        preload=args.preload_topic,
+        joint_name=args.joint,
+    )
+    recording = read_bench_bag(args.bag, topics, required=CHANNELS)
+    config = load_config(args.config)
+    result = commission(
+        recording_channels(recording),
+        config,
+        source=str(Path(args.bag).name),
+        error_scale=args.error_scale,
+    )
+    for issue in recording.issues:
+        print(f"note: {issue}")
+    b, u = result.baseline, result.uncertainty
+    print(
+        f"fitted on {b.blocks} blocks ({result.gated_share:.1%} of the recording gated): "
+        f"gain {b.torque_gain:.4f} +- {u['torque_gain']:.4f}, "
+        f"bias {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m, "
+        f"preload scale {b.preload_scale:.3f} +- {u['preload_scale']:.3f}, "
+        f"temperature shift {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K, "
+        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; "
+        f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
+        f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
+    )
+    print(f"wrote {b.save(args.out)}")
+    if args.plot:
+        print(f"wrote {plot_commissioning(result, args.plot)}")
+    return 0
+
+
+def with_error_scale(baseline: Baseline, factor: float) -> Baseline:
+    """``baseline`` with its relative model error times ``factor`` (benchmark tuning)."""
+    return replace(baseline, error_relative=baseline.error_relative * factor)
+
+
+def summary_values(result: CommissioningResult) -> dict[str, Any]:
+    """JSON-ready fitted values and uncertainties."""
+    b = result.baseline
+    return {
+        "torque_gain": b.torque_gain,
+        "torque_bias_Nm": b.torque_bias,
+        "preload_scale": b.preload_scale,
+        "temperature_shift_K": b.temperature_shift,
+        "inertia_kgm2": b.inertia,
+        "uncertainty": result.uncertainty,
+        "error_relative": b.error_relative,
+        "gated_share": result.gated_share,
+    }
