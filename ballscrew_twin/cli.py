@@ -18,10 +18,16 @@ from typing import Any
 
 from .errors import BallscrewTwinError
 from .models.base import OperatingPoint, TwinOutput
+from .models.validity import (
+    CELSIUS_ZERO,
+    ValidatedModel,
+    ValidityEnvelope,
+    kelvin_from_command_line,
+)
 from .params import TwinConfig, load_config
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
-CELSIUS_ZERO = 273.15  # K
+__all__ = ["CELSIUS_ZERO", "RPM", "build_model", "main"]
 
 #: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -162,16 +168,26 @@ def format_output(data: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """``drag``: one operating point through the chosen model."""
+    """``drag``: one operating point through the chosen model, inside the validity envelope.
+
+    Outside the envelope (docs/model.md section 13) the point is clamped and every clamp is a
+    note of the output, also printed on stderr; a temperature that reads as kelvin typed as
+    degrees Celsius is refused with that hint.
+    """
     config = load_config(args.config)
+    envelope = ValidityEnvelope.for_config(config)
     op = OperatingPoint(
         screw_speed=args.speed * RPM,
-        temperature=args.temperature + CELSIUS_ZERO,
+        temperature=kelvin_from_command_line(args.temperature, "--temperature", envelope),
         preload=args.preload,
         axial_load=args.axial_load,
     )
-    model = build_model(args.model, config, args.mode)
-    data = output_to_dict(model.evaluate(op))
+    model = ValidatedModel(build_model(args.model, config, args.mode), envelope)
+    out = model.evaluate(op)
+    for note in out.notes:
+        if note.startswith("validity:"):
+            print(f"ballscrew-twin drag: {note}", file=sys.stderr)
+    data = output_to_dict(out)
     print(json.dumps(data, indent=2) if args.json else format_output(data))
     return 0
 
