@@ -89,15 +89,14 @@ def _unconverged_lines(u: dict[str, Any]) -> list[str]:
     lines = [
         f"{u['count']} of {u['steps']} steps ended with the Newton iterations not converged "
         f"(scaled residual above {u['tolerance']:g}; {u['in_window']} in the averaging window; "
-        f"the step is kept as it stands): largest residual seen {u['largest_residual']:.3g}"
+        f"each such step is kept as it stands); largest residual {u['largest_residual']:.3g}:"
     ]
-    for st in u["stretches"]:
-        lines.append(
-            f"  {st['count']} in {st['start_s']:.7g} .. {st['end_s']:.7g} s; scaled residual "
-            f"at the end of its last step {st['residual']:.3g}"
-        )
-    if u["unlisted_stretches"]:
-        lines.append(f"  ... and {u['unlisted_stretches']} more stretches (summary.json)")
+    lines += [
+        f"  step {st['step']} at t = {st['time_s']:.7g} s: residual {st['residual']:.3g}"
+        for st in u["listed"]
+    ]
+    if u["unlisted"]:
+        lines.append(f"  ... and {u['unlisted']} more steps (not listed)")
     return lines
 
 

@@ -55,7 +55,7 @@ SETTLED_SPEED = 0.01
 #: ... and the mean drag of the averaging window's two halves differ by at most this fraction
 #: of the window's mean drag [-].
 SETTLED_DRIFT = 0.02
-#: Unconverged stretches listed one by one in the summary (the rest are only counted).
+#: Unconverged steps listed one by one in the summary (the rest are only counted).
 LISTED_UNCONVERGED = 10
 
 
@@ -361,9 +361,9 @@ class _Run:
         self.window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
         self.window_mechanisms = np.zeros(len(MECHANISMS))
         self.window_nuts = np.zeros(2)
-        # Stretches of steps with unconverged Newton iterations: (first step, last step, count,
-        # scaled residual at the stretch's last step).
-        self.unconverged: list[tuple[int, int, int, float]] = []
+        # Steps whose Newton iterations ended above STEP_TOLERANCE: (step index, its final
+        # scaled residual).
+        self.unconverged: list[tuple[int, float]] = []
 
     def _record(
         self,
@@ -416,7 +416,7 @@ class _Run:
             before = model.unconverged_steps
             new_state, report = model.step(state, commands)
             if model.unconverged_steps > before:
-                self.unconverged.append((k, k, 1, model.last_step_residual))
+                self.unconverged.append((k, model.last_step_residual))
             _check_finite(state, report, t)
             power_in = model.input_power(state, commands, motor)
             diss = report.dissipation
@@ -443,9 +443,43 @@ class _Run:
             if self.progress is not None and (k + 1) % self.progress_every == 0:
                 self.progress((k + 1) / steps, time.perf_counter() - self.started)
 
+    def _note_unconverged(self, ks: Any, step: int, acc: FloatArray, done: int) -> None:
+        """Record step ``step``, just run alone by the compiled loop, if it ended unconverged
+        (``done``: the unconverged count before it)."""
+        if acc[ks.A_UNCONVERGED] > done:
+            self.unconverged.append((step, float(acc[ks.A_RESIDUAL])))
+
+    def _replay(
+        self,
+        ks: Any,
+        steps_from: Callable[[int, int], tuple[Any, Any]],
+        k: int,
+        n: int,
+        first_stats: FloatArray,
+        acc: FloatArray,
+    ) -> tuple[Any, Any]:
+        """Run steps k .. k + n - 1 one compiled call each, noting every unconverged step;
+        return the first step's contact arrays and leave ``first_stats`` and the first-step
+        accumulators as one call over the stretch leaves them."""
+        firsts = (ks.A_FIRST_GRAVITY, ks.A_FIRST_INPUT, ks.A_FIRST_DISSIPATED)
+        kept: tuple[Any, Any] | None = None
+        saved_stats, saved_firsts = first_stats, acc[list(firsts)]
+        for step in range(k, k + n):
+            done = int(acc[ks.A_UNCONVERGED])
+            out = steps_from(step, step + 1)
+            if acc[ks.A_FAILED]:
+                return out
+            self._note_unconverged(ks, step, acc, done)
+            if kept is None:
+                kept, saved_stats, saved_firsts = out, first_stats.copy(), acc[list(firsts)]
+        first_stats[:] = saved_stats
+        acc[list(firsts)] = saved_firsts
+        assert kept is not None
+        return kept
+
     def compiled(self) -> None:
         """One compiled call (run_steps) per stretch of steps between two records (or two
-        progress reports)."""
+        progress reports); a stretch with unconverged steps is replayed step by step."""
         from ..kernels import dynamic_step as ks
         from ..kernels.contacts import evaluation_from_buffer
 
@@ -475,6 +509,7 @@ class _Run:
             jam_start[hit] = np.minimum(jam_start[hit], jam.start)
         acc = np.zeros(ks.A_COUNT)
         first_stats = np.zeros(ks.S_COUNT)
+        jacobian = (kernel.jac_own, kernel.jac_shared, kernel.jac_active, kernel.jac_meta)
         done = [0, 0, 0, 0]  # evaluations, Jacobians, iterations, unconverged already counted
         k = 0
         while k <= steps:
@@ -495,12 +530,27 @@ class _Run:
             commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
             motor = float(acc[ks.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
-            active, buffer = ks.run_steps(
-                k, self.window_first, commands, pos, vel, omega, theta, body,
-                kernel.ball_nut, kernel.consts, kernel.params, kernel.sphere_offset,
-                kernel.spalls, jam_start, kernel.jac_own, kernel.jac_shared, kernel.jac_active,
-                kernel.jac_meta, acc, first_stats,
-            )  # fmt: skip
+            mutable = (pos, vel, omega, theta, body, acc, *jacobian)
+            snapshot = [a.copy() for a in mutable]
+
+            def steps_from(
+                first: int, last: int, commands: FloatArray = commands, k: int = k
+            ) -> tuple[Any, Any]:
+                return ks.run_steps(
+                    first, self.window_first, commands[first - k : last - k], pos, vel, omega,
+                    theta, body, kernel.ball_nut, kernel.consts, kernel.params,
+                    kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
+                )  # fmt: skip
+
+            active, buffer = steps_from(k, k + n)
+            if acc[ks.A_UNCONVERGED] > done[3] and n > 1 and not acc[ks.A_FAILED]:
+                # Replay the stretch one step at a time from the snapshot (same arithmetic,
+                # same state) to locate each unconverged step and keep its residual.
+                for array, saved in zip(mutable, snapshot, strict=True):
+                    array[...] = saved
+                active, buffer = self._replay(ks, steps_from, k, n, first_stats, acc)
+            else:
+                self._note_unconverged(ks, k, acc, done[3])  # n == 1 or nothing new
             if acc[ks.A_FAILED] > 0.0:
                 raise SolverError(
                     f"dynamic model diverged at t = {acc[ks.A_FAILED_STEP] * dt:.7g} s: "
@@ -513,8 +563,6 @@ class _Run:
                 int(acc[ks.A_ITERATIONS]),
                 int(acc[ks.A_UNCONVERGED]),
             ]
-            if totals[3] > done[3]:
-                self.unconverged.append((k, k + n - 1, totals[3] - done[3], acc[ks.A_RESIDUAL]))
             work = model.work
             work["contact_evaluations"] += totals[0] - done[0]
             work["jacobians"] += totals[1] - done[1]
@@ -777,25 +825,21 @@ def _settling(result: SimulationResult, start: float) -> dict[str, Any]:
 
 
 def _unconverged_summary(
-    stretches: list[tuple[int, int, int, float]], total: int, steps: int, scenario: Scenario
+    unconverged: list[tuple[int, float]], total: int, steps: int, scenario: Scenario
 ) -> dict[str, Any]:
-    """Where the Newton iterations of a step ended above STEP_TOLERANCE (JSON-ready, SI).
-
-    A stretch is one step (per-step loop) or the steps between two records (compiled loop);
-    its residual is the scaled residual at the end of its last step.
-    """
+    """Where the Newton iterations of a step ended above STEP_TOLERANCE (JSON-ready, SI):
+    ``unconverged`` lists (step index, final scaled residual) of every such step."""
     dt = scenario.time_step
     window_first = steps - scenario.steps_per(scenario.average_window)
-    in_window = sum(c for first, last, c, _ in stretches if first >= window_first)
     return {
         "count": total,
         "steps": steps + 1,
-        "in_window": in_window,
+        "in_window": sum(step >= window_first for step, _ in unconverged),
         "tolerance": STEP_TOLERANCE,
-        "largest_residual": max((r for *_, r in stretches), default=0.0),
-        "stretches": [
-            {"start_s": first * dt, "end_s": (last + 1) * dt, "count": c, "residual": r}
-            for first, last, c, r in stretches[:LISTED_UNCONVERGED]
+        "largest_residual": max((r for _, r in unconverged), default=0.0),
+        "listed": [
+            {"step": step, "time_s": step * dt, "residual": r}
+            for step, r in unconverged[:LISTED_UNCONVERGED]
         ],
-        "unlisted_stretches": max(len(stretches) - LISTED_UNCONVERGED, 0),
+        "unlisted": max(len(unconverged) - LISTED_UNCONVERGED, 0),
     }
