@@ -29,10 +29,14 @@ from .params import TwinConfig, load_config
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
 __all__ = ["CELSIUS_ZERO", "RPM", "build_model", "main"]
 
-#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
+#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args);
+#: ``module:name`` takes them from the object ``name`` of the module instead.
 COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
-    "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
+    "calibrate": (
+        "ballscrew_twin.checked_commands:calibrate",
+        "fit the parameters the paper omits",
+    ),
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
@@ -42,7 +46,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "launch": ("ballscrew_twin.ros.launcher", "start several nodes from a launch file"),
     "replay": ("ballscrew_twin.ros.replay", "publish a recorded bag on its topics"),
     "record": ("ballscrew_twin.ros.record", "record topics into a bag"),
-    "bench-data": ("ballscrew_twin.health.bench_data", "generate recorded bench data"),
+    "bench-data": (
+        "ballscrew_twin.checked_commands:bench_data_command",
+        "generate recorded bench data",
+    ),
     "detect": ("ballscrew_twin.health.detect", "run the fault detector on a bag"),
     "health-node": ("ballscrew_twin.ros.health_node", "run the health monitor node"),
 }
@@ -202,7 +209,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name, (module_name, help_text) in COMMANDS.items():
         sub_parser = sub.add_parser(name, help=help_text)
         if wanted == name:  # import only the module of the command being run
-            module = importlib.import_module(module_name)
+            path, _, attribute = module_name.partition(":")
+            module = importlib.import_module(path)
+            if attribute:
+                module = getattr(module, attribute)
             module.add_arguments(sub_parser)
             modules[name] = module
     args = parser.parse_args(argv)

@@ -144,3 +144,34 @@ def test_simulate_refuses_a_scenario_outside_the_envelope(
     assert main(["simulate", "--scenario", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert str(path) in err and "preload = 6000 N exceeds 5000 N" in err
+
+
+def test_calibrate_refuses_targets_outside_the_envelope(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = tmp_path / "targets.csv"
+    rows = "speed_rpm,temperature_C,preload_N,torque_Nm\n100,20,1500,0.02\n"
+    for bad, words in (
+        ("100,20,20000,0.05\n", "preload = 20000 N exceeds 5000 N"),
+        ("20000,20,1500,0.05\n", "exceeds 1884.96 rad/s"),
+        ("100,293,1500,0.02\n", "looks like a value in kelvin"),
+    ):
+        data.write_text(rows + bad, encoding="utf-8")
+        assert main(["calibrate", "--data", str(data)]) == 2
+        err = capsys.readouterr().err
+        assert str(data) in err and words in err and len(err.strip().splitlines()) == 1
+
+
+def test_bench_data_refuses_a_profile_outside_the_envelope(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    scene = yaml.safe_load((ROOT / "config/bench_scenes/healthy.yaml").read_text("utf-8"))
+    scene["profile"][2]["temperature"] = 450.0
+    scene["profile"][3]["speed"] = 1950.0
+    path = tmp_path / "hot.yaml"
+    path.write_text(yaml.safe_dump(scene), encoding="utf-8")
+    out = tmp_path / "bag"
+    assert main(["bench-data", "generate", "--scene", str(path), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert str(path) in err and "temperature = 450 K is outside" in err
+    assert "|screw_speed| = 1950 rad/s exceeds" in err and not out.exists()
