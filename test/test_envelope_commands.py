@@ -175,3 +175,16 @@ def test_bench_data_refuses_a_profile_outside_the_envelope(
     err = capsys.readouterr().err
     assert str(path) in err and "temperature = 450 K is outside" in err
     assert "|screw_speed| = 1950 rad/s exceeds" in err and not out.exists()
+
+
+def test_report_refuses_a_grid_beyond_the_screws_critical_speed(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = yaml.safe_load((ROOT / "config/paper_screw_calibrated.yaml").read_text("utf-8"))
+    data["screw"]["critical_speed"] = 50.0  # rad/s, below the report's speeds
+    config = tmp_path / "slow.yaml"
+    config.write_text(yaml.safe_dump(data), encoding="utf-8")
+    out = tmp_path / "report"
+    assert main(["report", "paper", "--out", str(out), "--config", str(config), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert str(config) in err and "exceeds 50 rad/s" in err and not out.exists()
