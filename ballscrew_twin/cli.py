@@ -18,15 +18,25 @@ from typing import Any
 
 from .errors import BallscrewTwinError
 from .models.base import OperatingPoint, TwinOutput
+from .models.validity import (
+    CELSIUS_ZERO,
+    ValidatedModel,
+    ValidityEnvelope,
+    kelvin_from_command_line,
+)
 from .params import TwinConfig, load_config
 
 RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
-CELSIUS_ZERO = 273.15  # K
+__all__ = ["CELSIUS_ZERO", "RPM", "build_model", "main"]
 
-#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
+#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args);
+#: ``module:name`` takes them from the object ``name`` of the module instead.
 COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
-    "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
+    "calibrate": (
+        "ballscrew_twin.checked_commands:calibrate",
+        "fit the parameters the paper omits",
+    ),
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
@@ -36,7 +46,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "launch": ("ballscrew_twin.ros.launcher", "start several nodes from a launch file"),
     "replay": ("ballscrew_twin.ros.replay", "publish a recorded bag on its topics"),
     "record": ("ballscrew_twin.ros.record", "record topics into a bag"),
-    "bench-data": ("ballscrew_twin.health.bench_data", "generate recorded bench data"),
+    "bench-data": (
+        "ballscrew_twin.checked_commands:bench_data_command",
+        "generate recorded bench data",
+    ),
     "detect": ("ballscrew_twin.health.detect", "run the fault detector on a bag"),
     "commission": ("ballscrew_twin.health.commission", "fit a healthy unit's baseline to a bag"),
     "health-node": ("ballscrew_twin.ros.health_node", "run the health monitor node"),
@@ -163,16 +176,26 @@ def format_output(data: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """``drag``: one operating point through the chosen model."""
+    """``drag``: one operating point through the chosen model, inside the validity envelope.
+
+    Outside the envelope (docs/model.md section 13) the point is clamped and every clamp is a
+    note of the output, also printed on stderr; a temperature that reads as kelvin typed as
+    degrees Celsius is refused with that hint.
+    """
     config = load_config(args.config)
+    envelope = ValidityEnvelope.for_config(config)
     op = OperatingPoint(
         screw_speed=args.speed * RPM,
-        temperature=args.temperature + CELSIUS_ZERO,
+        temperature=kelvin_from_command_line(args.temperature, "--temperature", envelope),
         preload=args.preload,
         axial_load=args.axial_load,
     )
-    model = build_model(args.model, config, args.mode)
-    data = output_to_dict(model.evaluate(op))
+    model = ValidatedModel(build_model(args.model, config, args.mode), envelope)
+    out = model.evaluate(op)
+    for note in out.notes:
+        if note.startswith("validity:"):
+            print(f"ballscrew-twin drag: {note}", file=sys.stderr)
+    data = output_to_dict(out)
     print(json.dumps(data, indent=2) if args.json else format_output(data))
     return 0
 
@@ -187,7 +210,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name, (module_name, help_text) in COMMANDS.items():
         sub_parser = sub.add_parser(name, help=help_text)
         if wanted == name:  # import only the module of the command being run
-            module = importlib.import_module(module_name)
+            path, _, attribute = module_name.partition(":")
+            module = importlib.import_module(path)
+            if attribute:
+                module = getattr(module, attribute)
             module.add_arguments(sub_parser)
             modules[name] = module
     args = parser.parse_args(argv)

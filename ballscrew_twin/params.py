@@ -12,6 +12,7 @@ screw is hard-coded here: it lives in ``config/paper_screw.yaml``.
 from __future__ import annotations
 
 import math
+import reprlib
 import sys
 from dataclasses import MISSING, dataclass, field, fields
 from pathlib import Path
@@ -23,13 +24,26 @@ from .errors import ConfigError
 
 _T = TypeVar("_T")
 
+#: Short, recursion-safe reprs of offending values in messages (a value may be any YAML tree).
+_SHOWN = reprlib.Repr()
+_SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother = 3, 40, 40
+
+#: Largest difference between the nominal contact angle and the free contact angle of the groove
+#: geometry [rad] (2 deg): Table A.1 prints 45.13 deg for a geometry whose free angle is
+#: 44.97 deg (0.16 deg); the loaded angle of the steady model moves by up to +4.5 deg at 5000 N
+#: preload, but that is the loaded, not the nominal, angle (docs/model.md section 1).
+NOMINAL_ANGLE_TOLERANCE = math.radians(2.0)
+
 ViscosityLaw = Literal["roelands", "exponential", "walther"]
 Orientation = Literal["vertical", "horizontal"]
 
 
-def _num(unit: str, lo: float, hi: float, doc: str, *, default: float | None = None) -> Any:
-    """A float field with unit, closed range [lo, hi] and description kept as metadata."""
-    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc}
+def _num(
+    unit: str, lo: float, hi: float, doc: str, *, default: float | None = None, hint: str = ""
+) -> Any:
+    """A float field with unit, closed range [lo, hi] and description kept as metadata;
+    ``hint`` replaces the unit-scale hints of an out-of-range value (see _range_hint)."""
+    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc, "hint": hint}
     if default is None:
         return field(metadata=meta)
     return field(default=default, metadata=meta)
@@ -99,6 +113,16 @@ class ScrewGeometry:
             )
         if self.centre_offset >= clearance:
             raise ConfigError(f"{where}: centre_offset must be < r_s - r_b = {clearance:.4g} m")
+        mismatch = abs(self.nominal_contact_angle - self.free_contact_angle)
+        if mismatch > NOMINAL_ANGLE_TOLERANCE:
+            raise ConfigError(
+                f"{where}.nominal_contact_angle = {self.nominal_contact_angle:.6g} rad "
+                f"({math.degrees(self.nominal_contact_angle):.4g} deg) is "
+                f"{math.degrees(mismatch):.3g} deg away from the contact angle the groove gives, "
+                f"acos(centre_offset / (2 conformity ball_radius - ball_radius)) = "
+                f"{self.free_contact_angle:.6g} rad ({math.degrees(self.free_contact_angle):.4g} "
+                f"deg); allowed: {math.degrees(NOMINAL_ANGLE_TOLERANCE):g} deg"
+            )
         if self.balls_per_nut > self.balls_total_per_nut:
             raise ConfigError(f"{where}: balls_per_nut exceeds balls_total_per_nut")
         if self.inner_containment_angle >= self.outer_containment_angle:
@@ -119,7 +143,14 @@ class Material:
     """Isotropic elastic solid."""
 
     young_modulus: float = _num("Pa", 1e9, 1e12, "E, Young's modulus")
-    poisson_ratio: float = _num("-", 0.0, 0.5, "nu, Poisson's ratio")
+    poisson_ratio: float = _num(
+        "-",
+        0.0,
+        0.5,
+        "nu, Poisson's ratio",
+        hint="the Poisson's ratio of an isotropic solid is physically between 0 and 0.5 "
+        "(steel about 0.3)",
+    )
     density: float = _num("kg/m^3", 500.0, 25000.0, "rho, mass density")
     thermal_expansion: float = _num("1/K", 0.0, 1e-4, "linear thermal expansion coefficient")
 
@@ -220,7 +251,7 @@ def _build(cls: type[_T], data: Any, where: str) -> _T:
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
     known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
-    unknown = sorted(set(data) - set(known))
+    unknown = sorted(str(key) for key in set(data) - set(known))
     if unknown:
         raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
     values: dict[str, Any] = {}
@@ -237,7 +268,7 @@ def _build(cls: type[_T], data: Any, where: str) -> _T:
         elif isinstance(fld.type, str) and fld.type in _LITERALS:
             allowed = get_args(_LITERALS[fld.type])
             if raw not in allowed:
-                raise ConfigError(f"{path}: {raw!r} is not one of {list(allowed)}")
+                raise ConfigError(f"{path}: {_SHOWN.repr(raw)} is not one of {list(allowed)}")
             values[name] = raw
         else:
             values[name] = raw
@@ -254,22 +285,20 @@ def _check_number(raw: Any, meta: Any, ftype: Any, path: str) -> float | int:
     exponent sign as a string, and users write exponents that way.
     """
     if isinstance(raw, bool) or not isinstance(raw, int | float | str):
-        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {raw!r}")
+        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {_SHOWN.repr(raw)}")
     try:
         value = float(raw)
     except ValueError:
-        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {raw!r}") from None
+        raise ConfigError(
+            f"{path}: expected a number in {meta['unit']}, got {_SHOWN.repr(raw)}"
+        ) from None
     if not math.isfinite(value):
-        raise ConfigError(f"{path}: {raw!r} is not a finite number")
+        raise ConfigError(f"{path}: {_SHOWN.repr(raw)} is not a finite number")
     lo, hi = meta["min"], meta["max"]
     if not lo <= value <= hi:
-        hint = ""
-        if value > hi and hi > 0 and lo <= value * 1e-3 <= hi:
-            hint = " (given in milli-units? values are SI)"
-        elif value > hi and hi > 0 and lo <= value * 1e-9 <= hi:
-            hint = " (given in GPa? values are SI, Pa)"
         raise ConfigError(
-            f"{path} = {raw!r} is outside the allowed range [{lo:g}, {hi:g}] {meta['unit']}{hint}"
+            f"{path} = {raw!r} is outside the allowed range [{lo:g}, {hi:g}] {meta['unit']}"
+            + _range_hint(value, meta)
         )
     if ftype in ("int", int):
         if value != int(value):
@@ -278,15 +307,32 @@ def _check_number(raw: Any, meta: Any, ftype: Any, path: str) -> float | int:
     return value
 
 
+def _range_hint(value: float, meta: Any) -> str:
+    """Why an out-of-range value may have been given: the field's own hint, else a likely unit
+    slip (degrees for rad, milli-units or GPa for dimensioned SI values); "" if none fits."""
+    lo, hi, unit = meta["min"], meta["max"], meta["unit"]
+    if meta.get("hint"):
+        return f" ({meta['hint']})"
+    if unit == "rad" and lo <= math.radians(value) <= hi:
+        return " (given in degrees? angles are in rad)"
+    if unit == "-" or not (value > hi > 0):
+        return ""
+    if lo <= value * 1e-3 <= hi:
+        return " (given in milli-units? values are SI)"
+    if lo <= value * 1e-9 <= hi:
+        return " (given in GPa? values are SI, Pa)"
+    return ""
+
+
 def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
     """Validate a parsed YAML mapping into a :class:`TwinConfig`; errors name ``source``."""
     if not isinstance(data, dict):
         raise ConfigError(f"{source}: top level must be a mapping")
     required = {"name", "screw", "materials", "lubricant", "contact", "environment"}
-    missing = sorted(required - set(data))
+    missing = sorted(str(key) for key in required - set(data))
     if missing:
         raise ConfigError(f"{source}: missing section(s) {missing}")
-    unknown = sorted(set(data) - required - {"description"})
+    unknown = sorted(str(key) for key in set(data) - required - {"description"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}")
     screw = _build(ScrewGeometry, data["screw"], f"{source}: screw")
@@ -334,15 +380,35 @@ def default_config_path() -> Path:
 
 
 def read_yaml(file: Path, what: str) -> Any:
-    """Parsed content of a YAML file; ConfigError naming the file when unreadable or invalid."""
+    """Parsed content of a YAML file; ConfigError naming the file when unreadable or invalid.
+
+    Every failure is one line: unreadable file, text that is not UTF-8, YAML syntax (with the
+    line and column), nesting too deep for the parser.
+    """
     try:
         text = file.read_text(encoding="utf-8")
     except OSError as err:
         raise ConfigError(f"{file}: cannot read {what} ({err.strerror})") from err
+    except UnicodeDecodeError as err:
+        raise ConfigError(
+            f"{file}: {what} is not UTF-8 text (byte 0x{err.object[err.start]:02x} at offset "
+            f"{err.start})"
+        ) from err
     try:
         return yaml.safe_load(text)
     except yaml.YAMLError as err:
-        raise ConfigError(f"{file}: not valid YAML ({err})") from err
+        raise ConfigError(f"{file}: not valid YAML ({_yaml_problem(err)})") from err
+    except RecursionError as err:
+        raise ConfigError(f"{file}: {what} is nested too deeply to be parsed") from err
+
+
+def _yaml_problem(err: yaml.YAMLError) -> str:
+    """One line of a YAML error: the problem and where it is (1-based line and column)."""
+    problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+    mark = getattr(err, "problem_mark", None)
+    if mark is not None:
+        return f"{problem} at line {mark.line + 1}, column {mark.column + 1}"
+    return str(problem)
 
 
 def path_beside(path: str, source: str | None) -> Path:

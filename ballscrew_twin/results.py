@@ -6,8 +6,9 @@
   (``ballscrew_twin_msgs/msg/DragTorque``) at every output sample and ``/contact_states``
   (``ballscrew_twin_msgs/msg/ContactStateArray``) at every contact sample, written with the
   pure-Python ``rosbags`` library (0.11); the custom message definitions are read from
-  ``msg_defs/msg/*.msg`` and stored in the bag, so any reader can decode them. Header stamps are
-  the simulated time in integer nanoseconds.
+  ``msg_defs/msg/*.msg`` and stored in the bag, so any reader can decode them. Bag times and
+  header stamps are the run's wall-clock start (``summary["start_time_unix_ns"]``) plus the
+  simulated time, in integer nanoseconds; the metadata name the ROS distribution (jazzy).
 - :func:`plot_result`: speed, motor torque and drag over time, and the power-balance error.
 
 SI units throughout (REP 103).
@@ -35,6 +36,8 @@ DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
 FRAME_ID = "screw"
 FIDELITY = "dynamic"
+#: ROS distribution written into the bag's metadata (the message definitions are Jazzy's).
+ROS_DISTRO = "jazzy"
 
 
 class ResultsError(BallscrewTwinError):
@@ -188,6 +191,7 @@ def write_bag(
     header_cls = types["std_msgs/msg/Header"]
     sc = result.scenario
     rtf = float(result.summary.get("real_time_factor", 0.0))
+    start_ns = int(result.summary.get("start_time_unix_ns", 0))
     drag = result.drag_torque
     breakdown = result.breakdown_torque()
     nut_torque = result.nut_torque()
@@ -199,7 +203,7 @@ def write_bag(
                 CONTACT_TOPIC, array_cls.__msgtype__, typestore=store
             )
             for i, t in enumerate(result.time):
-                t_ns = _nanoseconds(float(t))
+                t_ns = start_ns + _nanoseconds(float(t))
                 msg = drag_cls(
                     header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
                     total=float(drag[i]),
@@ -214,7 +218,7 @@ def write_bag(
                 )
                 writer.write(drag_conn, t_ns, store.serialize_cdr(msg, drag_cls.__msgtype__))
             for j, t in enumerate(result.contact_time):
-                t_ns = _nanoseconds(float(t))
+                t_ns = start_ns + _nanoseconds(float(t))
                 states = _contact_states(result, j, state_cls)
                 msg = array_cls(
                     header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
@@ -222,9 +226,28 @@ def write_bag(
                     contacts=states,
                 )
                 writer.write(contact_conn, t_ns, store.serialize_cdr(msg, array_cls.__msgtype__))
+        _name_distribution(folder, storage)
     except OSError as err:
         raise ResultsError(f"{folder}: cannot write bag ({err.strerror})") from err
     return folder
+
+
+def _name_distribution(folder: Path, storage: str) -> None:
+    """Write :data:`ROS_DISTRO` where rosbags 0.11 writes its own name: metadata.yaml and, for
+    SQLite3, the schema table of the database."""
+    import sqlite3
+
+    import yaml
+
+    meta_file = folder / "metadata.yaml"
+    meta = yaml.safe_load(meta_file.read_text(encoding="utf-8"))
+    meta["rosbag2_bagfile_information"]["ros_distro"] = ROS_DISTRO
+    meta_file.write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
+    if storage == "sqlite3":
+        for db in folder.glob("*.db3"):
+            with sqlite3.connect(db) as connection:
+                connection.execute("UPDATE schema SET ros_distro = ?", (ROS_DISTRO,))
+            connection.close()
 
 
 def _contact_states(result: SimulationResult, j: int, state_cls: Any) -> list[Any]:

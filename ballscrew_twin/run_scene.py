@@ -35,8 +35,9 @@ from numpy.typing import NDArray
 
 from .errors import BallscrewTwinError, SolverError
 from .fidelity import Bounds, Selection, load_bounds, point_key, realtime_model, select
-from .models.base import MECHANISMS, TwinOutput
+from .models.base import MECHANISMS, OperatingPoint, TwinOutput
 from .models.faults import faults_from_mapping
+from .models.validity import ValidityEnvelope, refuse_outside
 from .params import TwinConfig, load_config
 from .scene import Scene, load_scene
 
@@ -405,10 +406,24 @@ def plot(result: SceneResult, selection: Selection, path: Path) -> None:
     plt.close(fig)
 
 
+def _extreme_points(scene: Scene) -> list[OperatingPoint]:
+    """The scene's highest |speed|, preload and |axial load| at its lowest and highest
+    temperature: inside the validity envelope if and only if the whole profile is."""
+    speed = scene.speed_magnitude_range()[1]
+    preload = scene.range("preload")[1]
+    load = max(abs(v) for v in scene.range("axial_load"))
+    return [
+        OperatingPoint(screw_speed=speed, temperature=t, preload=preload, axial_load=load)
+        for t in scene.range("temperature")
+    ]
+
+
 def run(args: argparse.Namespace) -> int:
-    """``scene``: select, report, run, write."""
+    """``scene``: select, report, run, write; a scene leaving the validity envelope is
+    refused (docs/model.md section 13)."""
     scene = load_scene(args.scene)
     config = scene_config(scene)
+    refuse_outside(_extreme_points(scene), ValidityEnvelope.for_config(config), scene.source)
     # Sphere indices of the faults against this parameter set's sphere count.
     faults_from_mapping(scene.faults_mapping, config.screw.balls_per_nut, f"{scene.source}: faults")
     bounds = load_bounds(args.bounds)

@@ -31,31 +31,42 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def format_summary(result: SimulationResult) -> str:
-    """Human-readable summary: drag in N m and N mm, breakdown, balance, timing."""
+    """Human-readable summary: drag in N m and N mm, settling, breakdown, balance, solver."""
     s = result.summary
     sc = result.scenario
     drag = s["drag_torque_Nm"]
+    std_from, std_to = s["drag_torque_std_window_s"]
     lines = [
         f"scenario {sc.name}: {sc.temperature:.2f} K, preload {sc.preload:.6g} N, "
         f"speed {sc.speed:.6g} rad/s, {s['balls_per_nut']} spheres per nut",
         f"averaged over {s['window_start_s']:.6g} .. {s['window_end_s']:.6g} s "
         f"(mean speed {s['mean_screw_speed_rad_s']:.6g} rad/s)",
         f"drag torque      {drag:.6g} N m = {drag * NMM_PER_NM:.6g} N mm "
-        f"(std {s['drag_torque_std_Nm'] * NMM_PER_NM:.4g} N mm)",
+        f"(std {s['drag_torque_std_Nm'] * NMM_PER_NM:.4g} N mm over "
+        f"{std_from:.6g} .. {std_to:.6g} s)",
         f"  motor torque   {s['mean_motor_torque_Nm']:.6g} N m",
         f"  gravity torque {s['gravity_torque_Nm']:.6g} N m (removed)",
-        "breakdown (mean dissipation / mean speed):",
+        f"  inertia torque {s['inertia_torque_Nm']:.6g} N m (I_s dOmega/dt, removed)",
     ]
+    if s["settled"]:
+        lines.append(f"settled: yes, since {s['settled_since_s']:.6g} s (before the window)")
+    else:
+        lines.append(
+            "settled: NO, the drag above is not a steady value: "
+            + "; ".join(s["not_settled_because"])
+        )
+    lines.append("breakdown (mean power / mean speed; sums to the drag):")
     for name, value in s["breakdown_Nm"].items():
         lines.append(f"  {name:<18} {value:.6g} N m = {value * NMM_PER_NM:.6g} N mm")
     lines += [
-        f"  {'sum':<18} {s['breakdown_total_Nm']:.6g} N m",
+        f"  {'sum':<18} {s['breakdown_total_Nm']:.6g} N m "
+        f"(dissipation alone {s['dissipation_drag_Nm'] * NMM_PER_NM:.6g} N mm)",
         f"power-balance error {s['power_balance_error_J']:.4g} J "
         f"({s['power_balance_error_relative']:.3g} of the gross input energy "
         f"{s['gross_input_energy_J']:.4g} J)",
         f"wall time {s['wall_time_s']:.3f} s, {s['steps']} steps "
-        f"({s.get('unconverged_steps', 0)} not converged) "
         f"({s['step_cost_s'] * 1e3:.3g} ms/step), real-time factor {s['real_time_factor']:.3g}",
+        *_unconverged_lines(s["unconverged"]),
     ]
     work = s.get("work_per_step", {})
     if work.get("contact_evaluations"):
@@ -66,10 +77,27 @@ def format_summary(result: SimulationResult) -> str:
     if not abs(s["power_balance_error_relative"]) < UNRELIABLE_BREAKDOWN:
         lines.append(
             "WARNING: the power balance does not close to 1 %: the breakdown above is not "
-            f"reliable ({s.get('unconverged_steps', 0)} steps ended without converged Newton "
-            "iterations; try a smaller time_step); docs/model.md, section 10"
+            "reliable (try a smaller time_step); docs/model.md, section 10"
         )
     return "\n".join(lines)
+
+
+def _unconverged_lines(u: dict[str, Any]) -> list[str]:
+    """What the summary says about steps whose Newton iterations did not converge."""
+    if not u["count"]:
+        return [f"Newton iterations converged (scaled residual < {u['tolerance']:g}) at every step"]
+    lines = [
+        f"{u['count']} of {u['steps']} steps ended with the Newton iterations not converged "
+        f"(scaled residual above {u['tolerance']:g}; {u['in_window']} in the averaging window; "
+        f"each such step is kept as it stands); largest residual {u['largest_residual']:.3g}:"
+    ]
+    lines += [
+        f"  step {st['step']} at t = {st['time_s']:.7g} s: residual {st['residual']:.3g}"
+        for st in u["listed"]
+    ]
+    if u["unlisted"]:
+        lines.append(f"  ... and {u['unlisted']} more steps (not listed)")
+    return lines
 
 
 def _progress_bar(total_time: float, quiet: bool) -> tuple[Any, Any]:

@@ -40,6 +40,7 @@ import json
 import math
 import os
 import platform
+import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -50,10 +51,10 @@ from typing import Any
 import numpy as np
 
 from . import __version__
-from .cli import CELSIUS_ZERO, RPM, build_model
+from .cli import RPM, build_model
 from .errors import BallscrewTwinError, ConfigError
 from .models.base import MECHANISMS, OperatingPoint
-from .models.validity import ValidatedModel, ValidityEnvelope
+from .models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
 from .params import TwinConfig, config_from_mapping, load_config
 
 #: Models a sweep can evaluate (names of :func:`ballscrew_twin.cli.build_model`).
@@ -61,7 +62,7 @@ MODELS = ("catalog", "zhou", "steady")
 #: Operating-point dimensions: name -> (SI unit, CLI unit, CLI -> SI conversion).
 OPERATING_DIMENSIONS: dict[str, tuple[str, str, Callable[[float], float]]] = {
     "screw_speed": ("rad/s", "rpm", lambda rpm: rpm * RPM),
-    "temperature": ("K", "C", lambda celsius: celsius + CELSIUS_ZERO),
+    "temperature": ("K", "C", lambda celsius: kelvin_from_command_line(celsius, "--temperature")),
     "preload": ("N", "N", lambda newton: newton),
     "axial_load": ("N", "N", lambda newton: newton),
 }
@@ -616,4 +617,11 @@ def run(args: argparse.Namespace) -> int:
         f"{result.settings['wall_time_s']:.2f} s ({result.settings['executor']}); "
         f"wrote {out}, {out.with_suffix('.json')}"
     )
+    clamped = sum("validity:" in str(row.get("notes", "")) for row in result.rows)
+    if clamped:
+        print(
+            f"sweep: {clamped} of {len(points)} points were outside the validity envelope and "
+            "evaluated clamped into it (notes column; docs/model.md section 13)",
+            file=sys.stderr,
+        )
     return 0

@@ -173,3 +173,111 @@ def test_missing_file(tmp_path: Path) -> None:
     with pytest.raises(ConfigError) as info:
         load_config(path)
     assert str(path) in str(info.value)
+
+
+def test_poisson_ratio_above_half_gets_the_physical_range_not_a_unit_hint(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, lambda d: d["materials"]["ball"].update(poisson_ratio=0.6))
+    assert "materials.ball.poisson_ratio" in msg and "between 0 and 0.5" in msg
+    assert "milli" not in msg
+
+
+def test_angle_in_degrees_gets_the_degree_hint(tmp_path: Path) -> None:
+    msg = rejected(tmp_path, lambda d: d["screw"].update(outer_containment_angle=80.0))
+    assert "outer_containment_angle" in msg and "degrees" in msg and "milli" not in msg
+
+
+def test_nominal_contact_angle_must_match_the_groove(tmp_path: Path) -> None:
+    # Independent oracle: the free contact angle from the table values, written out here.
+    s = RAW["screw"]
+    clearance = 2.0 * s["conformity"] * s["ball_radius"] - s["ball_radius"]
+    free = math.acos(s["centre_offset"] / clearance)
+    msg = rejected(tmp_path, lambda d: d["screw"].update(nominal_contact_angle=0.2))
+    assert "screw.nominal_contact_angle" in msg and f"{math.degrees(free):.4g} deg" in msg
+    for offset_deg in (-1.9, 1.9):  # within the documented 2 deg
+        path = write(
+            tmp_path,
+            lambda d, o=offset_deg: d["screw"].update(nominal_contact_angle=free + math.radians(o)),
+        )
+        load_config(path)
+    for offset_deg in (-2.1, 2.1):
+        rejected(
+            tmp_path,
+            lambda d, o=offset_deg: d["screw"].update(nominal_contact_angle=free + math.radians(o)),
+        )
+
+
+#: Values that are not what any field wants: containers, deep nesting, text, specials.
+MALFORMED: tuple[Any, ...] = (
+    None,
+    True,
+    "abc",
+    "1e999",
+    [1.0, 2.0],
+    {"value": 1.0},
+    {"a": {"b": {"c": {"d": [1]}}}},
+    [[[[[[[[[[1]]]]]]]]]],
+    1e300,
+    -1e300,
+    "x" * 5000,
+)
+
+
+def _leaves(data: Any, prefix: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+    """Key paths of every node of a parsed YAML tree (sections and fields)."""
+    paths = [prefix] if prefix else []
+    if isinstance(data, dict):
+        for key, value in data.items():
+            paths += _leaves(value, (*prefix, key))
+    return paths
+
+
+def _replaced(data: Any, path: tuple[Any, ...], value: Any) -> Any:
+    out = copy.deepcopy(data)
+    node = out
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = value
+    return out
+
+
+def test_every_malformed_value_gives_one_line_naming_the_file_and_the_field(
+    tmp_path: Path,
+) -> None:
+    """0 tracebacks: each node of the file replaced by each malformed value either loads or
+    raises ConfigError, one line, naming the file and the node's key."""
+    path = tmp_path / "malformed.yaml"
+    checked = 0
+    for keys in _leaves(RAW):
+        for value in MALFORMED:
+            path.write_text(yaml.safe_dump(_replaced(RAW, keys, value)), encoding="utf-8")
+            try:
+                load_config(path)
+            except ConfigError as err:
+                msg = str(err)
+                assert "\n" not in msg and str(path) in msg, (keys, value, msg)
+                assert str(keys[-1]) in msg or keys[-1] == "name", (keys, value, msg)
+                assert len(msg) < 600, (keys, value, msg)
+                checked += 1
+    assert checked > 300
+
+
+@pytest.mark.parametrize(
+    "content",
+    [
+        b"name: caf\xe9\n",  # Latin-1, not UTF-8
+        b"a: " + b"[" * 5000 + b"]" * 5000 + b"\n",  # deeper than the parser's recursion
+        b"".join(b" " * i + b"k%d:\n" % i for i in range(3000)),  # 3000 nested mappings
+        b"name: [1, 2\nscrew: {\n",  # syntax error
+        b"\x00\x01\x02",
+        b"- 1\n- 2\n",  # a list at the top
+        b"",
+    ],
+    ids=["latin1", "deep-lists", "deep-maps", "syntax", "binary", "list", "empty"],
+)
+def test_unparseable_files_give_one_line_naming_the_file(tmp_path: Path, content: bytes) -> None:
+    path = tmp_path / "broken.yaml"
+    path.write_bytes(content)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    msg = str(info.value)
+    assert "\n" not in msg and str(path) in msg and len(msg) < 400

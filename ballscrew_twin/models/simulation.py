@@ -30,11 +30,12 @@ from numpy.typing import NDArray
 
 from ..errors import SolverError
 from ..params import TwinConfig, load_config
-from .base import DISSIPATION_KEYS
+from .base import DISSIPATION_KEYS, OperatingPoint
 from .contact_forces import make_scene
-from .dynamic import Commands, DynamicModel, DynamicState, StepReport
+from .dynamic import STEP_TOLERANCE, Commands, DynamicModel, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
+from .validity import ValidityEnvelope, refuse_outside
 
 FloatArray = NDArray[np.float64]
 ProgressCallback = Callable[[float, float], None]
@@ -47,6 +48,15 @@ PROGRESS_FRACTION = 0.005
 
 #: Speeds below this are treated as standstill when dividing a power by the speed [rad/s].
 STANDSTILL_SPEED = 1e-9
+
+#: The run has settled once |screw speed - command| stays within this fraction of the command
+#: [-] (with the commands no longer ramping) ...
+SETTLED_SPEED = 0.01
+#: ... and the mean drag of the averaging window's two halves differ by at most this fraction
+#: of the window's mean drag [-].
+SETTLED_DRIFT = 0.02
+#: Unconverged steps listed one by one in the summary (the rest are only counted).
+LISTED_UNCONVERGED = 10
 
 
 @dataclass
@@ -104,6 +114,7 @@ class SimulationResult:
     ball_nut: NDArray[np.int64]
     ball_index: NDArray[np.int64]
     summary: dict[str, Any] = field(default_factory=dict)
+    screw_inertia: float = 0.0  # I_s [kg m^2] of the run's parameter set
 
     @property
     def gravity_torque(self) -> FloatArray:
@@ -111,9 +122,16 @@ class SimulationResult:
         return _per_speed(self.gravitational_power, self.screw_speed)
 
     @property
+    def inertia_torque(self) -> FloatArray:
+        """I_s dOmega/dt at each sample (central differences of the recorded speed) [N m]."""
+        if len(self.time) < 2:
+            return np.zeros_like(self.time)
+        return self.screw_inertia * np.gradient(self.screw_speed, self.time)
+
+    @property
     def drag_torque(self) -> FloatArray:
-        """Motor torque minus gravity torque at each sample [N m]."""
-        return self.motor_torque - self.gravity_torque
+        """Motor torque minus gravity torque minus I_s dOmega/dt at each sample [N m]."""
+        return self.motor_torque - self.gravity_torque - self.inertia_torque
 
     def nut_torque(self) -> FloatArray:
         """(N, 2) dissipation of each nut's spheres / screw speed, 0 at standstill [N m]."""
@@ -248,7 +266,12 @@ def simulate(
         SolverError: the dynamic model produced a non-finite value (time and quantity named).
     """
     started = time.perf_counter()
+    started_unix_ns = time.time_ns()
     config = build_config(scenario)
+    command = OperatingPoint(
+        screw_speed=scenario.speed, temperature=scenario.temperature, preload=scenario.preload
+    )
+    refuse_outside([command], ValidityEnvelope.for_config(config), scenario.source or "scenario")
     model = DynamicModel(
         config,
         scenario.temperature,
@@ -279,6 +302,7 @@ def simulate(
         in_contact=in_contact,
         ball_nut=model.ball_nut.astype(np.int64),
         ball_index=ball_index,
+        screw_inertia=config.screw.screw_inertia,
     )
     steps = scenario.steps
     result.summary = _summary(
@@ -291,7 +315,11 @@ def simulate(
         steps,
         config,
     )
+    result.summary["start_time_unix_ns"] = started_unix_ns
     result.summary["unconverged_steps"] = model.unconverged_steps
+    result.summary["unconverged"] = _unconverged_summary(
+        run.unconverged, model.unconverged_steps, steps, scenario
+    )
     result.summary["work_per_step"] = {
         name: count / max(steps + 1, 1) for name, count in model.work.items()
     }
@@ -333,6 +361,9 @@ class _Run:
         self.window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
         self.window_mechanisms = np.zeros(len(MECHANISMS))
         self.window_nuts = np.zeros(2)
+        # Steps whose Newton iterations ended above STEP_TOLERANCE: (step index, its final
+        # scaled residual).
+        self.unconverged: list[tuple[int, float]] = []
 
     def _record(
         self,
@@ -382,7 +413,10 @@ class _Run:
         for k in range(steps + 1):
             t = k * dt
             commands = scenario.commands_at(t)
+            before = model.unconverged_steps
             new_state, report = model.step(state, commands)
+            if model.unconverged_steps > before:
+                self.unconverged.append((k, model.last_step_residual))
             _check_finite(state, report, t)
             power_in = model.input_power(state, commands, motor)
             diss = report.dissipation
@@ -409,9 +443,43 @@ class _Run:
             if self.progress is not None and (k + 1) % self.progress_every == 0:
                 self.progress((k + 1) / steps, time.perf_counter() - self.started)
 
+    def _note_unconverged(self, ks: Any, step: int, acc: FloatArray, done: int) -> None:
+        """Record step ``step``, just run alone by the compiled loop, if it ended unconverged
+        (``done``: the unconverged count before it)."""
+        if acc[ks.A_UNCONVERGED] > done:
+            self.unconverged.append((step, float(acc[ks.A_RESIDUAL])))
+
+    def _replay(
+        self,
+        ks: Any,
+        steps_from: Callable[[int, int], tuple[Any, Any]],
+        k: int,
+        n: int,
+        first_stats: FloatArray,
+        acc: FloatArray,
+    ) -> tuple[Any, Any]:
+        """Run steps k .. k + n - 1 one compiled call each, noting every unconverged step;
+        return the first step's contact arrays and leave ``first_stats`` and the first-step
+        accumulators as one call over the stretch leaves them."""
+        firsts = (ks.A_FIRST_GRAVITY, ks.A_FIRST_INPUT, ks.A_FIRST_DISSIPATED)
+        kept: tuple[Any, Any] | None = None
+        saved_stats, saved_firsts = first_stats, acc[list(firsts)]
+        for step in range(k, k + n):
+            done = int(acc[ks.A_UNCONVERGED])
+            out = steps_from(step, step + 1)
+            if acc[ks.A_FAILED]:
+                return out
+            self._note_unconverged(ks, step, acc, done)
+            if kept is None:
+                kept, saved_stats, saved_firsts = out, first_stats.copy(), acc[list(firsts)]
+        first_stats[:] = saved_stats
+        acc[list(firsts)] = saved_firsts
+        assert kept is not None
+        return kept
+
     def compiled(self) -> None:
         """One compiled call (run_steps) per stretch of steps between two records (or two
-        progress reports)."""
+        progress reports); a stretch with unconverged steps is replayed step by step."""
         from ..kernels import dynamic_step as ks
         from ..kernels.contacts import evaluation_from_buffer
 
@@ -441,6 +509,7 @@ class _Run:
             jam_start[hit] = np.minimum(jam_start[hit], jam.start)
         acc = np.zeros(ks.A_COUNT)
         first_stats = np.zeros(ks.S_COUNT)
+        jacobian = (kernel.jac_own, kernel.jac_shared, kernel.jac_active, kernel.jac_meta)
         done = [0, 0, 0, 0]  # evaluations, Jacobians, iterations, unconverged already counted
         k = 0
         while k <= steps:
@@ -461,12 +530,27 @@ class _Run:
             commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
             motor = float(acc[ks.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
-            active, buffer = ks.run_steps(
-                k, self.window_first, commands, pos, vel, omega, theta, body,
-                kernel.ball_nut, kernel.consts, kernel.params, kernel.sphere_offset,
-                kernel.spalls, jam_start, kernel.jac_own, kernel.jac_shared, kernel.jac_active,
-                kernel.jac_meta, acc, first_stats,
-            )  # fmt: skip
+            mutable = (pos, vel, omega, theta, body, acc, *jacobian)
+            snapshot = [a.copy() for a in mutable]
+
+            def steps_from(
+                first: int, last: int, commands: FloatArray = commands, k: int = k
+            ) -> tuple[Any, Any]:
+                return ks.run_steps(
+                    first, self.window_first, commands[first - k : last - k], pos, vel, omega,
+                    theta, body, kernel.ball_nut, kernel.consts, kernel.params,
+                    kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
+                )  # fmt: skip
+
+            active, buffer = steps_from(k, k + n)
+            if acc[ks.A_UNCONVERGED] > done[3] and n > 1 and not acc[ks.A_FAILED]:
+                # Replay the stretch one step at a time from the snapshot (same arithmetic,
+                # same state) to locate each unconverged step and keep its residual.
+                for array, saved in zip(mutable, snapshot, strict=True):
+                    array[...] = saved
+                active, buffer = self._replay(ks, steps_from, k, n, first_stats, acc)
+            else:
+                self._note_unconverged(ks, k, acc, done[3])  # n == 1 or nothing new
             if acc[ks.A_FAILED] > 0.0:
                 raise SolverError(
                     f"dynamic model diverged at t = {acc[ks.A_FAILED_STEP] * dt:.7g} s: "
@@ -591,33 +675,48 @@ def _summary(
     steps: int,
     config: TwinConfig,
 ) -> dict[str, Any]:
-    """The paper's averages over the last window plus run statistics (SI, JSON-ready)."""
+    """The paper's averages over the last window plus run statistics (SI, JSON-ready).
+
+    drag = mean motor torque - gravity torque - I_s (Omega_end - Omega_start) / T: the mean of
+    I_s dOmega/dt over the window's steps telescopes to the speed change over the window. The
+    breakdown closes on it through the energy balance of everything but the screw (see
+    :func:`_closure`).
+    """
     sc = result.scenario
+    dt = sc.time_step
     count = max(int(window["count"]), 1)
-    motor = window["motor"] / count
-    speed = window["speed"] / count
-    gravity_power = window["gravity"] / count
+    motor = float(window["motor"]) / count
+    speed = float(window["speed"]) / count
+    gravity_power = float(window["gravity"]) / count
     moving = abs(speed) > STANDSTILL_SPEED
     gravity_torque = gravity_power / speed if moving else 0.0
+    span = count * dt  # s: the window's steps, from the state before its first one
+    start, end = sc.duration - span, sc.duration
+    speeds = np.interp([start, end], result.time, result.screw_speed)
+    inertia_torque = result.screw_inertia * float(speeds[1] - speeds[0]) / span
+    drag = motor - gravity_torque - inertia_torque
     breakdown = {
         name: (float(value) / count / speed if moving else 0.0)
         for name, value in zip(MECHANISMS, mechanisms, strict=True)
     }
-    in_window = result.time >= sc.duration - sc.average_window - 0.5 * sc.time_step
-    drag_samples = result.drag_torque[in_window]
+    dissipation_drag = float(sum(breakdown.values()))
+    closure = _closure(result, start, end, speed if moving else math.inf)
+    closure["remainder"] = drag - dissipation_drag - sum(closure.values())
+    breakdown.update(closure)
+    settling = _settling(result, start)
     final_error = float(result.power_balance_error[-1])
     abs_input_energy = float(abs_input_energy)
-    motor, speed, gravity_power = float(motor), float(speed), float(gravity_power)
-    gravity_torque = float(gravity_torque)
     return {
         "window_start_s": sc.duration - sc.average_window,
         "window_end_s": sc.duration,
         "mean_screw_speed_rad_s": speed,
         "mean_motor_torque_Nm": motor,
         "mean_gravitational_power_W": gravity_power,
-        "gravity_torque_Nm": gravity_torque,
-        "drag_torque_Nm": motor - gravity_torque,
-        "drag_torque_std_Nm": float(np.std(drag_samples)) if len(drag_samples) else 0.0,
+        "gravity_torque_Nm": float(gravity_torque),
+        "inertia_torque_Nm": inertia_torque,
+        "drag_torque_Nm": drag,
+        "dissipation_drag_Nm": dissipation_drag,
+        **settling,
         "breakdown_Nm": breakdown,
         "breakdown_total_Nm": float(sum(breakdown.values())),
         "nut_torque_Nm": {
@@ -638,4 +737,109 @@ def _summary(
         "step_cost_s": wall / max(steps, 1),
         "balls_per_nut": config.screw.balls_per_nut,
         "config": config.source,
+    }
+
+
+def _closure(result: SimulationResult, start: float, end: float, speed: float) -> dict[str, float]:
+    """The non-dissipative terms of the drag over [start, end] [s], as torques [N m].
+
+    Energy balance of the nuts, spheres and contacts (everything but the screw): the spheres'
+    torque on the screw times its speed equals the dissipation, plus the rate of their stored
+    energy (kinetic energy without the screw's, elastic energy), plus the gravitational power,
+    minus the preload's power F_p (v_master - v_slave). Divided by the mean speed ``speed``:
+    ``stored_energy`` = change of that energy / duration / speed and ``preload_work`` = -(work
+    of the preload) / duration / speed; the rest of the drag beyond these and the mechanisms
+    (numerical balance error, speed fluctuation within the window) is the caller's
+    ``remainder``. Values between recorded samples are interpolated linearly.
+    """
+    inside = (result.time > start) & (result.time < end)
+    times = np.concatenate([[start], result.time[inside], [end]])
+
+    def at(values: FloatArray) -> FloatArray:
+        return np.asarray(np.interp(times, result.time, values))
+
+    screw_kinetic = 0.5 * result.screw_inertia * result.screw_speed**2
+    stored = at(result.kinetic_energy - screw_kinetic + result.elastic_energy)
+    separation = at(result.nut_position[:, 0] - result.nut_position[:, 1])
+    preload = at(result.preload_command)
+    preload_work = float(np.sum(0.5 * (preload[1:] + preload[:-1]) * np.diff(separation)))
+    duration = end - start
+    return {
+        "stored_energy": float(stored[-1] - stored[0]) / duration / speed,
+        "preload_work": -preload_work / duration / speed,
+    }
+
+
+def _settling(result: SimulationResult, start: float) -> dict[str, Any]:
+    """Whether the run has settled by the averaging window's ``start`` [s], since when, and the
+    drag's standard deviation over the settled part of the window (recorded samples).
+
+    Settled: the commands have stopped ramping, |screw speed - command| has stayed within
+    SETTLED_SPEED of the command since ``settled_since_s``, which is before the window, and the
+    mean drag of the window's two halves differ by at most SETTLED_DRIFT of the window mean.
+    """
+    sc = result.scenario
+    t, drag = result.time, result.drag_torque
+    reasons: list[str] = []
+    ramps_end = max(sc.speed_ramp_end, sc.preload_ramp_end)
+    tolerance = SETTLED_SPEED * max(abs(sc.speed), STANDSTILL_SPEED)
+    off = (np.abs(result.screw_speed - result.speed_command) > tolerance) | (t < ramps_end)
+    since: float | None = None
+    if not off[-1]:
+        last_off = np.flatnonzero(off)
+        since = float(t[last_off[-1] + 1]) if len(last_off) else float(t[0])
+    if ramps_end > start:
+        reasons.append(f"the commands ramp until {ramps_end:.6g} s, inside the window")
+    if since is None:
+        deviation = float(np.abs(result.screw_speed - result.speed_command)[-1])
+        reasons.append(
+            f"the screw speed ends {deviation:.3g} rad/s from its command "
+            f"(tolerance {tolerance:.3g} rad/s)"
+        )
+    elif since > start + 0.5 * sc.time_step:
+        reasons.append(
+            f"the screw speed stays within {SETTLED_SPEED:.0%} of its command only from "
+            f"{since:.6g} s, inside the window"
+        )
+    in_window = t >= start - 0.5 * sc.time_step
+    window_drag = drag[in_window]
+    halves = np.array_split(window_drag, 2) if len(window_drag) >= 2 else []
+    drift = abs(float(np.mean(halves[1]) - np.mean(halves[0]))) if halves else 0.0
+    level = abs(float(np.mean(window_drag))) if len(window_drag) else 0.0
+    if drift > SETTLED_DRIFT * level:
+        reasons.append(
+            f"the mean drag of the window's halves differ by {drift:.3g} N m, more than "
+            f"{SETTLED_DRIFT:.0%} of its mean {level:.3g} N m"
+        )
+    settled_from = start if since is None else max(start, since)
+    settled = t >= settled_from - 0.5 * sc.time_step
+    samples = drag[settled] if settled.any() else window_drag
+    return {
+        "settled": not reasons,
+        "settled_since_s": since,
+        "not_settled_because": reasons,
+        "drag_torque_std_window_s": [settled_from, sc.duration],
+        "drag_torque_std_Nm": float(np.std(samples)) if len(samples) else 0.0,
+        "window_drift_Nm": drift,
+    }
+
+
+def _unconverged_summary(
+    unconverged: list[tuple[int, float]], total: int, steps: int, scenario: Scenario
+) -> dict[str, Any]:
+    """Where the Newton iterations of a step ended above STEP_TOLERANCE (JSON-ready, SI):
+    ``unconverged`` lists (step index, final scaled residual) of every such step."""
+    dt = scenario.time_step
+    window_first = steps - scenario.steps_per(scenario.average_window)
+    return {
+        "count": total,
+        "steps": steps + 1,
+        "in_window": sum(step >= window_first for step, _ in unconverged),
+        "tolerance": STEP_TOLERANCE,
+        "largest_residual": max((r for _, r in unconverged), default=0.0),
+        "listed": [
+            {"step": step, "time_s": step * dt, "residual": r}
+            for step, r in unconverged[:LISTED_UNCONVERGED]
+        ],
+        "unlisted": max(len(unconverged) - LISTED_UNCONVERGED, 0),
     }

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, fields, replace
+from decimal import Decimal
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,8 @@ DEFAULT_MAX_AXIAL_LOAD = 5000.0
 #: Relative distance beyond a bound still counted as on it [-]: -40 C entered as
 #: -40 + 273.15 = 233.14999999999998 K is not a clamp worth a warning.
 BOUND_TOLERANCE = 1e-9
+#: Offset between the Celsius and kelvin scales [K] (conversions at the command-line edge).
+CELSIUS_ZERO = 273.15
 
 
 class NonFiniteOutputError(SolverError):
@@ -108,6 +111,59 @@ class ValidityEnvelope:
         return cls(**values)
 
 
+def _breaches(
+    op: OperatingPoint, envelope: ValidityEnvelope
+) -> tuple[OperatingPoint, list[tuple[str, str]]]:
+    """``op`` moved into ``envelope`` and, per moved quantity, (what is wrong, value used)."""
+    breaches: list[tuple[str, str]] = []
+    grow = 1.0 + BOUND_TOLERANCE
+    speed = op.screw_speed
+    if abs(speed) > envelope.max_speed * grow:
+        speed = math.copysign(envelope.max_speed, speed)
+        breaches.append(
+            (
+                f"|screw_speed| = {abs(op.screw_speed):.6g} rad/s exceeds "
+                f"{envelope.max_speed:.6g} rad/s",
+                f"{speed:.6g} rad/s",
+            )
+        )
+    temperature = op.temperature
+    if not envelope.min_temperature / grow <= temperature <= envelope.max_temperature * grow:
+        temperature = min(max(temperature, envelope.min_temperature), envelope.max_temperature)
+        breaches.append(
+            (
+                f"temperature = {op.temperature:.6g} K is outside "
+                f"[{envelope.min_temperature:.6g}, {envelope.max_temperature:.6g}] K",
+                f"{temperature:.6g} K",
+            )
+        )
+    preload = op.preload
+    if preload > envelope.max_preload * grow:
+        preload = envelope.max_preload
+        breaches.append(
+            (
+                f"preload = {op.preload:.6g} N exceeds {envelope.max_preload:.6g} N",
+                f"{preload:.6g} N",
+            )
+        )
+    axial_load = op.axial_load
+    if abs(axial_load) > envelope.max_axial_load * grow:
+        axial_load = math.copysign(envelope.max_axial_load, axial_load)
+        breaches.append(
+            (
+                f"|axial_load| = {abs(op.axial_load):.6g} N exceeds "
+                f"{envelope.max_axial_load:.6g} N",
+                f"{axial_load:.6g} N",
+            )
+        )
+    if not breaches:
+        return op, []
+    clamped = OperatingPoint(
+        screw_speed=speed, temperature=temperature, preload=preload, axial_load=axial_load
+    )
+    return clamped, breaches
+
+
 def clamp_operating_point(
     op: OperatingPoint, envelope: ValidityEnvelope
 ) -> tuple[OperatingPoint, tuple[str, ...]]:
@@ -122,43 +178,65 @@ def clamp_operating_point(
             temperature <= 138 K, negative preload): an input error, not a validity question.
     """
     op.validate()
-    warnings: list[str] = []
+    clamped, breaches = _breaches(op, envelope)
+    return clamped, tuple(f"validity: {what}: evaluated at {used}" for what, used in breaches)
+
+
+def refuse_outside(
+    points: Iterable[OperatingPoint], envelope: ValidityEnvelope, where: str
+) -> None:
+    """Raise :class:`OperatingPointError` if any of ``points`` is outside ``envelope``.
+
+    For runs that a clamp would turn into another run (a simulated scenario, a scene's
+    profile): the message names ``where`` (file or command), every quantity beyond its bound
+    and the section of docs/model.md that gives the envelope.
+    """
+    problems: list[str] = []
+    for op in points:
+        op.validate()
+        problems += [what for what, _ in _breaches(op, envelope)[1] if what not in problems]
+    if problems:
+        raise OperatingPointError(
+            f"{where}: outside the validity envelope (docs/model.md section 13): "
+            + "; ".join(problems)
+        )
+
+
+def celsius_to_kelvin(celsius: float) -> float:
+    """A temperature in degrees Celsius in kelvin [K], the float nearest the exact decimal sum.
+
+    ``celsius + 273.15`` rounds twice (273.15 has no exact binary value): -40 C gives
+    233.14999999999998 K, below a bound written as 233.15 K. Adding the shortest decimal
+    forms exactly and rounding once gives 233.15 K, the same float as the literal.
+    """
+    if not math.isfinite(celsius):
+        return celsius + CELSIUS_ZERO
+    return float(Decimal(repr(float(celsius))) + Decimal(repr(CELSIUS_ZERO)))
+
+
+def kelvin_from_command_line(
+    celsius: float, what: str, envelope: ValidityEnvelope | None = None
+) -> float:
+    """Kelvin [K] of a temperature typed in degrees Celsius; refuse one that looks like kelvin.
+
+    A value whose Celsius reading is outside the envelope but whose kelvin reading is inside
+    (``293`` meant as 293 K) raises :class:`OperatingPointError` saying so, instead of being
+    clamped; ``what`` names the option in the message. ``envelope`` None: the default
+    temperature bounds.
+    """
+    kelvin = celsius_to_kelvin(celsius)
+    lo, hi = DEFAULT_MIN_TEMPERATURE, DEFAULT_MAX_TEMPERATURE
+    if envelope is not None:
+        lo, hi = envelope.min_temperature, envelope.max_temperature
     grow = 1.0 + BOUND_TOLERANCE
-    speed = op.screw_speed
-    if abs(speed) > envelope.max_speed * grow:
-        speed = math.copysign(envelope.max_speed, speed)
-        warnings.append(
-            f"validity: |screw_speed| = {abs(op.screw_speed):.6g} rad/s exceeds "
-            f"{envelope.max_speed:.6g} rad/s: evaluated at {speed:.6g} rad/s"
+    if not lo / grow <= kelvin <= hi * grow and lo <= celsius <= hi:
+        raise OperatingPointError(
+            f"{what} = {celsius:g} C is {kelvin:g} K, outside the validity envelope "
+            f"[{lo - CELSIUS_ZERO:.6g}, {hi - CELSIUS_ZERO:.6g}] C; it looks like a value in "
+            f"kelvin: {what} is in degrees Celsius ({celsius:g} K = "
+            f"{celsius - CELSIUS_ZERO:.6g} C)"
         )
-    temperature = op.temperature
-    if not envelope.min_temperature / grow <= temperature <= envelope.max_temperature * grow:
-        temperature = min(max(temperature, envelope.min_temperature), envelope.max_temperature)
-        warnings.append(
-            f"validity: temperature = {op.temperature:.6g} K is outside "
-            f"[{envelope.min_temperature:.6g}, {envelope.max_temperature:.6g}] K: "
-            f"evaluated at {temperature:.6g} K"
-        )
-    preload = op.preload
-    if preload > envelope.max_preload * grow:
-        preload = envelope.max_preload
-        warnings.append(
-            f"validity: preload = {op.preload:.6g} N exceeds {envelope.max_preload:.6g} N: "
-            f"evaluated at {preload:.6g} N"
-        )
-    axial_load = op.axial_load
-    if abs(axial_load) > envelope.max_axial_load * grow:
-        axial_load = math.copysign(envelope.max_axial_load, axial_load)
-        warnings.append(
-            f"validity: |axial_load| = {abs(op.axial_load):.6g} N exceeds "
-            f"{envelope.max_axial_load:.6g} N: evaluated at {axial_load:.6g} N"
-        )
-    if not warnings:
-        return op, ()
-    clamped = OperatingPoint(
-        screw_speed=speed, temperature=temperature, preload=preload, axial_load=axial_load
-    )
-    return clamped, tuple(warnings)
+    return kelvin
 
 
 def all_finite(arrays: Iterable[np.ndarray]) -> bool:

@@ -42,6 +42,7 @@ from ..errors import SolverError
 from ..models.base import ContactStates, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyState, SteadyStateModel
+from ..models.validity import ValidityEnvelope, celsius_to_kelvin, refuse_outside
 from ..params import TwinConfig, load_config
 
 Side = Literal["screw", "nut"]
@@ -294,6 +295,14 @@ def paper_sweep(config: TwinConfig, quick: bool) -> list[Row]:
         ``status`` is ``"ok"`` or the :class:`SolverError` message; failed points hold NaN.
     """
     grid = paper_grid(quick)
+    corners = [
+        OperatingPoint(
+            screw_speed=speed * RPM, temperature=celsius_to_kelvin(temperature), preload=preload
+        )
+        for temperature, speed in grid.curves()
+        for preload in (min(grid.preloads), max(grid.preloads))
+    ]
+    refuse_outside(corners, ValidityEnvelope.for_config(config), f"report grid of {config.source}")
     eq51 = CatalogModel(config, mu_lit=MU_LIT, formula="literature")
     eq52 = CatalogModel(config, mu_lit=MU_LIT, formula="zhou")
     curves = grid.curves()

@@ -10,11 +10,13 @@ import csv
 import json
 import math
 import re
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+import yaml
 
 from ballscrew_twin.errors import ConfigError, SolverError
 from ballscrew_twin.models import dynamic
@@ -55,7 +57,9 @@ SMALL: dict[str, Any] = {
 @pytest.fixture(scope="module")
 def run() -> tuple[SimulationResult, list[tuple[float, float]]]:
     calls: list[tuple[float, float]] = []
+    before = time.time_ns()
     result = simulate(Scenario(**SMALL), progress=lambda f, e: calls.append((f, e)))
+    assert before <= result.summary["start_time_unix_ns"] <= time.time_ns()
     return result, calls
 
 
@@ -122,16 +126,117 @@ def test_contact_samples_are_consistent(result: SimulationResult) -> None:
 
 def test_summary_follows_the_papers_definitions(result: SimulationResult) -> None:
     s = result.summary
-    assert s["drag_torque_Nm"] == pytest.approx(s["mean_motor_torque_Nm"] - s["gravity_torque_Nm"])
+    assert s["drag_torque_Nm"] == pytest.approx(
+        s["mean_motor_torque_Nm"] - s["gravity_torque_Nm"] - s["inertia_torque_Nm"]
+    )
     assert s["gravity_torque_Nm"] == pytest.approx(
         s["mean_gravitational_power_W"] / s["mean_screw_speed_rad_s"]
     )
-    assert s["breakdown_total_Nm"] == pytest.approx(
+    assert s["dissipation_drag_Nm"] == pytest.approx(
         s["mean_dissipation_W"] / s["mean_screw_speed_rad_s"]
     )
     assert s["real_time_factor"] == pytest.approx(1.2e-3 / s["wall_time_s"])
     assert s["steps"] == 1200 and s["balls_per_nut"] == 2
     json.dumps(s, allow_nan=False)
+
+
+def test_inertia_term_is_the_speed_change_over_the_window(result: SimulationResult) -> None:
+    """I_s (Omega_end - Omega_start) / T from the recorded speed and the parameter file."""
+    from ballscrew_twin.params import load_config
+
+    s = result.summary
+    inertia = load_config().screw.screw_inertia
+    span = 401 * 1e-6  # the window's 401 steps, from the state before the first one
+    start = float(np.interp(1.2e-3 - span, result.time, result.screw_speed))
+    expected = inertia * (result.screw_speed[-1] - start) / span
+    assert s["inertia_torque_Nm"] == pytest.approx(expected, rel=1e-9)
+    assert result.screw_inertia == inertia
+
+
+def test_breakdown_closes_on_the_drag_through_the_energy_balance(
+    result: SimulationResult,
+) -> None:
+    """The mechanisms, the stored energy and the preload's work sum to the drag (torque
+    balance of the screw) up to a remainder: two independent routes to the same number."""
+    s = result.summary
+    b = s["breakdown_Nm"]
+    assert list(b) == [*MECHANISMS, "stored_energy", "preload_work", "remainder"]
+    assert sum(b.values()) == pytest.approx(s["drag_torque_Nm"], rel=1e-12, abs=1e-15)
+    assert s["breakdown_total_Nm"] == pytest.approx(s["drag_torque_Nm"], rel=1e-12, abs=1e-15)
+    scale = max(abs(v) for v in b.values())
+    assert abs(b["remainder"]) < 0.05 * scale, b
+
+
+def _synthetic(result: SimulationResult, speed: Any, motor: Any) -> SimulationResult:
+    """``result`` with the recorded speed and motor torque replaced, nothing else moving."""
+    from dataclasses import replace
+
+    flat = np.zeros_like(result.time)
+    return replace(
+        result,
+        screw_speed=np.asarray(speed, dtype=float),
+        motor_torque=np.asarray(motor, dtype=float),
+        gravitational_power=flat,
+    )
+
+
+def test_settling_is_detected_and_explained(result: SimulationResult) -> None:
+    from ballscrew_twin.models.simulation import SETTLED_DRIFT, SETTLED_SPEED, _settling
+
+    t, command = result.time, result.speed_command
+    start = 1.2e-3 - 4e-4
+    flat = _settling(_synthetic(result, command, np.full_like(t, 0.02)), start)
+    assert flat["settled"] and flat["not_settled_because"] == []
+    assert flat["settled_since_s"] == pytest.approx(6e-4)  # the speed ramp's end
+    assert flat["drag_torque_std_Nm"] == pytest.approx(0.0, abs=1e-12)
+    # Speed off by twice the tolerance at the end: not settled, and said so.
+    off = command * (1.0 + np.where(t > 1.1e-3, 2.0 * SETTLED_SPEED, 0.0))
+    late = _settling(_synthetic(result, off, np.full_like(t, 0.02)), start)
+    assert not late["settled"] and "ends" in late["not_settled_because"][0]
+    # Speed back within tolerance only inside the window: settled since then, not before it.
+    back = command * (1.0 + np.where((t > 6e-4) & (t < 1.0e-3), 2.0 * SETTLED_SPEED, 0.0))
+    inside = _settling(_synthetic(result, back, np.full_like(t, 0.02)), start)
+    assert not inside["settled"] and inside["settled_since_s"] == pytest.approx(1.0e-3)
+    assert inside["drag_torque_std_window_s"][0] == pytest.approx(1.0e-3)
+    # A drag drifting by 3 x the allowed fraction over the window: not settled.
+    ramp = 0.02 * (1.0 + 3.0 * SETTLED_DRIFT * 2.0 * np.clip((t - start) / 4e-4, 0.0, 1.0))
+    drifting = _settling(_synthetic(result, command, ramp), start)
+    assert not drifting["settled"] and "halves" in drifting["not_settled_because"][0]
+    # Std over the settled window: a known alternating ripple of +-1 mN m.
+    ripple = 0.02 + 1e-3 * (-1.0) ** np.arange(len(t))
+    rippled = _settling(_synthetic(result, command, ripple), start)
+    assert rippled["drag_torque_std_Nm"] == pytest.approx(1e-3, rel=1e-2)
+
+
+def test_unconverged_steps_are_located() -> None:
+    from ballscrew_twin.models.simulation import _unconverged_summary
+
+    scenario = Scenario(**SMALL)  # 1200 steps, window from step 800
+    steps = [(5, 2e-3), (810, 4e-6)] + [(900 + i, 1e-5) for i in range(12)]
+    u = _unconverged_summary(steps, 14, 1200, scenario)
+    assert u["count"] == 14 and u["steps"] == 1201 and u["in_window"] == 13
+    assert u["largest_residual"] == 2e-3
+    assert u["listed"][1] == {"step": 810, "time_s": 810e-6, "residual": 4e-6}
+    assert len(u["listed"]) == 10 and u["unlisted"] == 4
+
+
+def test_run_lists_its_unconverged_steps(result: SimulationResult) -> None:
+    u = result.summary["unconverged"]
+    assert u["count"] == result.summary["unconverged_steps"]
+    assert len(u["listed"]) + u["unlisted"] == u["count"]
+    assert all(st["residual"] > u["tolerance"] for st in u["listed"])
+
+
+def test_scenario_outside_the_envelope_is_refused() -> None:
+    from ballscrew_twin.errors import OperatingPointError
+
+    for change, words in (
+        ({"temperature": 400.0}, "temperature = 400 K is outside"),
+        ({"preload": 6000.0}, "preload = 6000 N exceeds 5000 N"),
+        ({"speed": 2000.0}, "|screw_speed| = 2000 rad/s exceeds"),
+    ):
+        with pytest.raises(OperatingPointError, match=re.escape(words)):
+            simulate(Scenario(**{**SMALL, **change}))
 
 
 def test_progress_is_reported_about_every_half_percent(
@@ -237,10 +342,16 @@ def test_compiled_loop_retraces_the_python_loop() -> None:
         worst = float(np.max(np.abs(other - value))) if np.size(value) else 0.0
         assert worst <= 1e-9 * scale, (name, worst, scale)
     for key, value in reference.summary.items():
-        if key in ("wall_time_s", "real_time_factor", "step_cost_s"):
+        if key in ("wall_time_s", "real_time_factor", "step_cost_s", "start_time_unix_ns"):
             continue
+        if key == "unconverged":  # the same steps, residuals to round-off
+            assert [st["step"] for st in fast.summary[key]["listed"]] == [
+                st["step"] for st in value["listed"]
+            ]
         if isinstance(value, dict):
             for sub, number in value.items():
+                if isinstance(number, list):
+                    continue
                 assert fast.summary[key][sub] == pytest.approx(number, rel=1e-9, abs=1e-300), key
         elif isinstance(value, float):
             assert fast.summary[key] == pytest.approx(value, rel=1e-9, abs=1e-300), key
@@ -248,7 +359,7 @@ def test_compiled_loop_retraces_the_python_loop() -> None:
             assert fast.summary[key] == value, key
     # The run did something: spheres loaded, screw turning, the jammed sphere blocked.
     assert reference.in_contact.any() and reference.screw_speed[-1] > 5.0
-    assert reference.summary["drag_torque_Nm"] > 0.0
+    assert reference.summary["dissipation_drag_Nm"] > 0.0
 
 
 # ---------------------------------------------------------------------------------- writers
@@ -288,6 +399,10 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     from rosbags.highlevel import AnyReader
 
     bag = write_bag(result, tmp_path / "bag", storage=storage)
+    meta = yaml.safe_load((bag / "metadata.yaml").read_text(encoding="utf-8"))
+    info = meta["rosbag2_bagfile_information"]
+    assert info["ros_distro"] == "jazzy"
+    assert info["starting_time"]["nanoseconds_since_epoch"] == result.summary["start_time_unix_ns"]
     store = make_typestore()
     drags: list[tuple[int, Any]] = []
     arrays: list[tuple[int, Any]] = []
@@ -301,8 +416,9 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
         CONTACT_TOPIC: "ballscrew_twin_msgs/msg/ContactStateArray",
     }
     assert len(drags) == len(result.time) and len(arrays) == len(result.contact_time)
+    start = result.summary["start_time_unix_ns"]
     for i, (t_ns, msg) in enumerate(drags):
-        assert t_ns == round(result.time[i] * 1e9)
+        assert t_ns == start + round(result.time[i] * 1e9)
         assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t_ns
         assert msg.total == result.drag_torque[i]
         assert msg.fidelity == "dynamic" and msg.temperature == 293.15
@@ -313,7 +429,7 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     assert msg.lubricant_shear == pytest.approx(result.mechanism_dissipation[moving, 0] / speed)
     assert msg.nut_master == pytest.approx(result.nut_dissipation[moving, 0] / speed)
     for j, (t_ns, msg) in enumerate(arrays):
-        assert t_ns == round(result.contact_time[j] * 1e9)
+        assert t_ns == start + round(result.contact_time[j] * 1e9)
         assert len(msg.contacts) == int(result.in_contact[j].sum())
         for c in msg.contacts:
             ball = int(
@@ -344,3 +460,21 @@ def test_plot_is_written(result: SimulationResult, tmp_path: Path) -> None:
 def test_power_balance_survives_the_nut_impact() -> None:
     res = simulate(Scenario(**{**SMALL, "duration": 1.5e-3, "average_window": 5e-4}))
     assert abs(res.summary["power_balance_error_relative"]) < BALANCE_BOUND
+
+
+def test_compiled_loop_locates_unconverged_steps_like_the_python_loop() -> None:
+    """short_check's first 0.55 ms has unconverged steps (5, measured): the compiled loop
+    replays their record stretches step by step, and must list the same steps with the same
+    residuals as the per-step loop, along the same trajectory."""
+    from dataclasses import replace
+
+    from ballscrew_twin.models.scenario import load_scenario
+
+    short = Path(__file__).resolve().parents[2] / "config" / "scenarios" / "short_check.yaml"
+    scenario = replace(load_scenario(short), duration=5.5e-4, average_window=5e-5)
+    reference, fast = (simulate(scenario, compiled_loop=c) for c in (False, True))
+    listed = reference.summary["unconverged"]["listed"]
+    assert listed and reference.summary["unconverged"]["count"] == len(listed)
+    assert fast.summary["unconverged"] == reference.summary["unconverged"]
+    for name in ("screw_speed", "motor_torque", "nut_position", "dissipation", "input_energy"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(reference, name), name)
