@@ -55,7 +55,7 @@ PRIOR_SIGMA = {"torque_gain": 0.02, "preload_scale": 0.15, "temperature_shift": 
 FIT_BLOCKS = 600
 FIT_SPEEDS = 8
 #: Default ``error_scale``: e_rel = scale x the fit's 95th-percentile relative error / 1.96.
-ERROR_SCALE = 1.5
+ERROR_SCALE = 1.0
 #: Floor of e_rel [-]: the real-time map's own interpolation error (bench accuracy: 0.7 %).
 ERROR_FLOOR = 0.007
 

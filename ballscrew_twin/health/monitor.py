@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -69,6 +69,8 @@ HISTORY_BLOCKS = 1200
 EVALUATED_SAMPLES = 20
 #: Speeds of a block kept for the classification's signatures (evenly picked) [-].
 SIGNATURE_SPEEDS = 5
+#: Tracker priors of a commissioned unit relative to the nominal ones [-].
+COMMISSIONED_PRIOR = 0.05
 #: Relative preload step of the preload sensitivity [-].
 PRELOAD_STEP = 0.05
 
@@ -259,9 +261,7 @@ class HealthMonitor:
             raise ConfigError("health monitor: the shared predictor has another config/settings")
         self.predictor = predictor or TwinPredictor(config, s.residual, model_factory)
         if baseline is None:
-            from dataclasses import replace as _replace
-
-            baseline = _replace(
+            baseline = replace(
                 Baseline.nominal(config),
                 error_relative=s.residual.model_error_relative,
                 error_absolute=s.residual.model_error_absolute,
@@ -289,7 +289,7 @@ class HealthMonitor:
         self.gate = ReversalGate(s.residual)
         self._angle_at: tuple[float, float, float] | None = None
         self.aligner = BlockAligner(s.residual)
-        self.tracker = DriftTracker(s.tracker)
+        self.tracker = DriftTracker(self._tracker_settings())
         block_rate = 1.0 / s.residual.block_duration
         share = s.false_alarm_rate / len(DETECTORS)
         self.cusum = Cusum(s.cusum_shift, share, block_rate)
@@ -308,6 +308,21 @@ class HealthMonitor:
         self._spectral_stat = 0.0
         self._spectral_ratios: dict[str, float] = {}
         self._ripple_alarm = False
+
+    def _tracker_settings(self) -> TrackerSettings:
+        """The tracker's priors: as set for the nominal twin (it learns the unit in the
+        warm-up); for a commissioned unit the fit has already placed bias, friction level and
+        preload, so the filter starts near certain and only follows slow drift (a fault is a
+        departure from the baseline, not something to learn)."""
+        t = self.settings.tracker
+        if self.baseline.source == "nominal":
+            return t
+        return replace(
+            t,
+            bias_prior=COMMISSIONED_PRIOR * t.bias_prior,
+            scale_prior=COMMISSIONED_PRIOR * t.scale_prior,
+            preload_prior=COMMISSIONED_PRIOR * t.preload_prior,
+        )
 
     # ------------------------------------------------------------------ inputs
     def add_torque(self, stamp: float, value: float) -> list[HealthSample]:

@@ -160,7 +160,7 @@ class ResidualSettings:
     preload_step: float = 10.0
     min_speed: float = 0.5
     gate_speed: float = 2.0
-    gate_angle: float = 1.0
+    gate_angle: float = 2.0
     slow_smoothing: float = 1.0
 
     def __post_init__(self) -> None:
