@@ -904,9 +904,10 @@ def read_bench_bag(
                 failures.setdefault(m.topic, []).append(f"{type(err).__name__}: {err}")
                 continue
             if values is None:
-                joints.update(msg.name)
+                names = [str(n) for n in getattr(msg, "name", ())]
+                joints.update(names)
                 failures.setdefault(m.topic, []).append(
-                    f"no joint {topics.joint_name!r} (joints: {list(msg.name)})"
+                    f"no joint {topics.joint_name!r} (joints: {names})"
                 )
                 continue
             stamp = _stamp_ns(msg) or m.log_time
