@@ -407,8 +407,10 @@ class HealthNode(Node):
         else:
             text = f"{VERDICT_NAMES[sample.verdict]} at {sample.time:.3f} s"
             text += f" ({sample.note})" if sample.note else ""
-            log = self.get_logger()
-            (log.warning if sample.verdict == WARN else log.info)(text)
+            if sample.verdict == WARN:  # one call site per severity (rclpy's rule)
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
         self._logged = (sample.verdict, sample.fault_class)
         self._log_wall = time.monotonic()
         self._log_pending = None
