@@ -39,8 +39,7 @@ CLOCK_TOPIC = "/clock"
 #: Longest single sleep while pacing [s], so that a stop request is seen quickly.
 MAX_SLEEP = 0.05
 #: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
-#: best-effort subscriber drops what arrives before it has matched the publisher in turn (the
-#: first ~0.16 s of a bag at rate 2.5 were lost on loopback without this wait).
+#: best-effort subscriber drops what arrives before it has matched the publisher in turn.
 MATCH_SETTLE = 0.5
 
 
