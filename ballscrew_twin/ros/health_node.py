@@ -22,11 +22,11 @@ warning; a stamp that goes back in time (bag replay restarted, clock jump) resta
 monitor with a warning. Fields of a HealthResidual other than ``measured`` are 0 while the
 verdict is UNKNOWN (nothing non-finite is published).
 
-The verdict and the fault class are logged whenever they change (a new alarm at once, other
-changes at most once per ``log_throttle`` seconds, the latest state when the pause ends). With
-``use_sim_time``, a watchdog on the steady (wall) clock reports STALE on /diagnostics, and
-publishes one UNKNOWN HealthResidual, when ``/clock`` has not advanced for ``clock_timeout``
-seconds (replay paused or ended, bench clock lost).
+The verdict and the fault class are logged, and /diagnostics published, whenever they change
+(a new alarm at once, other changes at most once per ``log_throttle`` seconds, the latest state
+when the pause ends). With ``use_sim_time``, a watchdog on the steady (wall) clock reports
+STALE on /diagnostics, and publishes one UNKNOWN HealthResidual, when ``/clock`` has not
+advanced for ``clock_timeout`` seconds (replay paused or ended, bench clock lost).
 
 Run: ``health_node --ros-args --params-file config/health_node.yaml`` or
 ``ballscrew-twin health-node --params-file config/health_node.yaml``.
@@ -396,7 +396,8 @@ class HealthNode(Node):
             self._log_pending = sample
 
     def _log_now(self, sample: HealthSample) -> None:
-        """One log line for the state of ``sample`` (FAULT: error, WARN: warning, else info)."""
+        """One log line for the state of ``sample`` (FAULT: error, WARN: warning, else info),
+        and /diagnostics at once."""
         alarm = self.monitor.alarm
         if sample.verdict == FAULT and alarm is not None:
             first = self._logged is None or self._logged[0] != FAULT
@@ -414,6 +415,7 @@ class HealthNode(Node):
         self._logged = (sample.verdict, sample.fault_class)
         self._log_wall = time.monotonic()
         self._log_pending = None
+        self._publish_diagnostics()  # the change on /diagnostics now, not at the next tick
 
     def _publish_stale(self) -> None:
         """One UNKNOWN HealthResidual at the last clock time: the verdict is stale."""
