@@ -38,6 +38,7 @@ import json
 import math
 import sqlite3
 import struct
+from collections import Counter
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -140,16 +141,43 @@ class RawBag:
     _reader: Any = None
     _salvaged: list[RawMessage] | None = None
     _mcap_file: Path | None = None
+    _accounted: bool = False
 
     def messages(self, topics: Sequence[str] | None = None) -> Iterator[RawMessage]:
         """Messages of ``topics`` (all when None) in log-time order.
 
-        Unreadable time ranges are skipped and recorded in :attr:`issues`.
+        Unreadable time ranges are skipped and recorded in :attr:`issues`; after the first
+        complete pass, so are the messages the bag announces but that could not be read (per
+        chunk of an mcap file, from its message index; else per topic, from its counts).
         """
         wanted = set(self.topics if topics is None else topics)
         unknown = sorted(wanted - set(self.topics))
         if unknown:
             raise BagError(f"{self.path}: no topic(s) {unknown}; the bag has {sorted(self.topics)}")
+        read: Counter[tuple[str, int]] = Counter()
+        for m in self._read(wanted):
+            read[m.topic, m.log_time] += 1
+            yield m
+        if not self._accounted:
+            self._accounted = True
+            self.issues.extend(self._losses(wanted, read))
+
+    def _losses(self, wanted: set[str], read: Counter[tuple[str, int]]) -> list[str]:
+        """What the bag announces on ``wanted`` but was not ``read`` ((topic, log time) counts)."""
+        if self._mcap_file is not None:
+            channels, chunks = _mcap_index(self._mcap_file)
+            if any(chunk.entries for chunk in chunks):
+                return _chunk_losses(self._mcap_file, self.start_ns, channels, chunks, wanted, read)
+        per_topic = Counter(topic for topic, _ in read.elements())
+        return [
+            f"{self.path}: {info.count - per_topic[topic]} of {info.count} message(s) on "
+            f"{topic} announced by the bag could not be read"
+            for topic, info in sorted(self.topics.items())
+            if topic in wanted and per_topic[topic] < info.count
+        ]
+
+    def _read(self, wanted: set[str]) -> Iterator[RawMessage]:
+        """Messages of the ``wanted`` topics in log-time order, salvaging what fails."""
         if self._salvaged is not None:
             yield from (m for m in self._salvaged if m.topic in wanted)
             return
@@ -215,15 +243,26 @@ def _storage_file(folder: Path) -> Path | None:
     return files[0] if len(files) == 1 else None
 
 
+def _metadata_problem(meta: Path) -> str | None:
+    """Why ``metadata.yaml`` cannot be read as text (None when it can): not UTF-8, unreadable."""
+    try:
+        meta.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as err:
+        return f"not UTF-8 (byte 0x{err.object[err.start]:02x} at offset {err.start})"
+    except OSError as err:
+        return f"unreadable ({err.strerror})"
+    return None
+
+
 def _custom_data(folder: Path, issues: list[str]) -> dict[str, str]:
     """``custom_data`` of the bag's metadata.yaml (empty when absent or unreadable)."""
     meta = folder / "metadata.yaml"
-    if not meta.is_file():
+    if not meta.is_file() or _metadata_problem(meta) is not None:
         return {}
     try:
         data = yaml.safe_load(meta.read_text(encoding="utf-8"))
         custom = data["rosbag2_bagfile_information"].get("custom_data") or {}
-    except (OSError, yaml.YAMLError, KeyError, TypeError, AttributeError) as err:
+    except (OSError, ValueError, yaml.YAMLError, KeyError, TypeError, AttributeError) as err:
         issues.append(f"{meta}: custom_data unreadable ({err})")
         return {}
     return {str(k): str(v) for k, v in custom.items()} if isinstance(custom, dict) else {}
@@ -244,12 +283,21 @@ def open_raw_bag(path: str | Path) -> RawBag:
     target = given
     if given.is_dir():
         storage_file = _storage_file(given)
-        if not (given / "metadata.yaml").is_file():
+        meta = given / "metadata.yaml"
+        if not meta.is_file():
             if storage_file is None:
                 raise BagError(
                     f"{given}: not a bag (no metadata.yaml and not exactly one *.mcap or *.db3)"
                 )
             issues.append(f"{given}: metadata.yaml missing; read {storage_file.name} directly")
+            target = storage_file
+        elif (problem := _metadata_problem(meta)) is not None:
+            if storage_file is None:
+                raise BagError(
+                    f"{meta}: {problem}, and the folder has not exactly one *.mcap or *.db3 to "
+                    "read instead"
+                )
+            issues.append(f"{meta}: {problem}; ignored, read {storage_file.name} directly")
             target = storage_file
     elif given.suffix not in (".mcap", ".db3"):
         raise BagError(f"{given}: not a bag folder nor a .mcap or .db3 file")
@@ -357,7 +405,8 @@ def _salvage_sqlite(file: Path, issues: list[str]) -> tuple[dict[str, TopicInfo]
 # Salvage of a damaged mcap file: scan records sequentially, keep every complete message.
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
-_OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x03, 0x04, 0x05, 0x06
+_OP_FOOTER, _OP_SCHEMA, _OP_CHANNEL, _OP_MESSAGE, _OP_CHUNK = 0x02, 0x03, 0x04, 0x05, 0x06
+_OP_MESSAGE_INDEX = 0x07
 
 
 class _CutError(Exception):
@@ -513,6 +562,101 @@ def _salvage_scan(file: Path, issues: list[str]) -> tuple[dict[str, TopicInfo], 
 
 
 # ---------------------------------------------------------------------------------------------
+# What an mcap file announces: its chunks and their message indexes, to count what was lost.
+
+
+@dataclass(frozen=True)
+class _IndexedChunk:
+    """A chunk record of an mcap file and the messages its message-index records list.
+
+    Attributes:
+        start_ns, end_ns: log times of its first and last message [ns].
+        entries: (channel id, log time [ns]) of every message listed for the chunk.
+    """
+
+    start_ns: int
+    end_ns: int
+    entries: list[tuple[int, int]] = field(default_factory=list)
+
+
+def _mcap_index(file: Path) -> tuple[dict[int, str], list[_IndexedChunk]]:
+    """Channel id -> topic and the chunks of an mcap file with their message-index entries.
+
+    Only the top-level record headers, channel and message-index records are read (no chunk
+    is decompressed). A damaged or cut file gives what was read before the damage.
+    """
+    channels: dict[int, str] = {}
+    chunks: list[_IndexedChunk] = []
+    try:
+        size = file.stat().st_size
+        with file.open("rb") as handle:
+            pos = len(_MCAP_MAGIC)
+            while pos + 9 <= size:
+                handle.seek(pos)
+                head = _Buffer(handle.read(9))
+                op, length = head.take(1)[0], head.u64()
+                if length > size - pos - 9 or op == _OP_FOOTER:
+                    break
+                if op == _OP_CHUNK:
+                    start, end = struct.unpack("<QQ", handle.read(16))
+                    chunks.append(_IndexedChunk(start, end))
+                elif op == _OP_MESSAGE_INDEX and chunks:
+                    body = _Buffer(handle.read(length))
+                    cid = body.u16()
+                    listed = struct.iter_unpack("<QQ", body.take(body.u32()))
+                    chunks[-1].entries.extend((cid, log_time) for log_time, _ in listed)
+                elif op == _OP_CHANNEL:
+                    body = _Buffer(handle.read(length))
+                    cid = body.u16()
+                    body.u16()  # schema id
+                    channels[cid] = body.string()
+                pos += 9 + length
+    except (OSError, _CutError, struct.error):
+        pass  # keep what was read before the damage
+    return channels, chunks
+
+
+def _chunk_losses(
+    file: Path,
+    start_ns: int,
+    channels: dict[int, str],
+    chunks: list[_IndexedChunk],
+    wanted: set[str],
+    read: Counter[tuple[str, int]],
+) -> list[str]:
+    """One line per chunk with messages that its index lists on ``wanted`` topics but that were
+    not ``read`` ((topic, log time) counts; consumed), and one for messages read that no index
+    lists."""
+    out: list[str] = []
+    unread = Counter(read)
+    for k, chunk in enumerate(chunks):
+        listed = [(channels[c], t) for c, t in chunk.entries if channels.get(c) in wanted]
+        lost: Counter[str] = Counter()
+        for key in listed:
+            if unread[key] > 0:
+                unread[key] -= 1
+            else:
+                lost[key[0]] += 1
+        if lost:
+            span = (
+                f"{(chunk.start_ns - start_ns) * 1e-9:.3f}-{(chunk.end_ns - start_ns) * 1e-9:.3f}"
+            )
+            per_topic = ", ".join(f"{topic} {n}" for topic, n in sorted(lost.items()))
+            out.append(
+                f"{file}: chunk {k + 1} of {len(chunks)} ({span} s): {lost.total()} of its "
+                f"{len(listed)} indexed message(s) lost ({per_topic})"
+            )
+    indexed = {channels[c] for chunk in chunks for c, _ in chunk.entries if c in channels}
+    extra = sum(n for (topic, _), n in unread.items() if n > 0 and topic in indexed)
+    if extra:
+        out.append(
+            f"{file}: {extra} message(s) read at a log time no chunk index lists (damaged record "
+            "headers?)"
+        )
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 # Typed layer: the bench topics in SI units
 
 
@@ -657,11 +801,12 @@ def _stamp_ns(msg: Any) -> int:
 
 
 def _joint_index(msg: Any, joint: str) -> int | None:
-    """Index of ``joint`` in a JointState (the only joint if the name is absent)."""
+    """Index of ``joint`` in a JointState (0 when the message names no joint; None when it
+    names others only)."""
     names = list(msg.name)
     if joint in names:
         return names.index(joint)
-    return 0 if len(names) <= 1 else None
+    return None if names else 0
 
 
 def _decode(channel: str, msg: Any, msgtype: str, joint: str) -> dict[str, float] | None:
@@ -749,6 +894,7 @@ def read_bench_bag(
         failures: dict[str, list[str]] = {}
         nonfinite: dict[str, int] = {}
         stamp_offset: dict[str, int] = {}
+        joints: set[str] = set()  # joint names of JointStates without the screw's joint
         for m in raw.messages(sorted(by_topic)):
             channel = by_topic[m.topic]
             try:
@@ -758,8 +904,10 @@ def read_bench_bag(
                 failures.setdefault(m.topic, []).append(f"{type(err).__name__}: {err}")
                 continue
             if values is None:
+                names = [str(n) for n in getattr(msg, "name", ())]
+                joints.update(names)
                 failures.setdefault(m.topic, []).append(
-                    f"no joint {topics.joint_name!r} among several"
+                    f"no joint {topics.joint_name!r} (joints: {names})"
                 )
                 continue
             stamp = _stamp_ns(msg) or m.log_time
@@ -776,6 +924,15 @@ def read_bench_bag(
                 col.value.append(value)
                 if name == "temperature":
                     col.variance.append(values["temperature_variance"])
+        if joints and "speed" not in collectors and "angle" not in collectors:
+            why = (
+                f"{raw.path}: joint {topics.joint_name!r} is not in {topics.speed}; joints "
+                f"found: {sorted(joints)}"
+            )
+            if {"speed", "angle"} & set(required):
+                raise BagError(why)
+            issues.append(f"{why}; speed and angle skipped")
+            failures.pop(topics.speed)
         for topic, errors in failures.items():
             issues.append(
                 f"{raw.path}: {len(errors)} message(s) on {topic} could not be decoded and were "

@@ -46,6 +46,7 @@ from .monitor import (
     feed,
 )
 from .residuals import FloatArray, TwinPredictor, shared_predictor
+from .uncompared import why_nothing_compared
 
 #: Channels the monitor needs from a bag.
 CHANNELS = ("torque", "speed", "temperature", "preload")
@@ -313,6 +314,8 @@ def run(args: argparse.Namespace) -> int:
     data = summary(result, recording.truth)
     data["bag"] = str(recording.path)
     data["issues"] = list(recording.issues)
+    if result.verdict == UNKNOWN:
+        data["unknown_reason"] = why_nothing_compared(recording, result.samples, settings)
     (out / "verdict.json").write_text(json.dumps(data, indent=2) + "\n")
     write_csv(result, out / "samples.csv")
     if not args.no_plots:
@@ -320,6 +323,8 @@ def run(args: argparse.Namespace) -> int:
     for issue in recording.issues:
         print(f"note: {issue}")
     line = f"{data['verdict']}"
+    if "unknown_reason" in data:
+        line += f": {data['unknown_reason']}"
     if data["alarm"]:
         line += (
             f": {data['fault_class'] or 'unclassified'} (confidence {data['confidence']:.2f}), "

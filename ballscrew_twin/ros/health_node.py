@@ -8,7 +8,11 @@ Subscribes (sensor-data QoS with a deep queue; names and types are parameters):
 
 Publishes:
     ``health_topic``  ballscrew_twin_msgs/HealthResidual, one per block of torque samples
-    ``/diagnostics``  diagnostic_msgs/DiagnosticArray at ``diagnostics_rate_hz``
+    ``/diagnostics``  diagnostic_msgs/DiagnosticArray at ``diagnostics_rate_hz`` (wall time)
+
+Services:
+    ``~/rearm``       std_srvs/Trigger: forget the alarm and start a fresh monitor with the same
+                      settings (its warm-up starts again); the answer says what was cleared
 
 Every sample goes through the same :class:`~ballscrew_twin.health.monitor.HealthMonitor` as
 ``ballscrew-twin detect``, with the message's header stamp as its time (the node clock for
@@ -17,6 +21,12 @@ bag replayed into the node gives the offline verdict. Non-finite samples are dro
 warning; a stamp that goes back in time (bag replay restarted, clock jump) restarts the
 monitor with a warning. Fields of a HealthResidual other than ``measured`` are 0 while the
 verdict is UNKNOWN (nothing non-finite is published).
+
+The verdict and the fault class are logged, and /diagnostics published, whenever they change
+(a new alarm at once, other changes at most once per ``log_throttle`` seconds, the latest state
+when the pause ends). With ``use_sim_time``, a watchdog on the steady (wall) clock reports
+STALE on /diagnostics, and publishes one UNKNOWN HealthResidual, when ``/clock`` has not
+advanced for ``clock_timeout`` seconds (replay paused or ended, bench clock lost).
 
 Run: ``health_node --ros-args --params-file config/health_node.yaml`` or
 ``ballscrew-twin health-node --params-file config/health_node.yaml``.
@@ -36,12 +46,14 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
+from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
+from std_srvs.srv import Trigger  # type: ignore[import-untyped]
 
 from ..errors import BallscrewTwinError
 from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMonitor, HealthSample
@@ -59,6 +71,8 @@ NODE_NAME = "ballscrew_health"
 WARN_THROTTLE = 2.0
 #: Diagnostic level of each verdict.
 DIAG_LEVEL = {OK: DIAG_OK, WARN: DIAG_WARN, FAULT: ERROR, UNKNOWN: STALE}
+#: Longest period of the steady-clock watchdog (clock check, delayed log lines) [s].
+WATCHDOG_PERIOD = 0.1
 TYPES = {
     "torque_type": ("WrenchStamped", "Float64"),
     "speed_type": ("JointState", "Float64"),
@@ -133,6 +147,18 @@ class HealthNode(Node):
             ("diagnostics_rate_hz", 1.0, _float("/diagnostics rate [Hz]", 0.1, 10.0)),
             ("stale_after", 2.0, _float("No torque for this long: STALE [s]", 0.1, 60.0)),
             (
+                "clock_timeout",
+                2.0,
+                _float(
+                    "use_sim_time: /clock still for this long (wall time): STALE [s]", 0.1, 60.0
+                ),
+            ),
+            (
+                "log_throttle",
+                1.0,
+                _float("Least wall time between two logged verdict/class changes [s]", 0.0, 60.0),
+            ),
+            (
                 "false_alarm_rate",
                 defaults.false_alarm_rate,
                 _float("Target false alarms per hour, all detectors [1/h]", 1e-9, 1e3),
@@ -179,6 +205,14 @@ class HealthNode(Node):
         )
         self.config = load_config(self._str("config_file") or None)
         self.monitor = HealthMonitor(self.config, self.settings)
+        #: (verdict, fault class) last logged; a change waiting for the log throttle.
+        self._logged: tuple[int, str] | None = None
+        self._log_wall = -math.inf
+        self._log_pending: HealthSample | None = None
+        #: Last node-clock reading [ns] and the steady time it last changed [s].
+        self._clock_ns = self.get_clock().now().nanoseconds
+        self._clock_moved = time.monotonic()
+        self.clock_stale = False
         #: Samples received per channel (torque, speed, temperature, preload).
         self.received = dict.fromkeys(("torque", "speed", "temperature", "preload"), 0)
         #: Samples dropped (non-finite, malformed) since start-up.
@@ -223,7 +257,14 @@ class HealthNode(Node):
             self.create_subscription(
                 Float64, self._str("preload_topic"), self._on_preload_float, qos
             )
-        self.create_timer(1.0 / self._float("diagnostics_rate_hz"), self._publish_diagnostics)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)  # runs on when /clock stops
+        self.create_timer(
+            1.0 / self._float("diagnostics_rate_hz"), self._publish_diagnostics, clock=steady
+        )
+        self.create_timer(
+            min(WATCHDOG_PERIOD, self._float("clock_timeout") / 4.0), self._watchdog, clock=steady
+        )
+        self.create_service(Trigger, "~/rearm", self._on_rearm)
         self.get_logger().info(
             f"monitoring {self._str('torque_topic')} against {self.monitor.predictor.model.name}"
             f" ({self.config.source}); false-alarm target {self.settings.false_alarm_rate:g}/h; "
@@ -266,10 +307,7 @@ class HealthNode(Node):
         except StampOrderError as err:  # replay restarted or clock jumped back
             self.restarts += 1
             self._warn("restart", f"{err}; restarting the health monitor")
-            self.monitor = HealthMonitor(
-                self.config, self.settings, predictor=self.monitor.predictor
-            )
-            self.last = None
+            self._replace_monitor(self._new_monitor())
             return
         except BallscrewTwinError as err:
             self.dropped += 1
@@ -278,6 +316,51 @@ class HealthNode(Node):
         for sample in results:
             self._publish(sample)
 
+    # ------------------------------------------------------------------ monitor (re)creation
+    # COMMISSIONING HOOK (issue 13, item 2; wired by the lead, not here): a ``~/commission``
+    # service goes next to ``~/rearm`` (see __init__). It fits the unit's baseline and makes
+    # :meth:`_new_monitor` build monitors with it; it then swaps the monitor in with
+    # :meth:`_replace_monitor`, and ``~/rearm`` and the restart after a stamp going back keep
+    # the unit's baseline because they build their monitors with :meth:`_new_monitor` too.
+    def _new_monitor(self) -> HealthMonitor:
+        """A fresh monitor with the node's settings (sharing the twin's prediction cache)."""
+        return HealthMonitor(self.config, self.settings, predictor=self.monitor.predictor)
+
+    def _replace_monitor(self, monitor: HealthMonitor) -> None:
+        """Use ``monitor`` from the next sample on; the verdict and its log start afresh."""
+        self.monitor = monitor
+        self.last = None
+        self._logged = None
+        self._log_pending = None
+
+    def _on_rearm(self, request: Trigger.Request, response: Trigger.Response) -> Trigger.Response:
+        """``~/rearm``: a fresh monitor; the answer says what was cleared."""
+        response.message = self.rearm()
+        response.success = True
+        return response
+
+    def rearm(self) -> str:
+        """Replace the monitor by a fresh one (same settings); what was cleared, one line."""
+        old, last = self.monitor, self.last
+        alarm = old.alarm
+        if alarm is not None:
+            c = alarm.classification
+            cleared = (
+                f"cleared FAULT {c.fault_class or 'unclassified'} (confidence {c.confidence:.2f})"
+                f" raised at {alarm.time:.3f} s by {alarm.detector}"
+            )
+        else:
+            state = VERDICT_NAMES[last.verdict] if last is not None else "no verdict yet"
+            cleared = f"no alarm to clear (last verdict: {state})"
+        text = (
+            f"{cleared}; {len(old.samples)} block(s) forgotten; warm-up of "
+            f"{self.settings.warmup:g} s restarts with the next sample"
+        )
+        self._replace_monitor(self._new_monitor())
+        self.get_logger().warning(f"re-armed: {text}")
+        return text
+
+    # ------------------------------------------------------------------ outputs
     def _publish(self, sample: HealthSample) -> None:
         """One HealthResidual (no non-finite numbers: zeros while UNKNOWN)."""
         known = math.isfinite(sample.predicted) and math.isfinite(sample.normalized_residual)
@@ -296,13 +379,84 @@ class HealthNode(Node):
         msg.confidence = sample.confidence
         self._health_pub.publish(msg)
         self.published += 1
-        if sample.verdict == FAULT and (self.last is None or self.last.verdict != FAULT):
-            alarm = self.monitor.alarm
-            detector = alarm.detector if alarm else "?"
-            self.get_logger().error(
-                f"FAULT at {sample.time:.3f} s by {detector}: likely {sample.fault_class or '?'}"
-            )
         self.last = sample
+        self._log_change(sample)
+
+    def _log_change(self, sample: HealthSample) -> None:
+        """Log the verdict and class when they change: a new alarm at once, anything else at
+        most once per ``log_throttle`` (the latest state is logged when the pause ends)."""
+        key = (sample.verdict, sample.fault_class)
+        if key == self._logged:
+            self._log_pending = None
+            return
+        new_alarm = sample.verdict == FAULT and (self._logged is None or self._logged[0] != FAULT)
+        if new_alarm or time.monotonic() - self._log_wall >= self._float("log_throttle"):
+            self._log_now(sample)
+        else:
+            self._log_pending = sample
+
+    def _log_now(self, sample: HealthSample) -> None:
+        """One log line for the state of ``sample`` (FAULT: error, WARN: warning, else info),
+        and /diagnostics at once."""
+        alarm = self.monitor.alarm
+        if sample.verdict == FAULT and alarm is not None:
+            first = self._logged is None or self._logged[0] != FAULT
+            what = f"FAULT at {alarm.time:.3f} s by {alarm.detector}" if first else "FAULT"
+            text = f"{what}: likely {sample.fault_class or 'unclassified'}"
+            text += f" (confidence {sample.confidence:.2f}, block at {sample.time:.3f} s)"
+            self.get_logger().error(text)
+        else:
+            text = f"{VERDICT_NAMES[sample.verdict]} at {sample.time:.3f} s"
+            text += f" ({sample.note})" if sample.note else ""
+            if sample.verdict == WARN:  # one call site per severity (rclpy's rule)
+                self.get_logger().warning(text)
+            else:
+                self.get_logger().info(text)
+        self._logged = (sample.verdict, sample.fault_class)
+        self._log_wall = time.monotonic()
+        self._log_pending = None
+        self._publish_diagnostics()  # the change on /diagnostics now, not at the next tick
+
+    def _publish_stale(self) -> None:
+        """One UNKNOWN HealthResidual at the last clock time: the verdict is stale."""
+        msg = HealthResidual()
+        msg.header.stamp = _time_msg(self._clock_ns * 1e-9)
+        msg.header.frame_id = self._frame_id
+        msg.signal = "drag_torque"
+        msg.verdict = UNKNOWN
+        alarm = self.monitor.alarm
+        msg.fault_class = alarm.classification.fault_class if alarm else ""
+        self._health_pub.publish(msg)
+        self.published += 1
+
+    # ------------------------------------------------------------------ watchdog
+    def _sim_time(self) -> bool:
+        return bool(self.get_parameter("use_sim_time").value)
+
+    def _watchdog(self) -> None:
+        """Steady-clock timer: watch /clock under use_sim_time; log a change held back."""
+        now = time.monotonic()
+        pending = self._log_pending
+        if pending is not None and now - self._log_wall >= self._float("log_throttle"):
+            self._log_now(pending)
+        clock_ns = self.get_clock().now().nanoseconds
+        if clock_ns != self._clock_ns or not self._sim_time():
+            if self.clock_stale:
+                self.get_logger().info(f"/clock advances again ({clock_ns * 1e-9:.3f} s)")
+            self._clock_ns, self._clock_moved, self.clock_stale = clock_ns, now, False
+            return
+        if not self.clock_stale and now - self._clock_moved > self._float("clock_timeout"):
+            self.clock_stale = True
+            self.get_logger().warning(f"{self._clock_text(now)}: STALE")
+            self._publish_stale()
+            self._publish_diagnostics()
+
+    def _clock_text(self, now: float) -> str:
+        """What the /clock watchdog sees, one line."""
+        still = now - self._clock_moved
+        if self._clock_ns == 0:
+            return f"no /clock received for {still:.1f} s"
+        return f"/clock stopped at {self._clock_ns * 1e-9:.3f} s, {still:.1f} s ago"
 
     # ------------------------------------------------------------------ inputs
     def _on_torque_wrench(self, msg: WrenchStamped) -> None:
@@ -317,11 +471,11 @@ class HealthNode(Node):
         names = list(msg.name)
         if self._joint in names:
             index = names.index(self._joint)
-        elif len(names) <= 1:
+        elif not names:  # an unnamed joint: the screw's
             index = 0
         else:
             self.dropped += 1
-            self._warn("joint", f"JointState without joint {self._joint!r} (has {names})")
+            self._warn("joint", f"JointState without joint {self._joint!r}; joints found: {names}")
             return
         if index >= len(msg.velocity):
             self.dropped += 1
@@ -344,8 +498,10 @@ class HealthNode(Node):
 
     # ------------------------------------------------------------------ diagnostics
     def checks(self) -> list[Check]:
-        """The node's diagnostic checks: the health verdict and the torque input."""
-        age = time.monotonic() - self._last_torque_wall
+        """The node's diagnostic checks: the health verdict, the torque input and, with
+        use_sim_time, /clock (the verdict is STALE while /clock stands still)."""
+        now = time.monotonic()
+        age = now - self._last_torque_wall
         last = self.last
         alarm = self.monitor.alarm
         values: list[tuple[str, str]] = [
@@ -377,13 +533,25 @@ class HealthNode(Node):
             elif last.note:
                 text += f" ({last.note})"
             health = Check("health", DIAG_LEVEL[last.verdict], text, tuple(values))
+        if self.clock_stale:
+            text = f"STALE: {self._clock_text(now)}; last: {health.message}"
+            health = Check("health", STALE, text, health.values)
         stale = age > self._float("stale_after")
         torque = Check(
             "torque input",
             STALE if stale else DIAG_OK,
             "no torque received" if not math.isfinite(age) else f"last sample {age:.2f} s ago",
         )
-        return [health, torque]
+        if not self._sim_time():
+            return [health, torque]
+        clock = Check(
+            "clock",
+            STALE if self.clock_stale else DIAG_OK,
+            self._clock_text(now)
+            if self.clock_stale
+            else f"/clock at {self._clock_ns * 1e-9:.3f} s",
+        )
+        return [health, torque, clock]
 
     def _publish_diagnostics(self) -> None:
         self._diag_pub.publish(

@@ -13,7 +13,8 @@ partly corrupt bag plays everything readable and says what it skipped) on its ow
   recorded ones;
 - publishers are reliable (depth ``--depth``): both reliable and best-effort (sensor-data)
   subscribers receive them. ``--wait-subscribers S`` waits up to S seconds for every played
-  topic to have a subscriber before starting.
+  topic to have a subscriber, and then half a second for the subscribers' side of the match,
+  before starting.
 
 Stops at the end of the bag, or cleanly on Ctrl-C / SIGTERM. Every argument after
 ``--ros-args`` goes to ROS unchanged.
@@ -37,6 +38,9 @@ from .command_args import add_ros_arguments, ros_argv
 CLOCK_TOPIC = "/clock"
 #: Longest single sleep while pacing [s], so that a stop request is seen quickly.
 MAX_SLEEP = 0.05
+#: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
+#: best-effort subscriber drops what arrives before it has matched the publisher in turn.
+MATCH_SETTLE = 0.5
 
 
 class ReplayError(BallscrewTwinError, ValueError):
@@ -142,10 +146,14 @@ class BagPlayer:
         return span + (span // max(count - 1, 1) if count > 1 else 1_000_000)
 
     def wait_for_subscribers(self, timeout: float, ok: Callable[[], bool]) -> bool:
-        """Wait up to ``timeout`` [s] for every played topic to have a subscriber."""
+        """Wait up to ``timeout`` [s] for every played topic to have a subscriber, then
+        :data:`MATCH_SETTLE` more (the subscriber's side of the match completes after ours)."""
         deadline = time.monotonic() + timeout
         while ok() and time.monotonic() < deadline:
             if all(p.get_subscription_count() > 0 for p in self.publishers.values()):
+                settled = time.monotonic() + MATCH_SETTLE
+                while ok() and time.monotonic() < settled:
+                    time.sleep(MAX_SLEEP)
                 return True
             time.sleep(MAX_SLEEP)
         return all(p.get_subscription_count() > 0 for p in self.publishers.values())

@@ -384,3 +384,107 @@ def test_raw_messages_in_log_time_order_and_unknown_topic(tmp_path: Path) -> Non
         assert raw.topics["/bench/torque"].count == 30
         with pytest.raises(BagError, match=r"no topic\(s\) \['/nope'\]"):
             list(raw.messages(["/nope"]))
+
+
+# ---------------------------------------------------------------------------------------------
+# Bad input of issue 13: metadata not UTF-8, a record lost inside a chunk, a joint not in the bag
+
+
+def _break_metadata(bag: Path) -> None:
+    meta = bag / "metadata.yaml"
+    meta.write_bytes(meta.read_bytes().replace(b"rosbag2_bagfile_information", b"ros\xe9bag", 1))
+
+
+def test_metadata_not_utf8_is_noted_and_the_storage_file_read(tmp_path: Path) -> None:
+    bag = _write(tmp_path / "b", _basic())
+    _break_metadata(bag)
+    rec = read_bench_bag(bag)
+    assert len(rec.series("torque")) == 50
+    (note,) = [i for i in rec.issues if "metadata.yaml" in i]
+    assert "not UTF-8 (byte 0xe9 at offset" in note and _mcap_file(bag).name in note
+    shutil.copy(_mcap_file(bag), bag / "second.mcap")  # nothing single to read instead
+    with pytest.raises(BagError, match=r"metadata\.yaml: not UTF-8 .* not exactly one"):
+        read_bench_bag(bag)
+
+
+def _message_records(chunk: bytes) -> list[int]:
+    """Offsets in an uncompressed chunk record (from its op byte) of its message records."""
+    (compression_len,) = struct.unpack("<I", chunk[9 + 28 : 9 + 32])
+    assert compression_len == 0  # uncompressed
+    pos = 9 + 32 + 8  # records start after their byte length
+    out = []
+    while pos + 9 <= len(chunk):
+        op = chunk[pos]
+        (length,) = struct.unpack("<Q", chunk[pos + 1 : pos + 9])
+        if op == 0x05:
+            out.append(pos)
+        pos += 9 + length
+    return out
+
+
+def test_a_message_record_lost_inside_a_chunk_is_counted(tmp_path: Path) -> None:
+    bag = _write(tmp_path / "b", _big_entries())
+    file = _mcap_file(bag)
+    data = bytearray(file.read_bytes())
+    chunks = _chunk_offsets(bytes(data))
+    start, length = chunks[1]
+    records = _message_records(bytes(data[start : start + length]))
+    for record in records[:3]:  # three records of the second chunk now name no channel
+        data[start + record + 9 : start + record + 11] = b"\xff\xff"
+    file.write_bytes(bytes(data))
+    rec = read_bench_bag(bag)
+    read = len(rec.series("torque")) + len(rec.series("speed"))
+    assert read == 300 - 3  # the reader drops them silently...
+    (note,) = [i for i in rec.issues if "indexed message(s) lost" in i]  # ...the index does not
+    assert f"chunk 2 of {len(chunks)}" in note
+    assert f"3 of its {len(records)} indexed message(s) lost" in note
+
+
+@pytest.mark.parametrize("compress", [False, True])
+def test_messages_of_a_corrupt_chunk_are_counted(tmp_path: Path, compress: bool) -> None:
+    bag = _write(tmp_path / "b", _big_entries(), compress=compress)
+    file = _mcap_file(bag)
+    data = bytearray(file.read_bytes())
+    start, length = _chunk_offsets(bytes(data))[1]
+    middle, size = start + length // 2, length // 8
+    data[middle : middle + size] = b"\xa5" * size
+    file.write_bytes(bytes(data))
+    with open_raw_bag(bag) as raw:
+        read = sum(1 for _ in raw.messages())
+        lost = [i for i in raw.issues if "indexed message(s) lost" in i]
+    assert lost and all("chunk 2 of" in i for i in lost)
+    counted = sum(int(i.split("): ")[1].split(" of ")[0]) for i in lost)
+    assert counted == 300 - read > 0
+
+
+def test_intact_bags_report_no_loss(small_data: Any, tmp_path: Path) -> None:
+    for storage in ("mcap", "sqlite3"):
+        bag = write_bench_bag(small_data, tmp_path / storage, storage=storage)
+        with open_raw_bag(bag) as raw:
+            assert sum(1 for _ in raw.messages()) == sum(t.count for t in raw.topics.values())
+            assert raw.issues == []
+
+
+def test_a_joint_not_in_the_bag_is_an_error_naming_the_joints_found(tmp_path: Path) -> None:
+    bag = _write(tmp_path / "b", _basic())
+    with pytest.raises(
+        BagError, match=r"joint 'motor' is not in /bench/joint_states; .*\['screw'\]"
+    ):
+        read_bench_bag(bag, topics=BenchTopics(joint_name="motor"))
+    rec = read_bench_bag(bag, topics=BenchTopics(joint_name="motor"), required=("torque",))
+    assert "speed" not in rec.channels and "angle" not in rec.channels
+    assert any("joint 'motor' is not in" in i for i in rec.issues)
+
+
+def test_an_unnamed_joint_is_the_screw(tmp_path: Path) -> None:
+    entries = [e for e in _basic(5) if e[0] != "/bench/joint_states"]
+    msg = T[JOINT](
+        header=_header(T0),
+        name=[],
+        position=np.array([1.5]),
+        velocity=np.array([3.0]),
+        effort=np.zeros(0),
+    )
+    entries.append(("/bench/joint_states", JOINT, T0, msg))
+    rec = read_bench_bag(_write(tmp_path / "b", entries))
+    assert rec.series("speed").value.tolist() == [3.0]

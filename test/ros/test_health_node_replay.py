@@ -1,0 +1,143 @@
+"""The committed sample bags, replayed by ``ballscrew-twin replay --wait-subscribers`` at 1x to
+5x into the health node (use_sim_time, loopback), give the offline verdict of ``detect``.
+
+Tolerance of the alarm time: the node and ``detect`` are fed the same samples with the same
+stamps, and a block's result depends only on its samples and on the slow signals around it;
+an alarm is stamped with the last torque sample of the block that raised it. So the alarm
+times agree exactly as long as no block is closed on the aligner's timeout (a slow signal
+delivered more than ``max_wait`` of bag time after the torque, its last value held instead).
+The test checks that no live block was closed so, and compares the alarm times to 1 us: the
+rounding of the stamps (about 1.7e9 s held in a float64: 0.24 us) and nothing more.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from ballscrew_twin_msgs.msg import HealthResidual
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from ballscrew_twin.health.bags import read_bench_bag
+from ballscrew_twin.health.detect import (
+    CHANNELS,
+    overall_verdict,
+    recording_channels,
+    run_monitor,
+    summary,
+)
+from ballscrew_twin.health.monitor import VERDICT_NAMES, MonitorSettings
+from ballscrew_twin.health.residuals import TwinPredictor, shared_predictor
+from ballscrew_twin.params import load_config
+from ballscrew_twin.ros.health_node import HealthNode
+
+from .conftest import SpinUntil
+
+ROOT = Path(__file__).resolve().parents[2]
+SAMPLES = ROOT / "data" / "samples"
+#: Agreement of the alarm times [s] (see the module docstring).
+ALARM_TOLERANCE = 1e-6
+#: Longest wait for the replay to find its subscribers, and for a whole replay [s].
+WAIT = "20"
+REPLAY_TIMEOUT = 120.0
+#: Input queues of the node, deeper than a sample bag's torque topic (4000 messages): a node
+#: starved of CPU by a loaded test machine falls behind but loses nothing.
+QUEUE_DEPTH = 10_000
+
+
+def _replay(bag: Path, rate: float) -> subprocess.Popen[str]:
+    """``ballscrew-twin replay`` of ``bag`` at ``rate`` (environment: this run's ROS domain)."""
+    script = Path(sys.executable).parent / "ballscrew-twin"
+    return subprocess.Popen(
+        [str(script), "replay", str(bag), "--rate", str(rate), "--wait-subscribers", WAIT],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=dict(os.environ),
+        stdin=subprocess.DEVNULL,
+    )
+
+
+@pytest.fixture(scope="module")
+def predictor() -> TwinPredictor:
+    """One twin cache for all the bags (the shipped screw, default settings)."""
+    return shared_predictor(load_config(None), MonitorSettings().residual)
+
+
+@pytest.mark.parametrize(
+    ("name", "rate"),
+    [
+        ("preload_loss", 1.0),
+        ("lubricant_degradation", 2.5),
+        ("raceway_defect", 5.0),
+        ("healthy", 5.0),
+    ],
+)
+def test_replayed_sample_gives_the_offline_verdict(
+    name: str,
+    rate: float,
+    predictor: TwinPredictor,
+    executor: SingleThreadedExecutor,
+    spin_until: SpinUntil,
+) -> None:
+    bag = SAMPLES / name
+    recording = read_bench_bag(bag, required=CHANNELS)
+    torque_count = len(recording.series("torque"))
+    start = recording.start_ns * 1e-9
+    proc = _replay(bag, rate)  # it starts up while the offline verdict is computed
+    try:
+        offline = run_monitor(
+            recording_channels(recording), predictor.config, MonitorSettings(), start, predictor
+        )
+        expected = summary(offline, recording.truth)
+        node = HealthNode(
+            context=executor.context,
+            parameter_overrides=[
+                Parameter("use_sim_time", value=True),
+                Parameter("queue_depth", value=QUEUE_DEPTH),
+            ],
+        )
+        node.monitor.predictor = predictor  # warm cache: the same values, no solver stall
+        executor.add_node(node)
+        heard: list[HealthResidual] = []
+        listener = Node("listener", context=executor.context)
+        listener.create_subscription(HealthResidual, "health", heard.append, 1000)
+        executor.add_node(listener)
+        deadline = time.monotonic() + REPLAY_TIMEOUT
+        while time.monotonic() < deadline and (
+            proc.poll() is None or node.received["torque"] < torque_count
+        ):
+            executor.spin_once(timeout_sec=0.01)
+            if proc.poll() is not None and node.received["torque"] < torque_count:
+                # the replay ended: what is still in flight arrives within a moment
+                deadline = min(deadline, time.monotonic() + 5.0)
+        output = proc.communicate(timeout=10.0)[0] if proc.poll() is not None else ""
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(timeout=10.0)
+    assert proc.returncode == 0, output
+    assert "not every topic has a subscriber" not in output
+    assert node.received["torque"] == torque_count, (node.received, output)
+    assert node.dropped == 0 and node.restarts == 0
+
+    assert spin_until(executor, lambda: len(heard) == node.published)
+    live = node.monitor
+    assert not [s for s in live.samples if "held" in s.note], "a block was closed on a timeout"
+    assert VERDICT_NAMES[overall_verdict(live, live.samples)] == expected["verdict"]
+    assert heard and heard[-1].verdict == live.samples[-1].verdict
+    if expected["alarm"] is None:
+        assert live.alarm is None
+        return
+    assert live.alarm is not None
+    assert live.alarm.classification.fault_class == expected["fault_class"] == name
+    assert heard[-1].fault_class == expected["fault_class"]
+    assert live.alarm.time - start == pytest.approx(
+        expected["alarm"]["time_s"], abs=ALARM_TOLERANCE
+    )
