@@ -37,9 +37,12 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import threading
 import time
+from collections import deque
 from typing import Any
 
+import numpy as np
 import rclpy
 from ballscrew_twin_msgs.msg import HealthResidual
 from builtin_interfaces.msg import Time
@@ -56,6 +59,8 @@ from std_msgs.msg import Float64
 from std_srvs.srv import Trigger  # type: ignore[import-untyped]
 
 from ..errors import BallscrewTwinError
+from ..health.baseline import load_baseline
+from ..health.commission import commission
 from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMonitor, HealthSample
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
@@ -184,6 +189,23 @@ class HealthNode(Node):
                 defaults.classification_window,
                 _float("Time after an alarm over which the class is refined [s]", 0.1, 600.0),
             ),
+            (
+                "baseline_file",
+                "",
+                _string("Baseline of the commissioned unit (YAML); empty: the nominal twin"),
+            ),
+            (
+                "commission_window",
+                300.0,
+                _float(
+                    "~/commission fits the samples of the last this many seconds [s]", 10.0, 3600.0
+                ),
+            ),
+            (
+                "commission_out",
+                "",
+                _string("~/commission also writes its baseline here (YAML); empty: not saved"),
+            ),
         ]
         for name, value, descriptor in declared:
             self.declare_parameter(name, value, descriptor)
@@ -204,7 +226,18 @@ class HealthNode(Node):
             classification_window=self._float("classification_window"),
         )
         self.config = load_config(self._str("config_file") or None)
-        self.monitor = HealthMonitor(self.config, self.settings)
+        baseline_file = self._str("baseline_file")
+        self.baseline = load_baseline(baseline_file) if baseline_file else None
+        self.monitor = HealthMonitor(self.config, self.settings, baseline=self.baseline)
+        #: Recent samples per channel for ``~/commission``: (stamp [s], SI value).
+        self._recent: dict[str, deque[tuple[float, float]]] = {
+            name: deque() for name in ("torque", "speed", "temperature", "preload")
+        }
+        #: The running commissioning, if any, and the last one's outcome (one line).
+        self._commissioning: threading.Thread | None = None
+        self.commission_result = (
+            "not commissioned" if self.baseline is None else (f"baseline {baseline_file}")
+        )
         #: (verdict, fault class) last logged; a change waiting for the log throttle.
         self._logged: tuple[int, str] | None = None
         self._log_wall = -math.inf
@@ -265,8 +298,9 @@ class HealthNode(Node):
             min(WATCHDOG_PERIOD, self._float("clock_timeout") / 4.0), self._watchdog, clock=steady
         )
         self.create_service(Trigger, "~/rearm", self._on_rearm)
+        self.create_service(Trigger, "~/commission", self._on_commission)
         self.get_logger().info(
-            f"monitoring {self._str('torque_topic')} against {self.monitor.predictor.model.name}"
+            f"monitoring {self._str('torque_topic')} against {self.monitor.twin_name}"
             f" ({self.config.source}); false-alarm target {self.settings.false_alarm_rate:g}/h; "
             f"publishing {self._health_pub.topic_name}"
         )
@@ -296,6 +330,10 @@ class HealthNode(Node):
             self.dropped += 1
             self._warn(channel, f"{channel}: dropped a non-finite sample ({value!r} at {stamp!r})")
             return
+        recent = self._recent[channel]
+        recent.append((stamp, value))
+        while recent and recent[0][0] < stamp - self._float("commission_window"):
+            recent.popleft()
         adder = {
             "torque": self.monitor.add_torque,
             "speed": self.monitor.add_speed,
@@ -317,14 +355,69 @@ class HealthNode(Node):
             self._publish(sample)
 
     # ------------------------------------------------------------------ monitor (re)creation
-    # COMMISSIONING HOOK (issue 13, item 2; wired by the lead, not here): a ``~/commission``
-    # service goes next to ``~/rearm`` (see __init__). It fits the unit's baseline and makes
-    # :meth:`_new_monitor` build monitors with it; it then swaps the monitor in with
-    # :meth:`_replace_monitor`, and ``~/rearm`` and the restart after a stamp going back keep
-    # the unit's baseline because they build their monitors with :meth:`_new_monitor` too.
     def _new_monitor(self) -> HealthMonitor:
-        """A fresh monitor with the node's settings (sharing the twin's prediction cache)."""
-        return HealthMonitor(self.config, self.settings, predictor=self.monitor.predictor)
+        """A fresh monitor with the node's settings and the unit's baseline (sharing the
+        twin's prediction cache)."""
+        return HealthMonitor(
+            self.config, self.settings, predictor=self.monitor.predictor, baseline=self.baseline
+        )
+
+    def _on_commission(
+        self, request: Trigger.Request, response: Trigger.Response
+    ) -> Trigger.Response:
+        """``~/commission``: fit the unit's baseline on the recent samples (in a thread of its
+        own: a fit takes seconds); the answer says what it started on."""
+        response.success, response.message = self.start_commissioning()
+        return response
+
+    def start_commissioning(self) -> tuple[bool, str]:
+        """Start fitting the baseline on the samples of the last ``commission_window`` [s];
+        (started, one line). The result is logged, shown on /diagnostics, saved to
+        ``commission_out`` if set, and the monitor restarts with it."""
+        if self._commissioning is not None and self._commissioning.is_alive():
+            return False, "a commissioning is already running"
+        channels = {
+            name: (
+                np.array([t for t, _ in samples], dtype=float),
+                np.array([v for _, v in samples], dtype=float),
+            )
+            for name, samples in self._recent.items()
+        }
+        empty = [name for name, (t, _) in channels.items() if len(t) == 0]
+        if empty:
+            return False, f"no {', '.join(empty)} samples received yet: nothing to commission on"
+        span = float(channels["torque"][0][-1] - channels["torque"][0][0])
+        self._commissioning = threading.Thread(
+            target=self._commission, args=(channels,), name="commission", daemon=True
+        )
+        self._commissioning.start()
+        self.commission_result = f"commissioning on {span:.1f} s of samples"
+        return True, f"commissioning started on {span:.1f} s of samples"
+
+    def _commission(self, channels: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
+        """Fit, then restart the monitor with the baseline (runs in its own thread)."""
+        try:
+            result = commission(channels, self.config, self.settings.residual, source="live")
+        except BallscrewTwinError as err:
+            self.commission_result = f"commissioning failed: {err}"
+            self.get_logger().error(self.commission_result)
+            return
+        self.baseline = result.baseline
+        out = self._str("commission_out")
+        saved = ""
+        if out:
+            try:
+                saved = f", saved to {self.baseline.save(out)}"
+            except BallscrewTwinError as err:
+                saved = f", not saved: {err}"
+        b = self.baseline
+        self.commission_result = (
+            f"commissioned on {b.blocks} blocks: gain {b.torque_gain:.4f}, preload scale "
+            f"{b.preload_scale:.3f}, temperature shift {b.temperature_shift:.2f} K, model error "
+            f"{b.error_relative:.2%}{saved}"
+        )
+        self.get_logger().info(self.commission_result)
+        self._replace_monitor(self._new_monitor())
 
     def _replace_monitor(self, monitor: HealthMonitor) -> None:
         """Use ``monitor`` from the next sample on; the verdict and its log start afresh."""
@@ -509,6 +602,12 @@ class HealthNode(Node):
             ("received", ", ".join(f"{k} {v}" for k, v in self.received.items())),
             ("dropped samples", str(self.dropped)),
             ("restarts", str(self.restarts)),
+            ("baseline", self.commission_result),
+            (
+                "gated [s]",
+                f"{self.monitor.gated_time:.1f} of "
+                f"{self.monitor.gated_time + self.monitor.compared_time:.1f}",
+            ),
         ]
         noise = self.monitor.sensor_variance
         if noise is not None:

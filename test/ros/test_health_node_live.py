@@ -17,6 +17,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health import monitor as monitor_module
 from ballscrew_twin.health.bags import read_bench_bag
 from ballscrew_twin.health.classify import Classification
@@ -265,3 +266,72 @@ def test_joint_states_must_name_the_screw_or_no_joint(
         every=lambda: pub.publish(unnamed),
     )
     assert list(node.monitor.aligner.speed.values) == [3.0]
+
+
+# ---------------------------------------------------------------------------------------------
+# ~/commission and baseline_file
+
+
+def _feed_recording(node: HealthNode, channels: dict[str, Any]) -> None:
+    """Give the node a recording's samples in stamp order, as its subscriptions would."""
+    merged = sorted(
+        (float(t), name, float(v))
+        for name, (stamps, values) in channels.items()
+        for t, v in zip(stamps, values, strict=True)
+    )
+    for stamp, name, value in merged:
+        node._feed(name, stamp, value)
+
+
+def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseline(
+    executor: SingleThreadedExecutor, spin_until: SpinUntil, tmp_path: Path
+) -> None:
+    out = tmp_path / "live.yaml"
+    node = HealthNode(
+        context=executor.context,
+        parameter_overrides=[Parameter("commission_out", value=str(out))],
+    )
+    executor.add_node(node)
+    client_node = Node("operator", context=executor.context)
+    executor.add_node(client_node)
+    client = client_node.create_client(Trigger, "/ballscrew_health/commission")
+    assert spin_until(executor, client.service_is_ready)
+
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    empty = future.result()
+    assert empty is not None and not empty.success and "nothing to commission" in empty.message
+
+    channels = recording_channels(read_bench_bag(SAMPLES / "healthy", required=CHANNELS))
+    _feed_recording(node, channels)
+    span = float(channels["torque"][0][-1] - channels["torque"][0][0])
+    before = node.monitor
+    future = client.call_async(Trigger.Request())
+    assert spin_until(executor, future.done)
+    answer = future.result()
+    assert answer is not None and answer.success, answer
+    assert answer.message == f"commissioning started on {span:.1f} s of samples"
+    assert node._commissioning is not None
+    node._commissioning.join(timeout=120.0)
+    assert node.baseline is not None and node.baseline.source == "live"
+    assert node.monitor is not before and node.monitor.baseline is node.baseline
+    assert out.exists() and "commissioned on" in node.commission_result
+    # the saved file is the node's baseline, and a node started with it uses it
+    restarted = HealthNode(
+        context=executor.context,
+        node_name="ballscrew_health_restarted",
+        parameter_overrides=[Parameter("baseline_file", value=str(out))],
+    )
+    assert restarted.monitor.baseline == node.baseline
+
+
+def test_a_baseline_file_that_is_not_one_stops_the_node_with_its_name(
+    executor: SingleThreadedExecutor, tmp_path: Path
+) -> None:
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("format: 1\nconfig: x\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=r"bad\.yaml"):
+        HealthNode(
+            context=executor.context,
+            parameter_overrides=[Parameter("baseline_file", value=str(bad))],
+        )
