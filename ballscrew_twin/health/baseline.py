@@ -163,7 +163,9 @@ class Baseline:
         lines += [f"#   {name}: {doc}" for name, doc in FIELD_DOCS.items()]
         body = {"format": BASELINE_VERSION, **asdict(self)}
         body["error_bands"] = list(self.error_bands)
-        return "\n".join(lines) + "\n" + yaml.safe_dump(body, sort_keys=False)
+        return (
+            "\n".join(lines) + "\n" + yaml.safe_dump(body, sort_keys=False, default_flow_style=None)
+        )
 
     def save(self, path: str | Path) -> Path:
         """Write :meth:`to_yaml` to ``path``."""

@@ -7,11 +7,12 @@ recording (a bag, or the first minutes of a live run) the blocks the monitor wou
     z_j = g (mean_i S(w_ij) T_map(w_ij, T_j + dT, k_F F_j) + J a_j) + b,
 
 over theta = (g, b, ln k_F, dT, J, beta_1, beta_2), by scipy's trust-region least squares (the
-calibration's method) with the relative block residuals r_j / (|T_j| + e_abs) as the cost,
-plus Gaussian priors from the production spreads (one sigma: preload 15 %, gain 2 %,
-temperature shift 5 K, each shape coefficient 0.1: :data:`PRIOR_SIGMA`). The priors matter:
-at one set preload a preload scale and a gain change the torque nearly alike, and the priors
-split that change the way the spreads of a production lot make likeliest (a maximum a
+calibration's method) with the relative block residuals r_j / (|T_j| + e_abs) / 1 % as the
+cost under a soft-L1 loss (a block across a preload step or a hard acceleration does not pull
+the whole fit), plus Gaussian priors from the production spreads (one sigma: preload 15 %,
+gain 2 %, temperature shift 5 K, each shape coefficient 0.1: :data:`PRIOR_SIGMA`). The priors
+matter: at one set preload a preload scale and a gain change the torque nearly alike, and the
+priors split that change the way the spreads of a production lot make likeliest (a maximum a
 posteriori fit). The uncertainty of each fitted value
 comes from the Jacobian at the optimum, (J' J)^-1 times the reduced residual variance.
 
@@ -51,13 +52,24 @@ from .residuals import (
 
 #: One-sigma priors of the fitted values (the production spreads of issue 13) [-].
 PRIOR_SIGMA = {"torque_gain": 0.02, "preload_scale": 0.15, "temperature_shift": 5.0, "shape": 0.1}
+#: Relative block misfit taken as one sigma by the fit's weights [-], and the misfit (in
+#: those sigmas) beyond which a block counts linearly, not squared (soft-L1 loss: a block
+#: across a preload step or a hard acceleration does not pull the whole fit).
+FIT_SIGMA = 0.01
+ROBUST_SCALE = 3.0
 #: Most blocks the fit uses (evenly picked) and speeds per block for its drag mean [-].
 FIT_BLOCKS = 600
 FIT_SPEEDS = 8
 #: Default ``error_scale``: e_rel = scale x the fit's 95th-percentile relative error / 1.96.
-ERROR_SCALE = 1.0
+ERROR_SCALE = 1.5
 #: Floor of e_rel [-]: the real-time map's own interpolation error (bench accuracy: 0.7 %).
 ERROR_FLOOR = 0.007
+#: Fewest blocks in a speed band for its own error; below, the band's error is at least
+#: UNSEEN_ERROR (the spread of the training units' error there) [-].
+BAND_BLOCKS = 20
+UNSEEN_ERROR = 0.03
+#: Growth of the relative error per kelvin outside the commissioned temperatures [1/K].
+TEMPERATURE_ERROR = 0.005
 
 
 @dataclass(frozen=True)
@@ -183,7 +195,7 @@ def commission(
             "are comparable (moving, past a reversal); at least 20 are needed: record a healthy "
             "run with motion at steady or slowly changing speed"
         )
-    step = max(len(usable) // FIT_BLOCKS, 1)
+    stride = max(len(usable) // FIT_BLOCKS, 1)
     fit_blocks = [
         FitBlock(
             b.time,
@@ -194,7 +206,7 @@ def commission(
             b.mean_acceleration,
             len(b.torque),
         )
-        for b in usable[::step]
+        for b in usable[::stride]
     ]
     measured = np.array([b.measured for b in fit_blocks])
     scale = np.abs(measured) + 1e-3 * float(np.max(np.abs(measured)))
@@ -208,25 +220,31 @@ def commission(
             PRIOR_SIGMA["shape"],
         ]
     )
-    prior_weight = math.sqrt(len(fit_blocks))
 
-    def cost(theta: FloatArray) -> FloatArray:
-        misfit = (measured - _predict(twin, theta, fit_blocks)) / scale
-        deviation = np.array([theta[0] - 1.0, theta[2], theta[3], theta[5], theta[6]])
-        prior = (deviation / priors) / prior_weight
-        return np.concatenate([misfit / math.sqrt(len(fit_blocks)), prior])
-
+    # The fit runs on u, theta = nominal + step * u, so every unknown is of order one (the
+    # finite-difference steps and the trust region are then alike for all of them).
     j0 = config.screw.screw_inertia
+    step = np.array([0.02, 1e-3, 0.1, 2.0, 0.1 * j0, 0.02, 0.02])
+    lower = np.array([0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5])
+    upper = np.array([1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5])
+
+    def cost(u: FloatArray) -> FloatArray:
+        theta = nominal_theta + step * u
+        misfit = (measured - _predict(twin, theta, fit_blocks)) / scale / FIT_SIGMA
+        deviation = np.array([theta[0] - 1.0, theta[2], theta[3], theta[5], theta[6]])
+        return np.concatenate([misfit, deviation / priors])
+
     fit = least_squares(
         cost,
-        nominal_theta,
-        bounds=(
-            [0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5],
-            [1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5],
-        ),
-        x_scale=np.array([0.02, 1e-3, 0.1, 2.0, 0.1 * j0, 0.02, 0.02]),
-        diff_step=0.02,
+        np.zeros(len(step)),
+        bounds=((lower - nominal_theta) / step, (upper - nominal_theta) / step),
+        diff_step=1e-4,
+        loss="soft_l1",
+        f_scale=ROBUST_SCALE,
+        max_nfev=200,
     )
+    fit.x = nominal_theta + step * fit.x
+    fit.jac = fit.jac / step
     theta = fit.x
     residual_var = float(np.sum(fit.fun**2)) / max(len(fit.fun) - len(theta), 1)
     try:
@@ -240,8 +258,9 @@ def commission(
     relative = np.abs(measured - predicted) / np.maximum(np.abs(theta[0] * drag), 1e-12)
 
     def band_error(inside: NDArray[np.bool_]) -> float:
-        values = relative[inside] if np.count_nonzero(inside) >= 10 else relative
-        return max(error_scale * float(np.percentile(values, 95)) / 1.96, ERROR_FLOOR)
+        if np.count_nonzero(inside) < BAND_BLOCKS:  # a regime the recording hardly saw
+            return max(error_scale * float(np.percentile(relative, 95)) / 1.96, UNSEEN_ERROR)
+        return max(error_scale * float(np.percentile(relative[inside], 95)) / 1.96, ERROR_FLOOR)
 
     speeds = np.array([abs(float(np.mean(b.speeds))) for b in fit_blocks])
     band = np.searchsorted(ERROR_BAND_EDGES, speeds)
@@ -269,7 +288,7 @@ def commission(
         error_relative=error_relative,
         error_bands=bands,
         error_absolute=(noise or 1e-4) / math.sqrt(mean_n),
-        temperature_error=0.002,
+        temperature_error=TEMPERATURE_ERROR,
         temperature_min=float(min(temperatures)),
         temperature_max=float(max(temperatures)),
         fit_rms=float(np.sqrt(np.mean(((measured - predicted) / scale) ** 2))),

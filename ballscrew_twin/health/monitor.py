@@ -92,6 +92,13 @@ class MonitorSettings:
         warn_fraction: statistic / threshold from which the verdict is WARN [-].
         error_correlation_time: time over which the twin's error stays alike [s]: blocks
             within it count as one piece of evidence for the class posterior.
+        detectors: the detectors that may raise an alarm (of :data:`DETECTORS`; they share
+            the false-alarm budget). The chi-square test is off by default: the twin's error
+            after commissioning is systematic within a regime (a 2-sigma offset held for two
+            seconds is no fault), which a window of squared innovations reads as scatter
+            (training units of bench detection).
+        inertia_gate: a block whose inertia torque |J dw/dt| exceeds this multiple of its
+            drag torque is gated: the drive's acceleration, not friction, makes the signal [-].
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -106,6 +113,8 @@ class MonitorSettings:
     classification_window: float = 8.0
     warn_fraction: float = 0.5
     error_correlation_time: float = 1.0
+    detectors: tuple[str, ...] = ("cusum", "spectral")
+    inertia_gate: float = 1.0
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning."""
@@ -122,6 +131,13 @@ class MonitorSettings:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
+        unknown = sorted(set(self.detectors) - set(DETECTORS))
+        if unknown or not self.detectors:
+            raise ConfigError(
+                f"health settings: detectors {list(self.detectors)} must be some of {DETECTORS}"
+            )
+        if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
+            raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
         if self.chi_square_window < 2:
             raise ConfigError(
                 f"health settings: chi_square_window = {self.chi_square_window!r} must be >= 2"
@@ -291,7 +307,7 @@ class HealthMonitor:
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
         block_rate = 1.0 / s.residual.block_duration
-        share = s.false_alarm_rate / len(DETECTORS)
+        share = s.false_alarm_rate / len(s.detectors)
         self.cusum = Cusum(s.cusum_shift, share, block_rate)
         self.chi_square = WindowChiSquare(s.chi_square_window, share, block_rate)
         self.orders = defect_orders(config)
@@ -418,8 +434,8 @@ class HealthMonitor:
             op.validate()
             # The twin at up to EVALUATED_SAMPLES evenly spread samples, linear in time in
             # between (the drag is smooth over a block; a 1 kHz meter need not cost 100 maps).
-            every = max(math.ceil(len(block.speed) / EVALUATED_SAMPLES), 1)
-            at = np.unique(np.append(np.arange(0, len(block.speed), every), len(block.speed) - 1))
+            stride = max(math.ceil(len(block.speed) / EVALUATED_SAMPLES), 1)
+            at = np.unique(np.append(np.arange(0, len(block.speed), stride), len(block.speed) - 1))
             evaluated = self.twin.drag(block.speed[at], block.temperature, block.preload)
             drags = np.interp(block.stamps, block.stamps[at], evaluated * b.shape(block.speed[at]))
             few = at[:: max(len(at) // SIGNATURE_SPEEDS, 1)]
@@ -452,6 +468,15 @@ class HealthMonitor:
             return self._unknown(block, "warm-up: sensor noise not known yet", op)
 
         inertia = b.inertia * block.mean_acceleration
+        if abs(inertia) > s.inertia_gate * abs(drag):
+            self.compared_time -= block.span
+            self.gated_time += block.span
+            return self._unknown(
+                block,
+                f"gated: inertia torque {inertia:.3g} N m exceeds {s.inertia_gate:g} x the "
+                f"drag {drag:.3g} N m",
+                op,
+            )
         predicted = b.torque_gain * (drag + inertia) + b.torque_bias
         residual = measured - predicted
         model_sigma = self.block_sigma(block, drag, inertia)
@@ -490,11 +515,12 @@ class HealthMonitor:
         cusum = self.cusum.update(e)
         chi_stat, chi_alarm = self.chi_square.update(e)
         self._spectral(block.time)
-        stats = {
+        every = {
             "cusum": (cusum.statistic, self.cusum.threshold),
             "chi_square": (chi_stat, self.chi_square.threshold),
             "spectral": (self._spectral_stat, self.spectral.threshold),
         }
+        stats = {name: every[name] for name in s.detectors}
         if self.alarm is None:
             fired = [
                 name
@@ -503,7 +529,7 @@ class HealthMonitor:
                     ("cusum", cusum.alarm),
                     ("chi_square", chi_alarm),
                 )
-                if hit
+                if hit and name in s.detectors
             ]
             if fired:
                 detector = fired[0]

@@ -219,3 +219,24 @@ def test_committed_map_matches_the_current_steady_model() -> None:
         assert reference.contacts is not None
         force = sample.contacts[..., sm.CONTACT_FIELDS.index("normal_force")].reshape(-1)
         np.testing.assert_allclose(force, reference.contacts.normal_force, rtol=0.02, atol=1e-6)
+
+
+def test_total_torque_along_speeds_equals_the_sum_of_single_samples() -> None:
+    # Two implementations of the same interpolation: the vectorised total of the health
+    # monitor and the per-query sample of the node; both nuts, both signs, off and beyond the map.
+    table = sm.load_map()
+    rng = np.random.default_rng(11)
+    speeds = np.concatenate(
+        [rng.uniform(-650.0, 650.0, 40), rng.uniform(-0.01, 0.01, 6), [0.0, 1e-9, -900.0]]
+    )
+    for temperature, preloads in (
+        (293.15, (1500.0, 1500.0)),
+        (250.0, (30.0, 2600.0)),
+        (372.0, (3900.0, 0.0)),
+        (420.0, (6000.0, 6000.0)),
+    ):
+        single = np.array(
+            [table.sample(w, temperature, preloads, contacts=False).torque.sum() for w in speeds]
+        )
+        batch = table.total_torque(speeds, temperature, preloads)
+        np.testing.assert_allclose(batch, single, rtol=1e-12, atol=1e-15)

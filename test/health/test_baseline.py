@@ -1,0 +1,90 @@
+"""Baseline files: round trip, validation naming the field, the error model's formulas."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.baseline import (
+    ERROR_BAND_EDGES,
+    SHAPE_REFERENCE_SPEED,
+    Baseline,
+    load_baseline,
+)
+from ballscrew_twin.params import load_config
+
+
+def _fitted() -> Baseline:
+    return replace(
+        Baseline.nominal(load_config(None)),
+        source="bench.mcap",
+        torque_gain=1.01,
+        torque_bias=2e-4,
+        preload_scale=0.93,
+        temperature_shift=-1.5,
+        shape_slope=0.03,
+        shape_curvature=-0.01,
+        sensor_noise=2e-4,
+        error_relative=0.012,
+        error_bands=(0.02, 0.01, 0.015),
+        temperature_min=290.0,
+        temperature_max=300.0,
+        fit_rms=0.009,
+        blocks=512,
+    )
+
+
+def test_a_baseline_survives_its_file(tmp_path: Path) -> None:
+    baseline = _fitted()
+    file = baseline.save(tmp_path / "unit.yaml")
+    assert load_baseline(file) == baseline
+    assert "# ballscrew_twin baseline" in file.read_text()
+
+
+@pytest.mark.parametrize(
+    ("text", "field"),
+    [
+        ("torque_gain: -1.0", "torque_gain"),
+        ("preload_scale: .nan", "preload_scale"),
+        ("error_bands: [0.01, x]", "error_bands"),
+        ("colour: blue", "colour"),
+        ("format: 7", "format"),
+    ],
+)
+def test_a_bad_field_is_named(tmp_path: Path, text: str, field: str) -> None:
+    good = _fitted().to_yaml().splitlines()
+    key = text.split(":")[0]
+    lines = [line for line in good if not line.startswith(f"{key}:")] + [text]
+    file = tmp_path / "bad.yaml"
+    file.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    with pytest.raises(ConfigError, match=field) as err:
+        load_baseline(file)
+    assert "bad.yaml" in str(err.value)
+
+
+def test_a_baseline_of_another_screw_is_refused() -> None:
+    config = load_config(None)
+    other = replace(config, screw=replace(config.screw, lead=0.01))
+    _fitted().check_config(config)
+    with pytest.raises(ConfigError, match="commission again"):
+        _fitted().check_config(other)
+
+
+def test_shape_and_error_bands_follow_their_definitions() -> None:
+    b = _fitted()
+    speeds = np.array([3.0, SHAPE_REFERENCE_SPEED, 300.0])
+    x = np.log10(speeds / SHAPE_REFERENCE_SPEED)
+    np.testing.assert_allclose(b.shape(speeds), 1.0 + 0.03 * x - 0.01 * x * x, rtol=1e-15)
+    assert b.shape(np.array([-30.0]))[0] == 1.0  # the shape depends on |speed|
+    below, between, above = ERROR_BAND_EDGES[0] / 2, sum(ERROR_BAND_EDGES) / 2, 2 * 100.0
+    assert [b.error_at(v) for v in (below, between, above, -above)] == [0.02, 0.01, 0.015, 0.015]
+    assert replace(b, error_bands=()).error_at(5.0) == 0.012
+    assert b.temperature_distance(295.0) == 0.0
+    assert b.temperature_distance(280.0) == pytest.approx(10.0)
+    assert b.temperature_distance(310.0) == pytest.approx(10.0)
+    assert math.isfinite(b.error_absolute)

@@ -1,0 +1,101 @@
+"""Commissioning recovers a unit's parameters from data made with known ones, and says when it
+cannot fit."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.cli import main
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.baseline import Baseline, load_baseline
+from ballscrew_twin.health.bench_data import SAMPLE_DIR
+from ballscrew_twin.health.commission import commission
+from ballscrew_twin.health.residuals import UnitTwin
+from ballscrew_twin.params import load_config
+
+TRUTH = {
+    "torque_gain": 1.01,
+    "torque_bias": 3e-4,
+    "preload_scale": 0.9,
+    "temperature_shift": 2.0,
+    "inertia": 1.2e-5,
+    "shape_slope": 0.04,
+    "shape_curvature": -0.02,
+}
+
+
+def _recording(seed: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Holds and ramps at 5..300 rad/s both ways, two set preloads, 15 -> 30 C, made with the
+    map and the TRUTH parameters (torque at 500 Hz, speed 100 Hz)."""
+    config = load_config(None)
+    rng = np.random.default_rng(seed)
+    levels = [5.0, 20.0, 60.0, 150.0, 300.0, 40.0, 10.0]
+    fine = np.arange(0.0, 280.0, 1e-3)
+    holds = np.array([v * s for s in (1.0, -1.0) for v in levels])
+    speed = np.repeat(holds, math.ceil(len(fine) / len(holds)))[: len(fine)]
+    kernel = np.full(300, 1.0 / 300)  # 0.3 s ramps between levels
+    speed = np.convolve(np.pad(speed, (150, 149), "edge"), kernel, "valid")
+    temperature = 288.15 + 15.0 * fine / fine[-1]
+    preload = np.where(fine < 140.0, 1000.0, 2000.0)
+    truth = Baseline(
+        config="",
+        fingerprint="",
+        inertia=TRUTH["inertia"],
+        shape_slope=TRUTH["shape_slope"],
+        shape_curvature=TRUTH["shape_curvature"],
+    )
+    twin = UnitTwin(config, TRUTH["preload_scale"], TRUTH["temperature_shift"])
+    t_torque = fine[::2]
+    w = np.interp(t_torque, fine, speed)
+    drag = np.empty_like(t_torque)
+    for k in range(0, len(t_torque), 500):  # one temperature and preload per second
+        part = slice(k, k + 500)
+        drag[part] = twin.drag(w[part], float(temperature[2 * k]), float(preload[2 * k]))
+    accel = np.interp(t_torque, fine, np.gradient(speed, fine))
+    torque = TRUTH["torque_gain"] * (drag * truth.shape(w) + TRUTH["inertia"] * accel)
+    torque = torque + TRUTH["torque_bias"] + rng.normal(0.0, 1e-4, len(t_torque))
+    t_speed = fine[::10]
+    return {
+        "torque": (t_torque, torque),
+        "speed": (t_speed, np.interp(t_speed, fine, speed) + rng.normal(0.0, 0.005, len(t_speed))),
+        "temperature": (fine[::100], temperature[::100]),
+        "preload": (fine[::50], preload[::50]),
+    }
+
+
+@pytest.fixture(scope="module")
+def fitted() -> Baseline:
+    return commission(_recording(1), load_config(None), source="synthetic").baseline
+
+
+def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
+    assert fitted.torque_gain == pytest.approx(TRUTH["torque_gain"], abs=0.01)
+    assert fitted.preload_scale == pytest.approx(TRUTH["preload_scale"], rel=0.03)
+    assert fitted.temperature_shift == pytest.approx(TRUTH["temperature_shift"], abs=1.0)
+    assert fitted.torque_bias == pytest.approx(TRUTH["torque_bias"], abs=1e-4)
+    assert fitted.inertia == pytest.approx(TRUTH["inertia"], rel=0.1)
+    assert fitted.shape_slope == pytest.approx(TRUTH["shape_slope"], abs=0.01)
+    # the recording's own noise: 1e-4 N m per sample
+    assert fitted.sensor_noise == pytest.approx(1e-4, rel=0.2)
+    # a data set the model explains leaves an error at the floor of the map itself
+    assert fitted.error_relative == pytest.approx(0.007, abs=1e-3)
+
+
+def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> None:
+    channels = _recording(2)
+    still = {k: (t, np.zeros_like(v) if k == "speed" else v) for k, (t, v) in channels.items()}
+    with pytest.raises(ConfigError, match="comparable"):
+        commission(still, load_config(None))
+
+
+def test_commission_command_writes_baseline_and_plot(tmp_path: Path) -> None:
+    out, png = tmp_path / "unit.yaml", tmp_path / "fit.png"
+    bag = SAMPLE_DIR / "healthy"
+    assert main(["commission", str(bag), "--out", str(out), "--plot", str(png)]) == 0
+    baseline = load_baseline(out)
+    assert baseline.source == "healthy" and baseline.blocks > 100
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -1,0 +1,109 @@
+"""The monitor's residual along a trajectory: the block mean of J dw/dt, the reversal gate, and
+a prediction that follows the speed inside a block (not the block's mean speed)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
+from ballscrew_twin.health.residuals import (
+    BlockAligner,
+    ResidualSettings,
+    ReversalGate,
+    UnitTwin,
+)
+from ballscrew_twin.params import load_config
+
+
+def _blocks(speed_of, duration: float, settings: ResidualSettings, rate: float = 1000.0):
+    aligner = BlockAligner(settings)
+    blocks = []
+    t_speed = np.arange(0.0, duration, 0.01)
+    t_torque = np.arange(0.0, duration, 1.0 / rate)
+    events = sorted(
+        [(t, 0, speed_of(t)) for t in t_speed]
+        + [(t, 1, 293.15) for t in t_speed[::10]]
+        + [(t, 2, 1500.0) for t in t_speed[::5]]
+        + [(t, 3, 0.0) for t in t_torque]
+    )
+    adders = [aligner.add_speed, aligner.add_temperature, aligner.add_preload, aligner.add_torque]
+    for t, k, v in events:
+        blocks.extend(adders[k](float(t), float(v)))
+    return blocks + aligner.flush()
+
+
+def test_block_mean_acceleration_is_exact_for_a_speed_ramp() -> None:
+    alpha = 37.0  # rad/s^2
+    blocks = _blocks(lambda t: 5.0 + alpha * t, 2.0, ResidualSettings())
+    inner = [b for b in blocks if 0.2 < b.time < 1.7]
+    assert inner
+    for b in inner:
+        assert b.mean_acceleration == pytest.approx(alpha, rel=1e-9)
+        assert b.edge_curvature[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_block_mean_acceleration_of_a_sine_is_its_mean_over_the_block() -> None:
+    # w = A sin(2 pi f t): the block mean of dw/dt is (w(end) - w(start)) / span exactly,
+    # and the speed's edge interpolation error is what edge_curvature bounds.
+    a, f = 50.0, 3.0
+    blocks = _blocks(lambda t: a * math.sin(2 * math.pi * f * t), 2.0, ResidualSettings())
+    for b in blocks[2:-2]:
+        t0, t1 = b.stamps[0] - 5e-4, b.stamps[-1] + 5e-4
+        exact = a * (math.sin(2 * math.pi * f * t1) - math.sin(2 * math.pi * f * t0)) / (t1 - t0)
+        error = (b.edge_curvature[0] + b.edge_curvature[1]) / 4.0 / b.span
+        assert abs(b.mean_acceleration - exact) <= error + 1e-9
+
+
+def test_the_gate_holds_for_its_angle_after_a_reversal() -> None:
+    # w = alpha (t - 1): a reversal at 1 s; the rotation since then is alpha (t - 1)^2 / 2, so
+    # the gate angle phi_g is passed at t = 1 + sqrt(2 phi_g / alpha) and the speed gate at
+    # |w| = gate_speed.
+    settings = ResidualSettings()
+    alpha = 40.0
+    gate = ReversalGate(settings)
+    blocks = _blocks(lambda t: alpha * (t - 1.0), 3.0, settings)
+    gated = [b.time for b in blocks if gate.check(b)]
+    open_from = 1.0 + max(
+        math.sqrt(2.0 * settings.gate_angle / alpha), settings.gate_speed / alpha
+    )
+    first_open = min(b.stamps[0] for b in blocks if b.time > 1.0 and b.time not in gated)
+    assert open_from <= first_open <= open_from + settings.block_duration + 1e-9
+    assert any(0.0 < t < 1.0 for t in gated)  # slowing down into the reversal is gated too
+
+
+def test_prediction_follows_the_speed_inside_the_block() -> None:
+    # Torque made by the map itself along a fast sine through 3..63 rad/s: the monitor's
+    # prediction (map along the samples, block-averaged) matches the block means, while the map
+    # at the block's mean speed does not (the torque is not linear in the speed there).
+    config = load_config(None)
+    twin = UnitTwin(config)
+    t = np.arange(0.0, 30.0, 1e-3)
+    w = 33.0 + 30.0 * np.sin(2 * math.pi * 2.0 * t)
+    torque = twin.drag(w, 293.15, 1500.0) + config.screw.screw_inertia * np.gradient(w, t)
+    ts = t[::10]
+    channels = {
+        "torque": (t, torque),
+        "speed": (ts, w[::10]),
+        "temperature": (ts[::10], np.full(len(ts[::10]), 293.15)),
+        "preload": (ts[::5], np.full(len(ts[::5]), 1500.0)),
+    }
+    settings = MonitorSettings(residual=ResidualSettings(sensor_noise=1e-5))
+    monitor = HealthMonitor(config, settings, twin=twin)
+    # (the last block ends after the last speed sample: its speed is held, not measured)
+    samples = [s for s in feed(monitor, channels) if math.isfinite(s.residual)][:-1]
+    relative = np.array([s.residual / s.measured for s in samples])
+    assert len(samples) > 200 and np.max(np.abs(relative)) < 2e-3
+    # the map at the block's mean speed, plus the exact block mean of J dw/dt of the sine
+    j = config.screw.screw_inertia
+    naive = []
+    for s in samples:
+        t0, t1 = s.time - 0.05, s.time + 0.05
+        mean_accel = 30.0 * (math.sin(4 * math.pi * t1) - math.sin(4 * math.pi * t0)) / 0.1
+        mean_speed = np.array([s.operating_point.screw_speed])
+        naive.append(twin.drag(mean_speed, 293.15, 1500.0)[0] + j * mean_accel)
+    measured = np.array([s.measured for s in samples])
+    assert np.max(np.abs((measured - np.array(naive)) / measured)) > 5 * np.max(np.abs(relative))
+    assert monitor.alarm is None
