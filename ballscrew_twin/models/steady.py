@@ -38,7 +38,7 @@ from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, 
 
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
-Backend = Literal["compiled", "reference"]
+Backend = Literal["compiled", "newton", "reference"]
 
 NEWTON_MAX_ITER = 80
 LINE_SEARCH_STEPS = 12
@@ -101,8 +101,12 @@ class SteadyStateModel:
         mode: ``"symmetric"`` (one sphere per nut), ``"full"`` (every sphere) or ``"auto"``
             (symmetric whenever the spheres of a nut are equivalent: vertical screw).
         tolerance: convergence limit of the scaled residual (force / load scale) [-].
-        backend: ``"compiled"`` (numba kernel, default) or ``"reference"`` (the readable numpy
-            implementation it is tested against); both give the same solution.
+        backend: ``"compiled"`` (default: the structured compiled solver,
+            :mod:`ballscrew_twin.kernels.steady_solver`, one numba call per Newton solve),
+            ``"newton"`` (the readable Newton iteration of this class over the compiled contact
+            laws: the previous solver, kept for comparison) or ``"reference"`` (the readable
+            Newton iteration over the numpy contact laws, the definition the others are tested
+            against); all give the same solution.
         inertial_terms: keep the centrifugal force and the gyroscopic moment of each sphere in
             its balance (default). ``False`` drops both (:func:`inertial_actions`): a reduction
             whose drag error grows with the speed, measured by ``ballscrew-twin bench skips``.
@@ -118,11 +122,11 @@ class SteadyStateModel:
     ) -> None:
         if mode not in ("auto", "symmetric", "full"):
             raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
-        if backend not in ("compiled", "reference"):
-            raise ValueError(f"backend = {backend!r} must be compiled or reference")
+        if backend not in ("compiled", "newton", "reference"):
+            raise ValueError(f"backend = {backend!r} must be compiled, newton or reference")
         self.backend = backend
         self._evaluate = evaluate_contacts
-        if backend == "compiled":
+        if backend != "reference":
             from ..kernels.contacts import evaluate_contacts_compiled
 
             self._evaluate = evaluate_contacts_compiled
@@ -286,6 +290,54 @@ class SteadyStateModel:
         return mask
 
     def _newton(
+        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
+        scaled residual); SolverError when it does not converge."""
+        if self.backend == "compiled":
+            return self._newton_compiled(scene, balls, state, loads)
+        return self._newton_readable(scene, balls, state, loads)
+
+    def _newton_compiled(
+        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        """The same iteration as :meth:`_newton_readable`, compiled, with exact per-sphere
+        Jacobian blocks (:mod:`ballscrew_twin.kernels.steady_solver`)."""
+        from ..kernels import steady_solver as solver
+        from ..kernels.contacts import scene_parameters
+
+        z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
+        nut_offset = np.array(state.nut_offset, dtype=np.float64)
+        force_scale, moment_scale = self._scales(scene, loads)
+        scales = (force_scale, moment_scale, force_scale * self.config.screw.balls_per_nut)
+        iterations, worst, status, ev = solver.solve_compiled(
+            z,
+            nut_offset,
+            balls.nut,
+            balls.weight,
+            np.ascontiguousarray(balls.gravity),
+            np.ascontiguousarray(loads, dtype=np.float64),
+            scales,
+            self.inertial_terms,
+            self.tolerance,
+            scene_parameters(scene),
+        )
+        if status == solver.STATUS_SINGULAR:
+            raise SolverError("steady state: singular sphere Jacobian")
+        if status == solver.STATUS_NOT_FINITE:
+            raise SolverError(
+                "steady state: every line-search step gave a non-finite residual "
+                f"(iteration {iterations + 1}, scaled residual {worst:.3g})"
+            )
+        if status != solver.STATUS_CONVERGED:
+            raise SolverError(
+                f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
+                f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
+            )
+        solved = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), nut_offset, scene.screw_speed)
+        return solved, ev, iterations, worst
+
+    def _newton_readable(
         self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         count = len(balls.nut)
