@@ -567,26 +567,59 @@ def law_constants(
 
 
 @njit(inline="always")
-def contact_law(j, constants, n_i, b_i, e, w_ball, omega, r_ball, v_centre, slide, offset):
+def contact_geometry(j, constants, n_i, b_i, e, offset):
+    """Where sphere and half groove ``j`` meet (Eqs. 5-8, 17, 22).
+
+    Args:
+        j: half groove (0 S1, 1 S2, 2 N1, 3 N2); constants: :func:`law_constants`.
+        n_i, b_i: ball-centre offset (n, b) from the ideal helix [m].
+        e: b-offset of the nut's groove [m].
+        offset: added to the approach [m] (defects; 0 without).
+
+    Returns:
+        (d_n, d_b) unit normal in the normal plane, approach [m] (negative when apart),
+        contact angle [rad], and whether the contact exists.
+    """
+    ball_radius, groove_radius = constants[0], constants[1]
+    centre_offset, ogival_offset = constants[6], constants[7]
+    inner_angle, outer_angle = constants[8], constants[9]
+    # Curvature centre of the half groove: (-s_n H, -s_b L (+ e on the nut)).
+    rel_n = n_i - -SIDE_N[j] * centre_offset
+    if IS_NUT[j]:
+        rel_b = b_i - (-SIDE_B[j] * ogival_offset + e)
+    else:
+        rel_b = b_i - -SIDE_B[j] * ogival_offset
+    dist = math.hypot(rel_n, rel_b)
+    safe_dist = max(dist, 1e-30)
+    d_n = rel_n / safe_dist
+    d_b = rel_b / safe_dist
+    approach = dist + ball_radius - groove_radius
+    approach += offset
+    angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
+    active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
+    return d_n, d_b, approach, angle, active
+
+
+@njit(inline="always")
+def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centre, slide):
     """Sphere - half groove ``j`` contact: every law of the reference for one contact.
 
     Args:
         j: half groove (0 S1, 1 S2, 2 N1, 3 N2).
-        constants: :func:`law_constants`.
+        constants: :func:`law_constants`; geometry: :func:`contact_geometry` of the contact.
         n_i, b_i: ball-centre offset (n, b) from the ideal helix [m].
-        e: b-offset of the nut's groove [m].
         w_ball: orbital rate of the contact points along the thread [rad/s].
         omega: sphere angular velocity (t, n, b) relative to the screw [rad/s].
         r_ball: centre from the axis (t, n, b) [m]; v_centre: its velocity [m/s].
         slide: axial velocity of the nut beyond its helical motion [m/s].
-        offset: added to the approach [m] (defects; 0 without).
 
     The state arguments may be floats or dual numbers (:mod:`ballscrew_twin.kernels.dual`): the
-    same code then also carries their partial derivatives.
+    same code then also carries their partial derivatives. An inactive contact exerts nothing
+    (zero force, moment and groove force), whatever its other fields.
 
     Returns:
-        (active, force on the ball (t, n, b) [N], moment on the ball about its centre [N m],
-        force of the ball on the groove [N], the CONTACT_FIELDS values in their order).
+        (force on the ball (t, n, b) [N], moment on the ball about its centre [N m], force of
+        the ball on the groove [N], the CONTACT_FIELDS values in their order).
     """
     (
         ball_radius,
@@ -595,10 +628,10 @@ def contact_law(j, constants, n_i, b_i, e, w_ball, omega, r_ball, v_centre, slid
         lead_rate,
         zhat,
         cos2_helix,
-        centre_offset,
-        ogival_offset,
-        inner_angle,
-        outer_angle,
+        _,
+        _,
+        _,
+        _,
         screw_speed,
         e_star,
         e_reduced,
@@ -620,21 +653,8 @@ def contact_law(j, constants, n_i, b_i, e, w_ball, omega, r_ball, v_centre, slid
         roughness,
         damping,
     ) = constants
+    d_n, d_b, approach, angle, active = geometry
     w_nut = -screw_speed
-    # Geometry (Eqs. 5-8, 17, 22): curvature centre (-s_n H, -s_b L (+ e on the nut)).
-    rel_n = n_i - -SIDE_N[j] * centre_offset
-    if IS_NUT[j]:
-        rel_b = b_i - (-SIDE_B[j] * ogival_offset + e)
-    else:
-        rel_b = b_i - -SIDE_B[j] * ogival_offset
-    dist = math.hypot(rel_n, rel_b)
-    safe_dist = max(dist, 1e-30)
-    d_n = rel_n / safe_dist
-    d_b = rel_b / safe_dist
-    approach = dist + ball_radius - groove_radius
-    approach += offset
-    angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
-    active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
     delta = approach if active else 0.0
     # Curvatures (Meusnier) and reduced radii.
     cos_a = math.cos(angle)
@@ -781,7 +801,7 @@ def contact_law(j, constants, n_i, b_i, e, w_ball, omega, r_ball, v_centre, slid
         mp * abs(spin),
         damp_force * rate if active else 0.0,
     )
-    return active, on_ball, moment, on_groove, fields
+    return on_ball, moment, on_groove, fields
 
 
 # ----------------------------------------------------------------------------- the kernel
@@ -907,19 +927,12 @@ def contacts_kernel(
         f_sum = (0.0, 0.0, 0.0)
         m_sum = (0.0, 0.0, 0.0)
         for j in range(4):
-            active, on_ball, moment, on_groove, fields = contact_law(
-                j,
-                constants,
-                n_i,
-                b_i,
-                nut_offset[i],
-                w_ball,
-                omega,
-                r_ball,
-                v_centre,
-                nut_slide[i],
-                approach_offset[i, j] if with_offsets else 0.0,
+            offset = approach_offset[i, j] if with_offsets else 0.0
+            geometry = contact_geometry(j, constants, n_i, b_i, nut_offset[i], offset)
+            on_ball, moment, on_groove, fields = contact_law(
+                j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centre, nut_slide[i]
             )
+            active = geometry[4]
             f_sum = _add(f_sum, on_ball)
             m_sum = _add(m_sum, moment)
             active_out[i, j] = active

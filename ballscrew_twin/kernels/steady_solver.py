@@ -45,6 +45,7 @@ from .contacts import (
     _helical,
     _scale,
     _sub,
+    contact_geometry,
     contact_law,
     contacts_kernel,
     evaluation_from_buffer,
@@ -125,8 +126,11 @@ def sphere_balance(n_i, b_i, e, w_ball, omega, gravity, constants, masses, inert
     m_sum = (zero, zero, zero)
     on_nut = (zero, zero, zero)
     for j in range(4):
-        _, on_ball, moment, on_groove, _ = contact_law(
-            j, constants, n_i, b_i, e, w_ball, omega, r_ball, v_centre, 0.0, 0.0
+        geometry = contact_geometry(j, constants, n_i, b_i, e, 0.0)
+        if not geometry[4]:  # an inactive contact exerts nothing
+            continue
+        on_ball, moment, on_groove, _ = contact_law(
+            j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centre, 0.0
         )
         f_sum = _add(f_sum, on_ball)
         m_sum = _add(m_sum, moment)
