@@ -960,6 +960,17 @@ def contacts_kernel(
     return active_out, out
 
 
+@njit(inline="always")
+def scene_from_array(p):
+    """The scalar parameters of :func:`contacts_kernel` (``scene_arrays`` order) from their
+    float64 array form ``p`` (38,): an array crosses into compiled code faster than a tuple."""
+    return (
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+        p[14], p[15], p[16], p[17], p[18], p[19], int(p[20]), p[21], p[22], p[23], p[24], p[25],
+        p[26], p[27], p[28], p[29], p[30], p[31], p[32], p[33], p[34], p[35], p[36], p[37],
+    )  # fmt: skip
+
+
 # ----------------------------------------------------------------------------- Python side
 def scene_arrays(scene: ContactScene) -> tuple[float | int, ...]:
     """Flatten ``scene`` into the scalar parameters of :func:`contacts_kernel`, in its order.

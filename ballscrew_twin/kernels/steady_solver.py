@@ -50,6 +50,7 @@ from .contacts import (
     contacts_kernel,
     evaluation_from_buffer,
     law_constants,
+    scene_from_array,
 )
 from .dual import make_dual
 
@@ -61,12 +62,16 @@ STATUS_NOT_CONVERGED = 1
 STATUS_SINGULAR = 2  # an exactly singular sphere block
 STATUS_NOT_FINITE = 3  # every line-search step gave a non-finite residual
 
+#: a step with the Jacobian blocks of an earlier iterate is kept when it cuts the squared
+#: scaled residual at least by this factor (the norm by ~3); otherwise the blocks are refreshed
+CHORD_DECREASE = 0.1
+
 # Positions in the tuple of scene_arrays(scene) (the scalar parameters of contacts_kernel).
 _I_SCREW_SPEED = 12
 _I_BALL_MASS = 16
 _I_BALL_INERTIA = 17
 
-SOLVER_CONSTANTS = (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP, DIAGONAL_SHIFT)
+SOLVER_CONSTANTS = (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP, DIAGONAL_SHIFT, CHORD_DECREASE)
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
 DEPENDENCY_STAMP = dependency_stamp((_contacts_module, _dual_module), SOLVER_CONSTANTS)
@@ -161,7 +166,7 @@ def linearise(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, sce
         z: (B, 6) sphere unknowns (n, b [m], w_B, omega_t,n,b [rad/s]); e_nut: (2,) [m].
         nut: (B,) int64; weight: (B,) spheres represented [-]; gravity: (B, 3) [m/s^2];
         loads: (2,) [N]; scales: (force [N], moment [N m], nut [N]); inertial_terms: see
-        :func:`sphere_balance`; scene: ``scene_arrays``.
+        :func:`sphere_balance`; scene: ``scene_arrays`` as a float64 array.
         res: (B, 6) out, scaled sphere residuals (F_n, F_b, F_t) / force, M / moment scale;
         axial: (B,) out, weighted axial push over the nut scale;
         jac: (B, 7, 7) out, rows (res_i, axial_i), columns (z_i, e_k): their derivatives.
@@ -170,7 +175,7 @@ def linearise(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, sce
         (2,) scaled nut residuals.
     """
     force_scale, moment_scale, nut_scale = scales
-    constants = law_constants(*scene)
+    constants = law_constants(*scene_from_array(scene))
     masses = (scene[_I_BALL_MASS], scene[_I_BALL_INERTIA])
     nut_sum = np.zeros(2)
     for i in range(z.shape[0]):
@@ -209,7 +214,7 @@ def residuals(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, sce
     """Scaled sphere residuals into ``res`` (B, 6) and the (2,) nut residuals returned, as
     :func:`linearise` without the partials."""
     force_scale, moment_scale, nut_scale = scales
-    constants = law_constants(*scene)
+    constants = law_constants(*scene_from_array(scene))
     nut_sum = np.zeros(2)
     for i in range(z.shape[0]):
         k = nut[i]
@@ -352,21 +357,29 @@ def newton_step(res, nut_res, jac, nut, free, dz, de):
 
 # ----------------------------------------------------------------------------- Newton
 @njit(cache=True, error_model="numpy")
-def newton_kernel(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, tolerance, scene):
+def newton_kernel(
+    z, e_nut, jac, reuse, nut, weight, gravity, loads, scales, inertial_terms, tolerance, scene
+):
     """Damped Newton iteration of the steady state from (z, e_nut), updated in place.
 
     Args:
         z: (B, 6) sphere unknowns (n, b [m], w_B, omega_t,n,b [rad/s]), start and result.
         e_nut: (2,) nut offsets [m], start and result.
+        jac: (B, 7, 7) sphere Jacobian blocks (see :func:`linearise`), in and out: the last
+            ones computed.
+        reuse: ``jac`` holds blocks of a nearby state (a warm start): take steps with them while
+            each cuts the squared residual by CHORD_DECREASE at least, and compute them afresh
+            when one does not. False: exact blocks at every iterate, as the reference.
         nut: (B,) int64 nut of each sphere; weight: (B,) spheres it stands for [-].
         gravity: (B, 3) [m/s^2] in Frenet components; loads: (2,) force the spheres must exert
             on each nut along +z [N]; scales: (force [N], moment [N m], nut [N]) scales of the
             residual rows; inertial_terms: see :func:`sphere_balance`; tolerance: on the worst
-            scaled residual [-]; scene: ``scene_arrays(scene)``.
+            scaled residual [-]; scene: ``scene_arrays(scene)`` as a float64 array.
 
     Returns:
-        (iterations, worst scaled residual [-], status (STATUS_*), active (B, 4) and contact
-        buffer (N_ROWS, B, 4) of ``contacts_kernel`` at the returned state).
+        (iterations, worst scaled residual [-], status (STATUS_*), Jacobian evaluations,
+        active (B, 4) and contact buffer (N_ROWS, B, 4) of ``contacts_kernel`` at the returned
+        state).
     """
     count = z.shape[0]
     free = 2 if scene[_I_SCREW_SPEED] == 0.0 else 6  # rates frozen at zero speed
@@ -374,13 +387,17 @@ def newton_kernel(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms,
     res = np.empty((count, 6))
     trial_res = np.empty((count, 6))
     axial = np.empty(count)
-    jac = np.empty((count, 7, 7))
     dz = np.empty((count, 6))
     de = np.empty(2)
     trial_z = np.empty((count, 6))
     trial_e = np.empty(2)
-    nut_res = linearise(z, e_nut, *args, res, axial, jac)
-    fresh = True  # jac belongs to the current iterate
+    if reuse:
+        nut_res = residuals(z, e_nut, *args, res)
+        linearisations = 0
+    else:
+        nut_res = linearise(z, e_nut, *args, res, axial, jac)
+        linearisations = 1
+    fresh = not reuse  # jac belongs to the current iterate
     status = STATUS_NOT_CONVERGED
     iterations = NEWTON_MAX_ITER
     for iteration in range(NEWTON_MAX_ITER + 1):
@@ -391,31 +408,56 @@ def newton_kernel(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms,
             break
         if iteration == NEWTON_MAX_ITER:
             break
-        if not fresh:
+        if not fresh and not reuse:
             nut_res = linearise(z, e_nut, *args, res, axial, jac)
-        if not newton_step(res, nut_res, jac, nut, free, dz, de):
+            linearisations += 1
+            fresh = True
+        base = _merit(res, nut_res, free)
+        singular = False
+        accepted = False
+        while True:
+            if not newton_step(res, nut_res, jac, nut, free, dz, de):
+                singular = fresh
+                if not fresh:  # old blocks singular: compute them here
+                    nut_res = linearise(z, e_nut, *args, res, axial, jac)
+                    linearisations += 1
+                    fresh = True
+                    continue
+                break
+            step = 1.0
+            for attempt in range(LINE_SEARCH_STEPS):
+                for i in range(count):
+                    for r in range(6):
+                        trial_z[i, r] = z[i, r] + step * dz[i, r]
+                for k in range(2):
+                    trial_e[k] = e_nut[k] + step * de[k]
+                if attempt == 0 and not reuse:  # the full step is usually taken: linearise there
+                    trial_nut = linearise(trial_z, trial_e, *args, trial_res, axial, jac)
+                    linearisations += 1
+                else:
+                    trial_nut = residuals(trial_z, trial_e, *args, trial_res)
+                finite = np.isfinite(trial_res).all() and np.isfinite(trial_nut).all()
+                merit = _merit(trial_res, trial_nut, free)
+                if not fresh:  # a step with old blocks must cut the residual well, at once
+                    accepted = finite and merit < CHORD_DECREASE * base
+                    break
+                if finite and (merit < base or step < MIN_STEP):
+                    accepted = True
+                    break
+                step *= 0.5
+            if not (accepted or fresh):  # old blocks no longer good enough: compute them here
+                nut_res = linearise(z, e_nut, *args, res, axial, jac)
+                linearisations += 1
+                fresh = True
+                continue
+            # The blocks now belong to the first trial point (reference iteration, taken when it
+            # is the new iterate) or to an earlier iterate (reuse).
+            fresh = accepted and not reuse and step == 1.0
+            break
+        if singular:
             status = STATUS_SINGULAR
             iterations = iteration
             break
-        base = _merit(res, nut_res, free)
-        step = 1.0
-        accepted = False
-        for attempt in range(LINE_SEARCH_STEPS):
-            for i in range(count):
-                for r in range(6):
-                    trial_z[i, r] = z[i, r] + step * dz[i, r]
-            for k in range(2):
-                trial_e[k] = e_nut[k] + step * de[k]
-            if attempt == 0:  # the full step is usually taken: linearise there at once
-                trial_nut = linearise(trial_z, trial_e, *args, trial_res, axial, jac)
-            else:
-                trial_nut = residuals(trial_z, trial_e, *args, trial_res)
-            finite = np.isfinite(trial_res).all() and np.isfinite(trial_nut).all()
-            if finite and (_merit(trial_res, trial_nut, free) < base or step < MIN_STEP):
-                accepted = True
-                fresh = attempt == 0
-                break
-            step *= 0.5
         if not accepted:
             status = STATUS_NOT_FINITE
             iterations = iteration
@@ -438,9 +480,9 @@ def newton_kernel(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms,
         np.zeros(count),
         np.zeros((0, 4)),
         False,
-        *scene,
+        *scene_from_array(scene),
     )
-    return iterations, worst, status, active, out
+    return iterations, worst, status, linearisations, active, out
 
 
 # ----------------------------------------------------------------------------- Python side
@@ -479,6 +521,8 @@ def ensure_fresh_cache() -> bool:
 def solve_compiled(
     z: FloatArray,
     nut_offset: FloatArray,
+    jacobian: FloatArray,
+    reuse: bool,
     nut: NDArray[np.int64],
     weight: FloatArray,
     gravity: FloatArray,
@@ -486,16 +530,30 @@ def solve_compiled(
     scales: tuple[float, float, float],
     inertial_terms: bool,
     tolerance: float,
-    scene: tuple[float | int, ...],
+    scene: FloatArray,
 ) -> tuple[int, float, int, ContactEvaluation]:
-    """Run :func:`newton_kernel` (``z`` (B, 6) and ``nut_offset`` (2,) updated in place).
+    """Run :func:`newton_kernel` (``z`` (B, 6), ``nut_offset`` (2,) and ``jacobian``
+    (B, 7, 7) updated in place; arguments as there).
 
     Returns:
-        (iterations, worst scaled residual [-], status, contact evaluation at the result).
+        (iterations, worst scaled residual [-], status, Jacobian evaluations, contact
+        evaluation at the result).
     """
     ensure_fresh_cache()
-    iterations, worst, status, active, out = newton_kernel(
-        z, nut_offset, nut, weight, gravity, loads, scales, inertial_terms, tolerance, scene
+    iterations, worst, status, linearisations, active, out = newton_kernel(
+        z,
+        nut_offset,
+        jacobian,
+        reuse,
+        nut,
+        weight,
+        gravity,
+        loads,
+        scales,
+        inertial_terms,
+        tolerance,
+        scene,
     )
-    return int(iterations), float(worst), int(status), evaluation_from_buffer(active, out)
+    evaluation = evaluation_from_buffer(active, out)
+    return int(iterations), float(worst), int(status), int(linearisations), evaluation
 

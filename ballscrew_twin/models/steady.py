@@ -138,7 +138,10 @@ class SteadyStateModel:
         self.inertial_terms = bool(inertial_terms)
         self.name = "steady" if self.inertial_terms else "steady-no-inertia"
         self._warm: SteadyState | None = None
+        # Sphere Jacobian blocks of the compiled solver's last solve, with their residual scales.
+        self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
         self._scenes: dict[float, ContactScene] = {}
+        self._ball_sets: dict[str, BallSet] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
 
     def scene(self, temperature: float, screw_speed: float) -> ContactScene:
@@ -166,7 +169,14 @@ class SteadyStateModel:
         return "symmetric" if self.config.screw.orientation == "vertical" else "full"
 
     def ball_set(self, mode: Literal["symmetric", "full"]) -> BallSet:
-        """Spheres to solve, their azimuths and gravity in their Frenet frames."""
+        """Spheres to solve, their azimuths and gravity in their Frenet frames (computed once
+        per mode: they depend on the parameters only)."""
+        balls = self._ball_sets.get(mode)
+        if balls is None:
+            balls = self._ball_sets[mode] = self._make_ball_set(mode)
+        return balls
+
+    def _make_ball_set(self, mode: Literal["symmetric", "full"]) -> BallSet:
         screw = self.config.screw
         g = self.config.environment.gravity
         z_count = screw.balls_per_nut
@@ -290,29 +300,57 @@ class SteadyStateModel:
         return mask
 
     def _newton(
-        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+        self,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        loads: FloatArray,
+        warm: bool = False,
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
-        scaled residual); SolverError when it does not converge."""
+        scaled residual); SolverError when it does not converge. ``warm``: ``state`` comes from
+        the last solution (the compiled solver may then reuse its Jacobian)."""
         if self.backend == "compiled":
-            return self._newton_compiled(scene, balls, state, loads)
+            return self._newton_compiled(scene, balls, state, loads, warm)
         return self._newton_readable(scene, balls, state, loads)
 
+    def _reusable_jacobian(
+        self, count: int, scales: tuple[float, float, float], warm: bool
+    ) -> tuple[FloatArray, bool]:
+        """Storage for the sphere Jacobian blocks (B, 7, 7) of the compiled solver, holding
+        those of the last solve in the current residual scales when ``warm`` and available."""
+        stored = self._jacobian
+        if not warm or stored is None or stored[0].shape[0] != count:
+            return np.empty((count, 7, 7)), False
+        jacobian, old = stored
+        ratios = np.array([old[0] / scales[0]] * 3 + [old[1] / scales[1]] * 3 + [old[2] / scales[2]])
+        return np.ascontiguousarray(jacobian * ratios[:, None]), True
+
     def _newton_compiled(
-        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+        self,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        loads: FloatArray,
+        warm: bool,
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
-        """The same iteration as :meth:`_newton_readable`, compiled, with exact per-sphere
-        Jacobian blocks (:mod:`ballscrew_twin.kernels.steady_solver`)."""
+        """The iteration of :meth:`_newton_readable`, compiled, with exact per-sphere Jacobian
+        blocks (:mod:`ballscrew_twin.kernels.steady_solver`). ``warm``: ``state`` is the last
+        solution of this model, or near it, so the Jacobian blocks of the last solve are reused
+        while they converge fast (refreshed when they do not)."""
         from ..kernels import steady_solver as solver
-        from ..kernels.contacts import scene_parameters
+        from ..kernels.contacts import scene_arrays
 
         z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
         nut_offset = np.array(state.nut_offset, dtype=np.float64)
         force_scale, moment_scale = self._scales(scene, loads)
         scales = (force_scale, moment_scale, force_scale * self.config.screw.balls_per_nut)
-        iterations, worst, status, ev = solver.solve_compiled(
+        jacobian, reuse = self._reusable_jacobian(len(z), scales, warm)
+        iterations, worst, status, linearisations, ev = solver.solve_compiled(
             z,
             nut_offset,
+            jacobian,
+            reuse,
             balls.nut,
             balls.weight,
             np.ascontiguousarray(balls.gravity),
@@ -320,8 +358,9 @@ class SteadyStateModel:
             scales,
             self.inertial_terms,
             self.tolerance,
-            scene_parameters(scene),
+            np.array(scene_arrays(scene), dtype=np.float64),
         )
+        self._jacobian = (jacobian, scales) if linearisations or reuse else None
         if status == solver.STATUS_SINGULAR:
             raise SolverError("steady state: singular sphere Jacobian")
         if status == solver.STATUS_NOT_FINITE:
@@ -494,7 +533,9 @@ class SteadyStateModel:
             if start.screw_speed != op.screw_speed:
                 start = self._rescaled(start, scene, balls, op.screw_speed)
             try:
-                state, ev, iterations, residual = self._newton(scene, balls, start, loads)
+                state, ev, iterations, residual = self._newton(
+                    scene, balls, start, loads, warm=True
+                )
             except SolverError:
                 state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         else:
@@ -546,6 +587,7 @@ class SteadyStateModel:
     def forget_warm_start(self) -> None:
         """Make the next solve start cold (used by benchmarks and after a scene change)."""
         self._warm = None
+        self._jacobian = None
 
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
@@ -567,15 +609,8 @@ class SteadyStateModel:
         weight = balls.weight[:, None]
         speed = op.screw_speed
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
-        per_nut_power = [
-            float(
-                sum(
-                    np.sum(ev.dissipation[m][balls.nut == k] * weight[balls.nut == k])
-                    for m in MECHANISMS
-                )
-            )
-            for k in (0, 1)
-        ]
+        sphere_power = sum(ev.dissipation[m] for m in MECHANISMS).sum(axis=1) * balls.weight
+        per_nut_power = [float(np.sum(sphere_power[balls.nut == k])) for k in (0, 1)]
         notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
         if not self.inertial_terms:
             notes.append("centrifugal force and gyroscopic moment of the spheres dropped")
