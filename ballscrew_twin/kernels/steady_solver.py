@@ -232,7 +232,7 @@ def residuals(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, sce
         rows = (force[1], force[2], force[0], moment[0], moment[1], moment[2])
         for r in range(6):
             res[i, r] = rows[r] / (force_scale if r < 3 else moment_scale)
-        nut_sum[k] += push * weight[i] / nut_scale
+        nut_sum[k] += push * (weight[i] / nut_scale)  # as linearise, operation for operation
     nut_res = np.empty(2)
     for k in range(2):
         nut_res[k] = nut_sum[k] - loads[k] / nut_scale
