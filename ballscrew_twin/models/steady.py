@@ -142,6 +142,7 @@ class SteadyStateModel:
         self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
         self._scenes: dict[float, ContactScene] = {}
         self._ball_sets: dict[str, BallSet] = {}
+        self._parameters: dict[tuple[float, float], FloatArray] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
 
     def scene(self, temperature: float, screw_speed: float) -> ContactScene:
@@ -314,6 +315,19 @@ class SteadyStateModel:
             return self._newton_compiled(scene, balls, state, loads, warm)
         return self._newton_readable(scene, balls, state, loads)
 
+    def _kernel_parameters(self, scene: ContactScene) -> FloatArray:
+        """``scene_arrays(scene)`` as the solver kernel takes it (float64 array), kept per
+        temperature and speed like the scenes (they depend on nothing else for this model)."""
+        from ..kernels.contacts import scene_arrays
+
+        key = (scene.temperature, scene.screw_speed)
+        params = self._parameters.get(key)
+        if params is None:
+            if len(self._parameters) >= SCENE_CACHE_SIZE:
+                self._parameters.pop(next(iter(self._parameters)))
+            params = self._parameters[key] = np.array(scene_arrays(scene), dtype=np.float64)
+        return params
+
     def _reusable_jacobian(
         self, count: int, scales: tuple[float, float, float], warm: bool
     ) -> tuple[FloatArray, bool]:
@@ -339,7 +353,6 @@ class SteadyStateModel:
         solution of this model, or near it, so the Jacobian blocks of the last solve are reused
         while they converge fast (refreshed when they do not)."""
         from ..kernels import steady_solver as solver
-        from ..kernels.contacts import scene_arrays
 
         z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
         nut_offset = np.array(state.nut_offset, dtype=np.float64)
@@ -358,7 +371,7 @@ class SteadyStateModel:
             scales,
             self.inertial_terms,
             self.tolerance,
-            np.array(scene_arrays(scene), dtype=np.float64),
+            self._kernel_parameters(scene),
         )
         self._jacobian = (jacobian, scales) if linearisations or reuse else None
         if status == solver.STATUS_SINGULAR:
