@@ -65,13 +65,15 @@ STATUS_NOT_FINITE = 3  # every line-search step gave a non-finite residual
 #: a step with the Jacobian blocks of an earlier iterate is kept when it cuts the squared
 #: scaled residual at least by this factor (the norm by ~3); otherwise the blocks are refreshed
 CHORD_DECREASE = 0.1
+#: such steps continue below the tolerance down to this fraction of it, while they cut [-]
+CHORD_POLISH = 1e-3
 
 # Positions in the tuple of scene_arrays(scene) (the scalar parameters of contacts_kernel).
 _I_SCREW_SPEED = 12
 _I_BALL_MASS = 16
 _I_BALL_INERTIA = 17
 
-SOLVER_CONSTANTS = (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP, DIAGONAL_SHIFT, CHORD_DECREASE)
+SOLVER_CONSTANTS = (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP, DIAGONAL_SHIFT, CHORD_DECREASE, CHORD_POLISH)
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
 DEPENDENCY_STAMP = dependency_stamp((_contacts_module, _dual_module), SOLVER_CONSTANTS)
@@ -402,7 +404,12 @@ def newton_kernel(
     iterations = NEWTON_MAX_ITER
     for iteration in range(NEWTON_MAX_ITER + 1):
         worst = _worst(res, nut_res, free)
-        if worst < tolerance:
+        # Steps with old blocks converge linearly: they go on to CHORD_POLISH times the
+        # tolerance (a Newton step lands there anyway), as long as each still cuts the residual.
+        polishing = reuse and worst < tolerance
+        if worst < (tolerance * CHORD_POLISH if reuse else tolerance) or (
+            polishing and iteration == NEWTON_MAX_ITER
+        ):
             status = STATUS_CONVERGED
             iterations = iteration
             break
@@ -445,6 +452,8 @@ def newton_kernel(
                     accepted = True
                     break
                 step *= 0.5
+            if polishing and not accepted:  # converged; polishing no longer pays
+                break
             if not (accepted or fresh):  # old blocks no longer good enough: compute them here
                 nut_res = linearise(z, e_nut, *args, res, axial, jac)
                 linearisations += 1
@@ -453,6 +462,10 @@ def newton_kernel(
             # The blocks now belong to the first trial point (reference iteration, taken when it
             # is the new iterate) or to an earlier iterate (reuse).
             fresh = accepted and not reuse and step == 1.0
+            break
+        if polishing and not accepted:
+            status = STATUS_CONVERGED
+            iterations = iteration
             break
         if singular:
             status = STATUS_SINGULAR

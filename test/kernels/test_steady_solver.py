@@ -82,6 +82,7 @@ def test_frozen_constants_are_the_current_ones() -> None:
         steady.MIN_STEP,
         steady.DIAGONAL_SHIFT,
         steady_solver.CHORD_DECREASE,
+        steady_solver.CHORD_POLISH,
     )
     assert compiled_stamp() == DEPENDENCY_STAMP
     assert ensure_fresh_cache() is False  # checked once per process
