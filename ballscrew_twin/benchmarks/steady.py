@@ -130,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         "20 C / 100 rpm / 1500 N <-> 21 C / 110 rpm / 1550 N"
     )
     for mode in ("symmetric", "full"):
-        print(_contact_line(config, mode, point, args.repeat))  # type: ignore[arg-type]
+        print(_contact_line(config, mode, point, args.repeat))
     for mode in ("symmetric", "full"):
         for line in _solver_lines(config, mode, point, nearby, args.repeat):  # type: ignore[arg-type]
             print(line)

@@ -693,9 +693,7 @@ def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centr
     # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
     rate = _dot(_sub(v_centre, v_groove), d)
     # Smooth saturation of the damping at the elastic force (reference: hertz, D14).
-    damp_force = (
-        f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
-    )
+    damp_force = f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
     f_n = f_n + damp_force
     rel = _sub(v_ball_point, v_groove)
     slip_vec = _sub(rel, _scale(_dot(rel, d), d))

@@ -37,7 +37,7 @@ from numba.extending import (
 N_PARTIALS = 7
 
 
-class DualType(types.Type):  # type: ignore[misc]
+class DualType(types.Type):
     """numba type of a dual number: value ``v`` (float64) and partials ``g`` (7 float64)."""
 
     def __init__(self) -> None:
@@ -60,7 +60,7 @@ PARTIALS = types.UniTuple(types.float64, N_PARTIALS)
 
 
 @register_model(DualType)
-class _DualModel(models.StructModel):  # type: ignore[misc]
+class _DualModel(models.StructModel):
     def __init__(self, dmm: Any, fe_type: Any) -> None:
         super().__init__(dmm, fe_type, [("v", types.float64), ("g", PARTIALS)])
 
@@ -69,9 +69,7 @@ make_attribute_wrapper(DualType, "v", "v")
 make_attribute_wrapper(DualType, "g", "g")
 
 
-@intrinsic
-def make_dual(typingctx: Any, value: Any, partials: Any) -> Any:
-    """make_dual(value, partials): the dual number of a float64 and a 7-tuple of float64."""
+def _make_dual(typingctx: Any, value: Any, partials: Any) -> Any:
     sig = dual(types.float64, PARTIALS)
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
@@ -81,6 +79,10 @@ def make_dual(typingctx: Any, value: Any, partials: Any) -> Any:
         return number._getvalue()
 
     return sig, codegen
+
+
+#: make_dual(value, partials): the dual number of a float64 and a 7-tuple of float64
+make_dual: Any = intrinsic(_make_dual)
 
 
 @lower_cast(types.Float, DualType)

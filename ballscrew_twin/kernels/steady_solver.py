@@ -1,4 +1,4 @@
-"""Compiled structured steady-state solver (numba): Newton with per-sphere Jacobians by forward mode.
+"""Compiled structured steady-state solver (numba): Newton with exact per-sphere Jacobian blocks.
 
 The steady state couples each sphere only to the screw and to its own nut: its six unknowns
 z_i = (n, b, w_B, omega_t, omega_n, omega_b) enter its own six balance rows and its nut's axial
@@ -73,7 +73,14 @@ _I_SCREW_SPEED = 12
 _I_BALL_MASS = 16
 _I_BALL_INERTIA = 17
 
-SOLVER_CONSTANTS = (NEWTON_MAX_ITER, LINE_SEARCH_STEPS, MIN_STEP, DIAGONAL_SHIFT, CHORD_DECREASE, CHORD_POLISH)
+SOLVER_CONSTANTS = (
+    NEWTON_MAX_ITER,
+    LINE_SEARCH_STEPS,
+    MIN_STEP,
+    DIAGONAL_SHIFT,
+    CHORD_DECREASE,
+    CHORD_POLISH,
+)
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
 DEPENDENCY_STAMP = dependency_stamp((_contacts_module, _dual_module), SOLVER_CONSTANTS)
@@ -161,7 +168,9 @@ def _seeded(value, k):
 
 
 @njit(cache=True, error_model="numpy")
-def linearise(z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, scene, res, axial, jac):
+def linearise(
+    z, e_nut, nut, weight, gravity, loads, scales, inertial_terms, scene, res, axial, jac
+):
     """Residuals and exact sphere Jacobian blocks at (z, e_nut), one dual pass per sphere.
 
     Args:
@@ -446,7 +455,7 @@ def newton_kernel(
                 finite = np.isfinite(trial_res).all() and np.isfinite(trial_nut).all()
                 merit = _merit(trial_res, trial_nut, free)
                 if not fresh:  # a step with old blocks must cut the residual well, at once
-                    accepted = finite and merit < CHORD_DECREASE * base
+                    accepted = bool(finite and merit < CHORD_DECREASE * base)
                     break
                 if finite and (merit < base or step < MIN_STEP):
                     accepted = True
@@ -544,7 +553,7 @@ def solve_compiled(
     inertial_terms: bool,
     tolerance: float,
     scene: FloatArray,
-) -> tuple[int, float, int, ContactEvaluation]:
+) -> tuple[int, float, int, int, ContactEvaluation]:
     """Run :func:`newton_kernel` (``z`` (B, 6), ``nut_offset`` (2,) and ``jacobian``
     (B, 7, 7) updated in place; arguments as there).
 
@@ -569,4 +578,3 @@ def solve_compiled(
     )
     evaluation = evaluation_from_buffer(active, out)
     return int(iterations), float(worst), int(status), int(linearisations), evaluation
-

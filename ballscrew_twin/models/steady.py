@@ -337,7 +337,9 @@ class SteadyStateModel:
         if not warm or stored is None or stored[0].shape[0] != count:
             return np.empty((count, 7, 7)), False
         jacobian, old = stored
-        ratios = np.array([old[0] / scales[0]] * 3 + [old[1] / scales[1]] * 3 + [old[2] / scales[2]])
+        ratios = np.array(
+            [old[0] / scales[0]] * 3 + [old[1] / scales[1]] * 3 + [old[2] / scales[2]]
+        )
         return np.ascontiguousarray(jacobian * ratios[:, None]), True
 
     def _newton_compiled(
@@ -622,7 +624,7 @@ class SteadyStateModel:
         weight = balls.weight[:, None]
         speed = op.screw_speed
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
-        sphere_power = sum(ev.dissipation[m] for m in MECHANISMS).sum(axis=1) * balls.weight
+        sphere_power = np.sum([ev.dissipation[m] for m in MECHANISMS], axis=(0, 2)) * balls.weight
         per_nut_power = [float(np.sum(sphere_power[balls.nut == k])) for k in (0, 1)]
         notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
         if not self.inertial_terms:
