@@ -11,6 +11,10 @@ the readable Newton over the compiled contact laws):
   warm-started from the other, with all outputs (torques, per-contact states); per solve;
 - warm Newton: the Newton solve alone from the other point's state (no outputs assembled).
 
+With ``--agreement N``, also the drag torque of both solvers at N random points of the envelope
+(symmetric mode), each solved cold and along a warm-started path through all of them: which
+agree to 1e-9 relative and where they differ.
+
 Median CPU time of this process (``time.process_time``), the solvers interleaved round by round
 so that a change of the machine's load hits both alike.
 """
@@ -27,6 +31,7 @@ from typing import Literal
 import numpy as np
 
 from ..cli import CELSIUS_ZERO, RPM
+from ..errors import SolverError
 from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
 from ..models.contact_forces import evaluate_contacts, make_scene
@@ -45,6 +50,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``bench steady``."""
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
+    parser.add_argument(
+        "--agreement",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also compare both solvers' drag torque at N random points (symmetric mode), cold "
+        "and along a warm-started path through them (default 0: skip)",
+    )
 
 
 def _contact_line(config: TwinConfig, mode: Mode, point: OperatingPoint, repeat: int) -> str:
@@ -120,6 +133,63 @@ def _solver_lines(
     return lines
 
 
+def _random_points(count: int, seed: int = 0) -> list[OperatingPoint]:
+    """Uniform over -6000..6000 rpm, -40..100 C and 0..5000 N preload (every third point at
+    0..200 N), an axial load of -1000..1000 N on every fourth."""
+    rng = np.random.default_rng(seed)
+    points = []
+    for k in range(count):
+        preload = rng.uniform(0.0, 200.0) if k % 3 == 0 else rng.uniform(0.0, 5000.0)
+        points.append(
+            OperatingPoint(
+                screw_speed=rng.uniform(-6000.0, 6000.0) * RPM,
+                temperature=rng.uniform(-40.0, 100.0) + CELSIUS_ZERO,
+                preload=preload,
+                axial_load=rng.uniform(-1000.0, 1000.0) if k % 4 == 0 else 0.0,
+            )
+        )
+    return points
+
+
+def _drags(config: TwinConfig, backend: str, points: list[OperatingPoint], warm: bool) -> list:
+    """Drag torque [N m] at each point (None where the solve fails), cold or warm-started."""
+    model = SteadyStateModel(config, mode="symmetric", backend=backend)  # type: ignore[arg-type]
+    drags: list[float | None] = []
+    for point in points:
+        if not warm:
+            model.forget_warm_start()
+        try:
+            drags.append(model.solve(point).output.drag_torque)
+        except SolverError:
+            drags.append(None)
+    return drags
+
+
+def _agreement_lines(config: TwinConfig, count: int) -> list[str]:
+    """Relative drag difference of the structured solver from the previous one."""
+    points = _random_points(count)
+    lines = []
+    for warm in (False, True):
+        old, new = (_drags(config, backend, points, warm) for _, backend in SOLVERS)
+        differ = []
+        for point, a, b in zip(points, old, new, strict=True):
+            if a is not None and b is not None and abs(b - a) > 1e-9 * abs(a):
+                differ.append((abs(b - a) / abs(a), point))
+        agree = sum(1 for a, b in zip(old, new, strict=True) if a is not None and b is not None)
+        one_only = sum(1 for a, b in zip(old, new, strict=True) if (a is None) != (b is None))
+        lines.append(
+            f"  {'warm path' if warm else 'cold'}: {count} points, {agree} solved by both, "
+            f"{agree - len(differ)} equal to 1e-9, {one_only} solved by one solver only"
+        )
+        for rel, p in sorted(differ, key=lambda item: item[0]):
+            lines.append(
+                f"    differ {rel:.2g}: {p.screw_speed / RPM:.0f} rpm, "
+                f"{p.temperature - CELSIUS_ZERO:.1f} C, preload {p.preload:.1f} N, "
+                f"axial load {p.axial_load:.0f} N"
+            )
+    return lines
+
+
 def run(args: argparse.Namespace) -> int:
     """Print the timings (median of ``--repeat`` runs)."""
     config = load_config(args.config)
@@ -138,4 +208,8 @@ def run(args: argparse.Namespace) -> int:
         f"  numpy {np.__version__}; goals of issue 14: warm <= 300 us full (50 spheres), "
         "<= 30 us symmetric, cold <= 3 ms (stretch 100 us / 10 us)"
     )
+    if args.agreement > 0:
+        print("drag torque of the structured solver against the previous one (symmetric mode)")
+        for line in _agreement_lines(config, args.agreement):
+            print(line)
     return 0
