@@ -676,21 +676,20 @@ class SteadyStateModel:
         """
         geom = scene.geometry
         lead_rate = geom.lead / (2.0 * math.pi)
-        zhat = geometry.axis_direction(geom.helix_angle)
-        r_ball = np.stack(
-            [
-                np.zeros(len(balls.nut)),
-                state.ball_nb[:, 0] - geom.pitch_radius,
-                state.ball_nb[:, 1],
-            ],
-            axis=-1,
-        )
-        orbit = np.cross(zhat, r_ball)
+        z_t, _, z_b = geometry.axis_direction(geom.helix_angle)  # z has no n-component
+        r_n = state.ball_nb[:, 0] - geom.pitch_radius  # centre from the axis: (0, r_n, b)
+        r_b = state.ball_nb[:, 1]
         w_ball = state.kinematics[:, 0]
-        v_abs = (w_ball + scene.screw_speed)[:, None] * orbit + (w_ball * lead_rate)[:, None] * zhat
-        balls_power = scene.ball_mass * float(
-            np.sum(balls.weight * np.einsum("bi,bi->b", balls.gravity, v_abs))
+        orbit_rate = w_ball + scene.screw_speed
+        along = w_ball * lead_rate
+        # v = (w_B + Omega) z x r + w_B p/(2 pi) z, z x r = (-z_b r_n, -z_t r_b, z_t r_n).
+        acc = balls.gravity
+        g_dot_v = (
+            acc[:, 0] * (orbit_rate * (-z_b * r_n) + along * z_t)
+            + acc[:, 1] * (orbit_rate * (-z_t * r_b))
+            + acc[:, 2] * (orbit_rate * (z_t * r_n) + along * z_b)
         )
+        balls_power = scene.ball_mass * float(np.sum(balls.weight * g_dot_v))
         nut_power = 0.0  # gravity's power on the two nuts, moving at -Omega p/(2 pi) z
         if self.config.screw.orientation == "vertical":
             g = self.config.environment.gravity
