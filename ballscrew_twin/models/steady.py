@@ -254,11 +254,12 @@ class SteadyStateModel:
         # Rolling about the in-plane axis perpendicular to the contact line, no spin on the screw.
         alpha = geom.free_contact_angle
         speed = w_ball * geom.pitch_radius / math.cos(geom.helix_angle)
-        for i in range(count):
-            sign_b = 1.0 if e_ball[i] > 0.0 else -1.0
-            d_screw = np.array([0.0, math.cos(alpha), sign_b * math.sin(alpha)])
-            # Pure rolling on the fixed screw: omega x (r_b d) = -v_centre t.
-            kin[i, 1:] = np.cross(np.array([speed / geom.ball_radius, 0.0, 0.0]), d_screw)
+        # Pure rolling on the fixed screw: omega x (r_b d) = -v_centre t, i.e. omega =
+        # (s, 0, 0) x d with s = speed / r_b and d = (0, cos a, +-sin a) (sign of e_ball).
+        sign_b = np.where(e_ball > 0.0, 1.0, -1.0)
+        spin_rate = speed / geom.ball_radius
+        kin[:, 2] = -(spin_rate * (sign_b * math.sin(alpha)))
+        kin[:, 3] = spin_rate * math.cos(alpha)
         return kin
 
     def _residual(
