@@ -1,70 +1,193 @@
 """``ballscrew-twin bench steady``: cost of the steady-state model, printed, never asserted.
 
 Times, on this machine and in one run so that the numbers compare: one evaluation of all
-contact laws for 2 and 50 spheres by the numpy reference and by the numba kernel, and one steady
-solve (compiled backend) cold and warm-started at a nearby operating point, in symmetric and in
-full mode.
+contact laws for 2 and 50 spheres by the numpy reference and by the numba kernel, and for each
+mode (symmetric: one sphere per nut; full: all 50) and each solver, the structured compiled
+solver (``backend="compiled"``, the package's) beside the previous one (``backend="newton"``:
+the readable Newton over the compiled contact laws):
+
+- cold: ``solve`` with no warm start (static stage, then the speed);
+- warm: ``solve`` at 20 C / 100 rpm / 1500 N and 21 C / 110 rpm / 1550 N alternately, each
+  warm-started from the other, with all outputs (torques, per-contact states); per solve;
+- warm Newton: the Newton solve alone from the other point's state (no outputs assembled).
+
+With ``--agreement N``, also the drag torque of both solvers at N random points of the envelope
+(symmetric mode), each solved cold and along a warm-started path through all of them: which
+agree to 1e-9 relative and where they differ.
+
+Median CPU time of this process (``time.process_time``), the solvers interleaved round by round
+so that a change of the machine's load hits both alike.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
+import time
+from collections.abc import Callable
 from functools import partial
 from typing import Literal
 
 import numpy as np
 
 from ..cli import CELSIUS_ZERO, RPM
+from ..errors import SolverError
 from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
 from ..models.contact_forces import evaluate_contacts, make_scene
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, load_config
-from ..timing import median_time
+from ..timing import cpu_time
 
 #: One-line help of this benchmark.
-DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solves)"
+DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solves, both solvers)"
+
+SOLVERS = (("previous", "newton"), ("structured", "compiled"))
+Mode = Literal["symmetric", "full"]
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``bench steady``."""
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
+    parser.add_argument(
+        "--agreement",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also compare both solvers' drag torque at N random points (symmetric mode), cold "
+        "and along a warm-started path through them (default 0: skip)",
+    )
 
 
-def _bench_mode(
-    config: TwinConfig,
-    mode: Literal["symmetric", "full"],
-    point: OperatingPoint,
-    nearby: OperatingPoint,
-    repeat: int,
-) -> str:
-    """One line of timings for one mode."""
+def _contact_line(config: TwinConfig, mode: Mode, point: OperatingPoint, repeat: int) -> str:
     model = SteadyStateModel(config, mode=mode)
     solution = model.solve(point)
     state, balls = solution.state, solution.balls
     scene = make_scene(config, point.temperature, point.screw_speed)
     arguments = (scene, state.ball_nb, state.kinematics, state.nut_offset[balls.nut], balls.gravity)
-    reference = median_time(partial(evaluate_contacts, *arguments), repeat)
-    compiled = median_time(partial(evaluate_contacts_compiled, *arguments), repeat)
+    reference = cpu_time(partial(evaluate_contacts, *arguments), repeat)
+    compiled = cpu_time(partial(evaluate_contacts_compiled, *arguments), repeat)
+    return (
+        f"  {mode:<9} {len(balls.nut):3d} spheres: contact laws numpy {reference * 1e6:8.1f} us, "
+        f"numba {compiled * 1e6:7.1f} us"
+    )
+
+
+def _tasks(
+    model: SteadyStateModel, point: OperatingPoint, nearby: OperatingPoint
+) -> dict[str, Callable[[], object]]:
+    """The timed tasks of one solver: name -> callable (one solve each)."""
+    states = []
+    for op in (point, nearby):
+        model.forget_warm_start()
+        states.append(model.solve(op).state)
+    flip = [point, nearby]
 
     def cold() -> None:
         model.forget_warm_start()
         model.solve(point)
 
     def warm() -> None:
-        model.solve(point)
-        model.solve(nearby)
+        flip.reverse()
+        model.solve(flip[0])
 
-    cold_time = median_time(cold, max(repeat // 4, 3))
-    model.solve(point)
-    warm_time = median_time(warm, max(repeat // 4, 3)) / 2.0
-    count = len(balls.nut)
-    return (
-        f"  {mode:<9} {count:3d} spheres: contacts numpy {reference * 1e6:8.1f} us, "
-        f"numba {compiled * 1e6:7.1f} us; solve cold {cold_time * 1e3:7.2f} ms, "
-        f"warm {warm_time * 1e3:7.2f} ms"
-    )
+    def newton() -> None:
+        flip.reverse()
+        target = flip[0]
+        scene = model.scene(target.temperature, target.screw_speed)
+        balls = model.ball_set(model.resolved_mode())
+        other = states[1] if target is point else states[0]
+        start = model._rescaled(other, scene, balls, target.screw_speed)
+        model._newton(scene, balls, start, model.nut_axial_loads(target), warm=True)
+
+    return {"cold": cold, "warm": warm, "warm Newton": newton}
+
+
+def _solver_lines(
+    config: TwinConfig, mode: Mode, point: OperatingPoint, nearby: OperatingPoint, repeat: int
+) -> list[str]:
+    """Cold, warm and warm-Newton times of both solvers, interleaved round by round."""
+    models = {name: SteadyStateModel(config, mode=mode, backend=b) for name, b in SOLVERS}  # type: ignore[arg-type]
+    tasks = {name: _tasks(model, point, nearby) for name, model in models.items()}
+    times: dict[tuple[str, str], list[float]] = {}
+    for task in ("cold", "warm", "warm Newton"):
+        rounds = max(repeat // 4, 3) if task == "cold" else repeat
+        for name in models:  # warm-up: compilation, caches, the first warm start
+            tasks[name][task]()
+            tasks[name][task]()
+        for _ in range(rounds):
+            for name in models:
+                start = time.process_time()
+                tasks[name][task]()
+                times.setdefault((name, task), []).append(time.process_time() - start)
+    lines = []
+    for name in models:
+        cells = [
+            f"{task} {statistics.median(times[(name, task)]) * 1e6:8.0f} us"
+            for task in ("cold", "warm", "warm Newton")
+        ]
+        lines.append(f"  {mode:<9} {name:<10} solver: " + ", ".join(cells))
+    old, new = (statistics.median(times[(n, "warm")]) for n, _ in SOLVERS)
+    lines.append(f"  {mode:<9} warm solve x{old / new:.1f} faster with the structured solver")
+    return lines
+
+
+def _random_points(count: int, seed: int = 0) -> list[OperatingPoint]:
+    """Uniform over -6000..6000 rpm, -40..100 C and 0..5000 N preload (every third point at
+    0..200 N), an axial load of -1000..1000 N on every fourth."""
+    rng = np.random.default_rng(seed)
+    points = []
+    for k in range(count):
+        preload = rng.uniform(0.0, 200.0) if k % 3 == 0 else rng.uniform(0.0, 5000.0)
+        points.append(
+            OperatingPoint(
+                screw_speed=rng.uniform(-6000.0, 6000.0) * RPM,
+                temperature=rng.uniform(-40.0, 100.0) + CELSIUS_ZERO,
+                preload=preload,
+                axial_load=rng.uniform(-1000.0, 1000.0) if k % 4 == 0 else 0.0,
+            )
+        )
+    return points
+
+
+def _drags(config: TwinConfig, backend: str, points: list[OperatingPoint], warm: bool) -> list:
+    """Drag torque [N m] at each point (None where the solve fails), cold or warm-started."""
+    model = SteadyStateModel(config, mode="symmetric", backend=backend)  # type: ignore[arg-type]
+    drags: list[float | None] = []
+    for point in points:
+        if not warm:
+            model.forget_warm_start()
+        try:
+            drags.append(model.solve(point).output.drag_torque)
+        except SolverError:
+            drags.append(None)
+    return drags
+
+
+def _agreement_lines(config: TwinConfig, count: int) -> list[str]:
+    """Relative drag difference of the structured solver from the previous one."""
+    points = _random_points(count)
+    lines = []
+    for warm in (False, True):
+        old, new = (_drags(config, backend, points, warm) for _, backend in SOLVERS)
+        differ = []
+        for point, a, b in zip(points, old, new, strict=True):
+            if a is not None and b is not None and abs(b - a) > 1e-9 * abs(a):
+                differ.append((abs(b - a) / abs(a), point))
+        agree = sum(1 for a, b in zip(old, new, strict=True) if a is not None and b is not None)
+        one_only = sum(1 for a, b in zip(old, new, strict=True) if (a is None) != (b is None))
+        lines.append(
+            f"  {'warm path' if warm else 'cold'}: {count} points, {agree} solved by both, "
+            f"{agree - len(differ)} equal to 1e-9, {one_only} solved by one solver only"
+        )
+        for rel, p in sorted(differ, key=lambda item: item[0]):
+            lines.append(
+                f"    differ {rel:.2g}: {p.screw_speed / RPM:.0f} rpm, "
+                f"{p.temperature - CELSIUS_ZERO:.1f} C, preload {p.preload:.1f} N, "
+                f"axial load {p.axial_load:.0f} N"
+            )
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,8 +195,21 @@ def run(args: argparse.Namespace) -> int:
     config = load_config(args.config)
     point = OperatingPoint(screw_speed=100 * RPM, temperature=20 + CELSIUS_ZERO, preload=1500.0)
     nearby = OperatingPoint(screw_speed=110 * RPM, temperature=21 + CELSIUS_ZERO, preload=1550.0)
-    print(f"steady-state model cost, median of {args.repeat} runs, 20 C / 100 rpm / 1500 N")
-    print(_bench_mode(config, "symmetric", point, nearby, args.repeat))
-    print(_bench_mode(config, "full", point, nearby, args.repeat))
-    print(f"  numpy {np.__version__}; targets of issue 3: warm full <= 100 us, symmetric <= 10 us")
+    print(
+        f"steady-state model cost, median CPU time of {args.repeat} runs, "
+        "20 C / 100 rpm / 1500 N <-> 21 C / 110 rpm / 1550 N"
+    )
+    for mode in ("symmetric", "full"):
+        print(_contact_line(config, mode, point, args.repeat))
+    for mode in ("symmetric", "full"):
+        for line in _solver_lines(config, mode, point, nearby, args.repeat):  # type: ignore[arg-type]
+            print(line)
+    print(
+        f"  numpy {np.__version__}; goals of issue 14: warm <= 300 us full (50 spheres), "
+        "<= 30 us symmetric, cold <= 3 ms (stretch 100 us / 10 us)"
+    )
+    if args.agreement > 0:
+        print("drag torque of the structured solver against the previous one (symmetric mode)")
+        for line in _agreement_lines(config, args.agreement):
+            print(line)
     return 0

@@ -484,6 +484,324 @@ def spin_moment_factor(ellipticity):
     return 0.375 + (3.0 * math.pi / 16.0 - 0.375) * math.exp((-0.945 - 0.016 * ln_k) * ln_k)
 
 
+# ----------------------------------------------------------------------------- one contact
+@njit(cache=True)
+def law_constants(
+    ball_radius,
+    groove_radius,
+    pitch_radius,
+    lead_rate,
+    sin_helix,
+    cos_helix,
+    cos2_helix,
+    centre_offset,
+    ogival_offset,
+    inner_angle,
+    outer_angle,
+    temperature,
+    screw_speed,
+    e_star,
+    e_reduced,
+    viscosity_atm,
+    ball_mass,
+    ball_inertia,
+    ball_share,
+    surface_radius,
+    law,
+    eta0,
+    t0,
+    t1,
+    eta1,
+    rho0,
+    alpha_rho,
+    alpha_pv,
+    beta,
+    k_h,
+    tau_e,
+    tau_l,
+    xi,
+    h_r,
+    mu_dry,
+    v_r,
+    roughness,
+    damping,
+):
+    """The constants :func:`contact_law` reads, from the scene's scalars (``scene_arrays``
+    order): the screw axis zhat in Frenet components, eta_T(T) [Pa s] for the Eyring law, the
+    Roelands index Z [-] (lubricant.py) and the others as they are."""
+    zhat = (sin_helix, 0.0, cos_helix)
+    eta_t = viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta)
+    z_index = alpha_pv / (ROELANDS_PRESSURE_SCALE * (math.log(eta0) + ROELANDS_LN_ETA_INF))
+    return (
+        ball_radius,
+        groove_radius,
+        pitch_radius,
+        lead_rate,
+        zhat,
+        cos2_helix,
+        centre_offset,
+        ogival_offset,
+        inner_angle,
+        outer_angle,
+        screw_speed,
+        e_star,
+        e_reduced,
+        viscosity_atm,
+        ball_share,
+        surface_radius,
+        eta_t,
+        z_index,
+        alpha_pv,
+        beta,
+        k_h,
+        tau_e,
+        tau_l,
+        xi,
+        h_r,
+        mu_dry,
+        max(mu_dry, 1e-6),
+        v_r,
+        roughness,
+        damping,
+    )
+
+
+@njit(inline="always")
+def contact_geometry(j, constants, n_i, b_i, e, offset):
+    """Where sphere and half groove ``j`` meet (Eqs. 5-8, 17, 22).
+
+    Args:
+        j: half groove (0 S1, 1 S2, 2 N1, 3 N2); constants: :func:`law_constants`.
+        n_i, b_i: ball-centre offset (n, b) from the ideal helix [m].
+        e: b-offset of the nut's groove [m].
+        offset: added to the approach [m] (defects; 0 without).
+
+    Returns:
+        (d_n, d_b) unit normal in the normal plane, approach [m] (negative when apart),
+        contact angle [rad], and whether the contact exists.
+    """
+    ball_radius, groove_radius = constants[0], constants[1]
+    centre_offset, ogival_offset = constants[6], constants[7]
+    inner_angle, outer_angle = constants[8], constants[9]
+    # Curvature centre of the half groove: (-s_n H, -s_b L (+ e on the nut)).
+    rel_n = n_i - -SIDE_N[j] * centre_offset
+    if IS_NUT[j]:
+        rel_b = b_i - (-SIDE_B[j] * ogival_offset + e)
+    else:
+        rel_b = b_i - -SIDE_B[j] * ogival_offset
+    dist = math.hypot(rel_n, rel_b)
+    safe_dist = max(dist, 1e-30)
+    d_n = rel_n / safe_dist
+    d_b = rel_b / safe_dist
+    approach = dist + ball_radius - groove_radius
+    approach += offset
+    angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
+    active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
+    return d_n, d_b, approach, angle, active
+
+
+@njit(inline="always")
+def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centre, slide):
+    """Sphere - half groove ``j`` contact: every law of the reference for one contact.
+
+    Args:
+        j: half groove (0 S1, 1 S2, 2 N1, 3 N2).
+        constants: :func:`law_constants`; geometry: :func:`contact_geometry` of the contact.
+        n_i, b_i: ball-centre offset (n, b) from the ideal helix [m].
+        w_ball: orbital rate of the contact points along the thread [rad/s].
+        omega: sphere angular velocity (t, n, b) relative to the screw [rad/s].
+        r_ball: centre from the axis (t, n, b) [m]; v_centre: its velocity [m/s].
+        slide: axial velocity of the nut beyond its helical motion [m/s].
+
+    The state arguments may be floats or dual numbers (:mod:`ballscrew_twin.kernels.dual`): the
+    same code then also carries their partial derivatives. An inactive contact exerts nothing
+    (zero force, moment and groove force), whatever its other fields.
+
+    Returns:
+        (force on the ball (t, n, b) [N], moment on the ball about its centre [N m], force of
+        the ball on the groove [N], the CONTACT_FIELDS values in their order).
+    """
+    (
+        ball_radius,
+        groove_radius,
+        pitch_radius,
+        lead_rate,
+        zhat,
+        cos2_helix,
+        _,
+        _,
+        _,
+        _,
+        screw_speed,
+        e_star,
+        e_reduced,
+        viscosity_atm,
+        ball_share,
+        surface_radius,
+        eta_t,
+        z_index,
+        alpha_pv,
+        beta,
+        k_h,
+        tau_e,
+        tau_l,
+        xi,
+        h_r,
+        mu_dry,
+        mu_dry_mer,
+        v_r,
+        roughness,
+        damping,
+    ) = constants
+    d_n, d_b, approach, angle, active = geometry
+    w_nut = -screw_speed
+    delta = approach if active else 0.0
+    # Curvatures (Meusnier) and reduced radii.
+    cos_a = math.cos(angle)
+    if IS_NUT[j]:
+        k_roll = -1.0 * cos_a * cos2_helix / (pitch_radius + ball_radius * cos_a)
+    else:
+        k_roll = 1.0 * cos_a * cos2_helix / (pitch_radius + -ball_radius * cos_a)
+    r_x = 1.0 / (1.0 / ball_radius + k_roll)
+    r_y = 1.0 / (1.0 / ball_radius + -1.0 / groove_radius)
+    ratio, ell_k, ell_e, curv_sum = ellipse_shape(r_x, r_y)
+    stiffness = hertz_stiffness(ratio, ell_k, ell_e, curv_sum, e_star)
+    minor, major, h_approach, p_max, p_mean, area = hertz_from_approach(
+        delta, ratio, ell_k, ell_e, curv_sum, e_star
+    )
+    if r_x > r_y:
+        semi_x, semi_y = major, minor
+    else:
+        semi_x, semi_y = minor, major
+    f_n = stiffness * (delta * math.sqrt(delta))  # Eq. 18, static part
+
+    # Kinematics: helicoid normal (D12), contact point, velocities.
+    d_plane = (0.0, d_n, d_b)
+    arm_length = ball_radius - ball_share * delta
+    field = _helical(1.0, zhat, lead_rate, r_ball)  # d . V(F + a d) = d . V(F)
+    d, _ = _unit(_sub(d_plane, _scale(_dot(d_plane, field) / _dot(field, field), field)))
+    arm = _scale(arm_length, d)
+    r_point = _add(r_ball, arm)
+    v_ball_point = _add(v_centre, _cross(omega, arm))
+    if IS_NUT[j]:
+        v_groove = _add(_helical(w_nut, zhat, lead_rate, r_point), _scale(slide, zhat))
+        omega_groove = _scale(w_nut, zhat)
+    else:
+        v_groove = (0.0, 0.0, 0.0)
+        omega_groove = (0.0, 0.0, 0.0)
+    v_contact = _helical(w_ball, zhat, lead_rate, r_point)
+    # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
+    rate = _dot(_sub(v_centre, v_groove), d)
+    # Smooth saturation of the damping at the elastic force (reference: hertz, D14).
+    damp_force = f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
+    f_n = f_n + damp_force
+    rel = _sub(v_ball_point, v_groove)
+    slip_vec = _sub(rel, _scale(_dot(rel, d), d))
+    slip_dir, slip = _unit(slip_vec)
+    u1 = v_ball_point[0] - v_contact[0]
+    u2 = v_groove[0] - v_contact[0]
+    entrain = 0.5 * (u1 + u2)
+    e_sign = 1.0 if entrain >= 0.0 else -1.0
+    omega_rel = _sub(omega, omega_groove)
+    spin = _dot(omega_rel, d)
+    roll_dir, roll = _unit(_sub(omega_rel, _scale(spin, d)))
+
+    lub_c = 0.0
+    dry_c = 0.0
+    tau = 0.0
+    mu_s = 0.0
+    h_tot = 0.0
+    tallian = 0.0
+    share = 0.0
+    mer = 0.0
+    mc = 0.0
+    mp = 0.0
+    fr = 0.0
+    fp = 0.0
+    if active:
+        # Lubrication (Eqs. 26-33, 37-38).
+        srr = abs(u1 - u2) / max(abs(entrain), 1e-12)
+        h_iso = film_central_isothermal(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced, alpha_pv)
+        c_th = thermal_reduction_factor(p_max, e_reduced, viscosity_atm, beta, entrain, k_h, srr)
+        h_tot = c_th * h_iso + h_r
+        tallian = h_tot / roughness if roughness > 0.0 else np.inf
+        share = load_share_asperities(tallian)
+        # Sliding friction at the centre slip and the spin sliding (Eqs. 34-36, 45).
+        eta = viscosity_pressure(eta_t, p_mean, z_index)
+        limit = tau_l + xi * max(p_mean, 0.0)
+        film_safe = max(h_tot, 1e-12)
+        lub_c, dry_c, _ = sliding_friction(
+            slip, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+        )
+        semi_major = max(semi_x, semi_y)
+        semi_minor = min(semi_x, semi_y)
+        v_spin = SPIN_SLIDING_FACTOR * semi_major * abs(spin)
+        lub_s, dry_s, _ = sliding_friction(
+            v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+        )
+        ellipticity = semi_major / max(semi_minor, 1e-300)
+        mp = spin_moment_factor(ellipticity) * semi_major * (lub_s + dry_s)
+        lub_m, dry_m, tau = sliding_friction(
+            slip + v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
+        )
+        if f_n > FILM_MIN_LOAD:  # unloaded: mu_s = 0 (reference, D15)
+            mu_s = (lub_m + dry_m) / f_n
+        mer = hysteresis_moment(f_n, ball_radius, r_y / r_x, mu_s, mu_dry_mer)
+        mc = curvature_moment(f_n, semi_y, surface_radius, mu_s)
+        fr = rolling_resistance_force(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced)
+        fp = 2.0 * fr * r_x / (r_x + ball_radius)  # Eq. 42
+    f_centre = lub_c + dry_c
+
+    # Forces and moments on the ball (Eqs. 46-47) and on the groove (48-49, D13).
+    e_dir = (e_sign, 0.0, 0.0)
+    contact_on_ball = _sub(_sub(_scale(-f_n, d), _scale(f_centre, slip_dir)), _scale(fr, e_dir))
+    # FP opposes the centre's translation relative to the groove, taken in the inertial frame
+    # (reference: rel_centre, D13).
+    rel_centre = _add(
+        _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
+    )
+    fp_sign = -1.0 if rel_centre[0] > 0.0 else 1.0
+    pressure_on_ball = (fp * fp_sign, 0.0, 0.0)
+    spin_sign = 1.0 if spin > 0.0 else (-1.0 if spin < 0.0 else 0.0)
+    free_moment = _sub(_scale(-(mer + mc), roll_dir), _scale(mp * spin_sign, d))
+    on_ball = _add(contact_on_ball, pressure_on_ball)
+    moment = _add(_cross(arm, contact_on_ball), free_moment)
+    on_groove = _scale(-1.0, on_ball)
+    groove_moment = _sub(_cross(r_point, on_groove), free_moment)
+    fields = (
+        approach,
+        angle,
+        f_n,
+        semi_x,
+        semi_y,
+        h_approach,
+        p_max,
+        p_mean,
+        area,
+        stiffness,
+        h_tot,
+        tallian,
+        share,
+        slip if active else 0.0,
+        spin,
+        roll,
+        entrain,
+        lub_c,
+        dry_c,
+        tau,
+        mu_s,
+        _dot(groove_moment, zhat),
+        lub_c * slip,
+        dry_c * slip,
+        -fp * (fp_sign * rel_centre[0]) + fr * (e_sign * slip_vec[0]),
+        mer * roll,
+        mc * roll,
+        mp * abs(spin),
+        damp_force * rate if active else 0.0,
+    )
+    return on_ball, moment, on_groove, fields
+
+
 # ----------------------------------------------------------------------------- the kernel
 @njit(cache=True, error_model="numpy")
 def contacts_kernel(
@@ -550,19 +868,50 @@ def contacts_kernel(
     count = ball_nb.shape[0]
     active_out = np.zeros((count, 4), dtype=np.bool_)
     out = np.zeros((N_ROWS, count, 4))
-
-    zhat = (sin_helix, 0.0, cos_helix)
-    w_nut = -screw_speed
-    # Per-call lubricant constants (lubricant.py): eta_T(T) for the Eyring law, Roelands Z.
-    eta_t = viscosity_atmospheric(law, temperature, eta0, t0, t1, eta1, rho0, alpha_rho, beta)
-    z_index = alpha_pv / (ROELANDS_PRESSURE_SCALE * (math.log(eta0) + ROELANDS_LN_ETA_INF))
-    mu_dry_mer = max(mu_dry, 1e-6)
-    transverse = -1.0 / groove_radius
-    centre_n = (-centre_offset, -centre_offset, centre_offset, centre_offset)
+    constants = law_constants(
+        ball_radius,
+        groove_radius,
+        pitch_radius,
+        lead_rate,
+        sin_helix,
+        cos_helix,
+        cos2_helix,
+        centre_offset,
+        ogival_offset,
+        inner_angle,
+        outer_angle,
+        temperature,
+        screw_speed,
+        e_star,
+        e_reduced,
+        viscosity_atm,
+        ball_mass,
+        ball_inertia,
+        ball_share,
+        surface_radius,
+        law,
+        eta0,
+        t0,
+        t1,
+        eta1,
+        rho0,
+        alpha_rho,
+        alpha_pv,
+        beta,
+        k_h,
+        tau_e,
+        tau_l,
+        xi,
+        h_r,
+        mu_dry,
+        v_r,
+        roughness,
+        damping,
+    )
+    zhat = constants[4]
+    with_offsets = approach_offset.shape[0] > 0  # defects (reference: approach_offset)
 
     for i in range(count):
-        e = nut_offset[i]
-        centre_b = (ogival_offset, -ogival_offset, ogival_offset + e, -ogival_offset + e)
         n_i = ball_nb[i, 0]
         b_i = ball_nb[i, 1]
         w_ball = kinematics[i, 0]
@@ -576,177 +925,19 @@ def contacts_kernel(
         f_sum = (0.0, 0.0, 0.0)
         m_sum = (0.0, 0.0, 0.0)
         for j in range(4):
-            # Geometry (Eqs. 5-8, 17, 22).
-            rel_n = n_i - centre_n[j]
-            rel_b = b_i - centre_b[j]
-            dist = math.hypot(rel_n, rel_b)
-            safe_dist = max(dist, 1e-30)
-            d_n = rel_n / safe_dist
-            d_b = rel_b / safe_dist
-            approach = dist + ball_radius - groove_radius
-            if approach_offset.shape[0] > 0:  # defects (reference: approach_offset)
-                approach += approach_offset[i, j]
-            angle = math.atan2(SIDE_B[j] * d_b, SIDE_N[j] * d_n)
-            active = approach > 0.0 and angle >= inner_angle and angle <= outer_angle
-            delta = approach if active else 0.0
-            # Curvatures (Meusnier) and reduced radii.
-            cos_a = math.cos(angle)
-            if IS_NUT[j]:
-                k_roll = -1.0 * cos_a * cos2_helix / (pitch_radius + ball_radius * cos_a)
-            else:
-                k_roll = 1.0 * cos_a * cos2_helix / (pitch_radius + -ball_radius * cos_a)
-            r_x = 1.0 / (1.0 / ball_radius + k_roll)
-            r_y = 1.0 / (1.0 / ball_radius + transverse)
-            ratio, ell_k, ell_e, curv_sum = ellipse_shape(r_x, r_y)
-            stiffness = hertz_stiffness(ratio, ell_k, ell_e, curv_sum, e_star)
-            minor, major, h_approach, p_max, p_mean, area = hertz_from_approach(
-                delta, ratio, ell_k, ell_e, curv_sum, e_star
+            offset = approach_offset[i, j] if with_offsets else 0.0
+            geometry = contact_geometry(j, constants, n_i, b_i, nut_offset[i], offset)
+            on_ball, moment, on_groove, fields = contact_law(
+                j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centre, nut_slide[i]
             )
-            if r_x > r_y:
-                semi_x, semi_y = major, minor
-            else:
-                semi_x, semi_y = minor, major
-            f_n = stiffness * (delta * math.sqrt(delta))  # Eq. 18, static part
-
-            # Kinematics: helicoid normal (D12), contact point, velocities.
-            d_plane = (0.0, d_n, d_b)
-            arm_length = ball_radius - ball_share * delta
-            field = _helical(1.0, zhat, lead_rate, r_ball)  # d . V(F + a d) = d . V(F)
-            d, _ = _unit(_sub(d_plane, _scale(_dot(d_plane, field) / _dot(field, field), field)))
-            arm = _scale(arm_length, d)
-            r_point = _add(r_ball, arm)
-            v_ball_point = _add(v_centre, _cross(omega, arm))
-            if IS_NUT[j]:
-                v_groove = _add(
-                    _helical(w_nut, zhat, lead_rate, r_point), _scale(nut_slide[i], zhat)
-                )
-                omega_groove = _scale(w_nut, zhat)
-            else:
-                v_groove = (0.0, 0.0, 0.0)
-                omega_groove = (0.0, 0.0, 0.0)
-            v_contact = _helical(w_ball, zhat, lead_rate, r_point)
-            # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
-            rate = _dot(_sub(v_centre, v_groove), d)
-            # Smooth saturation of the damping at the elastic force (reference: hertz, D14).
-            damp_force = (
-                f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
-            )
-            f_n = f_n + damp_force
-            rel = _sub(v_ball_point, v_groove)
-            slip_vec = _sub(rel, _scale(_dot(rel, d), d))
-            slip_dir, slip = _unit(slip_vec)
-            u1 = v_ball_point[0] - v_contact[0]
-            u2 = v_groove[0] - v_contact[0]
-            entrain = 0.5 * (u1 + u2)
-            e_sign = 1.0 if entrain >= 0.0 else -1.0
-            omega_rel = _sub(omega, omega_groove)
-            spin = _dot(omega_rel, d)
-            roll_dir, roll = _unit(_sub(omega_rel, _scale(spin, d)))
-
-            lub_c = 0.0
-            dry_c = 0.0
-            tau = 0.0
-            mu_s = 0.0
-            h_tot = 0.0
-            tallian = 0.0
-            share = 0.0
-            mer = 0.0
-            mc = 0.0
-            mp = 0.0
-            fr = 0.0
-            fp = 0.0
-            if active:
-                # Lubrication (Eqs. 26-33, 37-38).
-                srr = abs(u1 - u2) / max(abs(entrain), 1e-12)
-                h_iso = film_central_isothermal(
-                    f_n, entrain, viscosity_atm, r_x, r_y, e_reduced, alpha_pv
-                )
-                c_th = thermal_reduction_factor(
-                    p_max, e_reduced, viscosity_atm, beta, entrain, k_h, srr
-                )
-                h_tot = c_th * h_iso + h_r
-                tallian = h_tot / roughness if roughness > 0.0 else np.inf
-                share = load_share_asperities(tallian)
-                # Sliding friction at the centre slip and the spin sliding (Eqs. 34-36, 45).
-                eta = viscosity_pressure(eta_t, p_mean, z_index)
-                limit = tau_l + xi * max(p_mean, 0.0)
-                film_safe = max(h_tot, 1e-12)
-                lub_c, dry_c, _ = sliding_friction(
-                    slip, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
-                )
-                semi_major = max(semi_x, semi_y)
-                semi_minor = min(semi_x, semi_y)
-                v_spin = SPIN_SLIDING_FACTOR * semi_major * abs(spin)
-                lub_s, dry_s, _ = sliding_friction(
-                    v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
-                )
-                ellipticity = semi_major / max(semi_minor, 1e-300)
-                mp = spin_moment_factor(ellipticity) * semi_major * (lub_s + dry_s)
-                lub_m, dry_m, tau = sliding_friction(
-                    slip + v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
-                )
-                if f_n > FILM_MIN_LOAD:  # unloaded: mu_s = 0 (reference, D15)
-                    mu_s = (lub_m + dry_m) / f_n
-                mer = hysteresis_moment(f_n, ball_radius, r_y / r_x, mu_s, mu_dry_mer)
-                mc = curvature_moment(f_n, semi_y, surface_radius, mu_s)
-                fr = rolling_resistance_force(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced)
-                fp = 2.0 * fr * r_x / (r_x + ball_radius)  # Eq. 42
-            f_centre = lub_c + dry_c
-
-            # Forces and moments on the ball (Eqs. 46-47) and on the groove (48-49, D13).
-            e_dir = (e_sign, 0.0, 0.0)
-            contact_on_ball = _sub(
-                _sub(_scale(-f_n, d), _scale(f_centre, slip_dir)), _scale(fr, e_dir)
-            )
-            # FP opposes the centre's translation relative to the groove, taken in the inertial
-            # frame (reference: rel_centre, D13).
-            rel_centre = _add(
-                _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
-            )
-            fp_sign = -1.0 if rel_centre[0] > 0.0 else 1.0
-            pressure_on_ball = (fp * fp_sign, 0.0, 0.0)
-            spin_sign = 1.0 if spin > 0.0 else (-1.0 if spin < 0.0 else 0.0)
-            free_moment = _sub(_scale(-(mer + mc), roll_dir), _scale(mp * spin_sign, d))
-            on_ball = _add(contact_on_ball, pressure_on_ball)
+            active = geometry[4]
             f_sum = _add(f_sum, on_ball)
-            m_sum = _add(m_sum, _add(_cross(arm, contact_on_ball), free_moment))
-            on_groove = _scale(-1.0, on_ball)
-            groove_moment = _sub(_cross(r_point, on_groove), free_moment)
+            m_sum = _add(m_sum, moment)
+            active_out[i, j] = active
             for k in range(3):
                 out[R_GROOVE_FORCE + k, i, j] = on_groove[k]
-
-            active_out[i, j] = active
-            out[F_APPROACH, i, j] = approach
-            out[F_ANGLE, i, j] = angle
-            out[F_NORMAL_FORCE, i, j] = f_n
-            out[F_SEMI_X, i, j] = semi_x
-            out[F_SEMI_Y, i, j] = semi_y
-            out[F_HERTZ_APPROACH, i, j] = h_approach
-            out[F_MAX_PRESSURE, i, j] = p_max
-            out[F_MEAN_PRESSURE, i, j] = p_mean
-            out[F_AREA, i, j] = area
-            out[F_STIFFNESS, i, j] = stiffness
-            out[F_FILM, i, j] = h_tot
-            out[F_TALLIAN, i, j] = tallian
-            out[F_LOAD_SHARE, i, j] = share
-            out[F_SLIP, i, j] = slip if active else 0.0
-            out[F_SPIN, i, j] = spin
-            out[F_ROLL, i, j] = roll
-            out[F_ENTRAINMENT, i, j] = entrain
-            out[F_FRICTION_LUB, i, j] = lub_c
-            out[F_FRICTION_DRY, i, j] = dry_c
-            out[F_SHEAR_STRESS, i, j] = tau
-            out[F_MU_S, i, j] = mu_s
-            out[F_GROOVE_MZ, i, j] = _dot(groove_moment, zhat)
-            out[F_DISS_LUBRICANT, i, j] = lub_c * slip
-            out[F_DISS_DRY, i, j] = dry_c * slip
-            out[F_DISS_ROLLING, i, j] = -fp * (fp_sign * rel_centre[0]) + fr * (
-                e_sign * slip_vec[0]
-            )
-            out[F_DISS_HYSTERESIS, i, j] = mer * roll
-            out[F_DISS_CURVATURE, i, j] = mc * roll
-            out[F_DISS_SPIN, i, j] = mp * abs(spin)
-            out[F_DISS_DAMPING, i, j] = damp_force * rate if active else 0.0
+            for k in range(N_FIELDS):
+                out[k, i, j] = fields[k]
 
         # Steady use: gravity and the d'Alembert terms of the orbiting frame (section 7).
         # Dynamic use: the contact actions alone.
@@ -765,6 +956,17 @@ def contacts_kernel(
         for k in range(3):
             out[R_MOMENT + k, i, 0] = m_sum[k] - gyro[k]
     return active_out, out
+
+
+@njit(inline="always")
+def scene_from_array(p):
+    """The scalar parameters of :func:`contacts_kernel` (``scene_arrays`` order) from their
+    float64 array form ``p`` (38,): an array crosses into compiled code faster than a tuple."""
+    return (
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11], p[12], p[13],
+        p[14], p[15], p[16], p[17], p[18], p[19], int(p[20]), p[21], p[22], p[23], p[24], p[25],
+        p[26], p[27], p[28], p[29], p[30], p[31], p[32], p[33], p[34], p[35], p[36], p[37],
+    )  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- Python side
@@ -831,7 +1033,8 @@ def scene_arrays(scene: ContactScene) -> tuple[float | int, ...]:
 _last_scene: tuple[ContactScene, tuple[float | int, ...]] | None = None
 
 
-def _scene_params(scene: ContactScene) -> tuple[float | int, ...]:
+def scene_parameters(scene: ContactScene) -> tuple[float | int, ...]:
+    """``scene_arrays(scene)``, computed once for consecutive calls with the same scene."""
     global _last_scene
     cached = _last_scene
     if cached is not None and cached[0] is scene:
@@ -881,7 +1084,7 @@ def evaluate_contacts_compiled(
         _as_input(nut_slide) if nut_slide is not None else np.zeros(count),
         _NO_OFFSET if approach_offset is None else _as_input(approach_offset),
         dynamic,
-        *_scene_params(scene),
+        *scene_parameters(scene),
     )
     return evaluation_from_buffer(active, c)
 

@@ -38,7 +38,7 @@ from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, 
 
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
-Backend = Literal["compiled", "reference"]
+Backend = Literal["compiled", "newton", "reference"]
 
 NEWTON_MAX_ITER = 80
 LINE_SEARCH_STEPS = 12
@@ -101,8 +101,12 @@ class SteadyStateModel:
         mode: ``"symmetric"`` (one sphere per nut), ``"full"`` (every sphere) or ``"auto"``
             (symmetric whenever the spheres of a nut are equivalent: vertical screw).
         tolerance: convergence limit of the scaled residual (force / load scale) [-].
-        backend: ``"compiled"`` (numba kernel, default) or ``"reference"`` (the readable numpy
-            implementation it is tested against); both give the same solution.
+        backend: ``"compiled"`` (default: the structured compiled solver,
+            :mod:`ballscrew_twin.kernels.steady_solver`, one numba call per Newton solve),
+            ``"newton"`` (the readable Newton iteration of this class over the compiled contact
+            laws: the previous solver, kept for comparison) or ``"reference"`` (the readable
+            Newton iteration over the numpy contact laws, the definition the others are tested
+            against); all give the same solution.
         inertial_terms: keep the centrifugal force and the gyroscopic moment of each sphere in
             its balance (default). ``False`` drops both (:func:`inertial_actions`): a reduction
             whose drag error grows with the speed, measured by ``ballscrew-twin bench skips``.
@@ -118,11 +122,11 @@ class SteadyStateModel:
     ) -> None:
         if mode not in ("auto", "symmetric", "full"):
             raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
-        if backend not in ("compiled", "reference"):
-            raise ValueError(f"backend = {backend!r} must be compiled or reference")
+        if backend not in ("compiled", "newton", "reference"):
+            raise ValueError(f"backend = {backend!r} must be compiled, newton or reference")
         self.backend = backend
         self._evaluate = evaluate_contacts
-        if backend == "compiled":
+        if backend != "reference":
             from ..kernels.contacts import evaluate_contacts_compiled
 
             self._evaluate = evaluate_contacts_compiled
@@ -134,7 +138,11 @@ class SteadyStateModel:
         self.inertial_terms = bool(inertial_terms)
         self.name = "steady" if self.inertial_terms else "steady-no-inertia"
         self._warm: SteadyState | None = None
+        # Sphere Jacobian blocks of the compiled solver's last solve, with their residual scales.
+        self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
         self._scenes: dict[float, ContactScene] = {}
+        self._ball_sets: dict[str, BallSet] = {}
+        self._parameters: dict[tuple[float, float], FloatArray] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
 
     def scene(self, temperature: float, screw_speed: float) -> ContactScene:
@@ -162,7 +170,14 @@ class SteadyStateModel:
         return "symmetric" if self.config.screw.orientation == "vertical" else "full"
 
     def ball_set(self, mode: Literal["symmetric", "full"]) -> BallSet:
-        """Spheres to solve, their azimuths and gravity in their Frenet frames."""
+        """Spheres to solve, their azimuths and gravity in their Frenet frames (computed once
+        per mode: they depend on the parameters only)."""
+        balls = self._ball_sets.get(mode)
+        if balls is None:
+            balls = self._ball_sets[mode] = self._make_ball_set(mode)
+        return balls
+
+    def _make_ball_set(self, mode: Literal["symmetric", "full"]) -> BallSet:
         screw = self.config.screw
         g = self.config.environment.gravity
         z_count = screw.balls_per_nut
@@ -239,11 +254,12 @@ class SteadyStateModel:
         # Rolling about the in-plane axis perpendicular to the contact line, no spin on the screw.
         alpha = geom.free_contact_angle
         speed = w_ball * geom.pitch_radius / math.cos(geom.helix_angle)
-        for i in range(count):
-            sign_b = 1.0 if e_ball[i] > 0.0 else -1.0
-            d_screw = np.array([0.0, math.cos(alpha), sign_b * math.sin(alpha)])
-            # Pure rolling on the fixed screw: omega x (r_b d) = -v_centre t.
-            kin[i, 1:] = np.cross(np.array([speed / geom.ball_radius, 0.0, 0.0]), d_screw)
+        # Pure rolling on the fixed screw: omega x (r_b d) = -v_centre t, i.e. omega =
+        # (s, 0, 0) x d with s = speed / r_b and d = (0, cos a, +-sin a) (sign of e_ball).
+        sign_b = np.where(e_ball > 0.0, 1.0, -1.0)
+        spin_rate = speed / geom.ball_radius
+        kin[:, 2] = -(spin_rate * (sign_b * math.sin(alpha)))
+        kin[:, 3] = spin_rate * math.cos(alpha)
         return kin
 
     def _residual(
@@ -286,6 +302,97 @@ class SteadyStateModel:
         return mask
 
     def _newton(
+        self,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        loads: FloatArray,
+        warm: bool = False,
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
+        scaled residual); SolverError when it does not converge. ``warm``: ``state`` comes from
+        the last solution (the compiled solver may then reuse its Jacobian)."""
+        if self.backend == "compiled":
+            return self._newton_compiled(scene, balls, state, loads, warm)
+        return self._newton_readable(scene, balls, state, loads)
+
+    def _kernel_parameters(self, scene: ContactScene) -> FloatArray:
+        """``scene_arrays(scene)`` as the solver kernel takes it (float64 array), kept per
+        temperature and speed like the scenes (they depend on nothing else for this model)."""
+        from ..kernels.contacts import scene_arrays
+
+        key = (scene.temperature, scene.screw_speed)
+        params = self._parameters.get(key)
+        if params is None:
+            if len(self._parameters) >= SCENE_CACHE_SIZE:
+                self._parameters.pop(next(iter(self._parameters)))
+            params = self._parameters[key] = np.array(scene_arrays(scene), dtype=np.float64)
+        return params
+
+    def _reusable_jacobian(
+        self, count: int, scales: tuple[float, float, float], warm: bool
+    ) -> tuple[FloatArray, bool]:
+        """Storage for the sphere Jacobian blocks (B, 7, 7) of the compiled solver, holding
+        those of the last solve in the current residual scales when ``warm`` and available."""
+        stored = self._jacobian
+        if not warm or stored is None or stored[0].shape[0] != count:
+            return np.empty((count, 7, 7)), False
+        jacobian, old = stored
+        ratios = np.array(
+            [old[0] / scales[0]] * 3 + [old[1] / scales[1]] * 3 + [old[2] / scales[2]]
+        )
+        return np.ascontiguousarray(jacobian * ratios[:, None]), True
+
+    def _newton_compiled(
+        self,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        loads: FloatArray,
+        warm: bool,
+    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+        """The iteration of :meth:`_newton_readable`, compiled, with exact per-sphere Jacobian
+        blocks (:mod:`ballscrew_twin.kernels.steady_solver`). ``warm``: ``state`` is the last
+        solution of this model, or near it, so the Jacobian blocks of the last solve are reused
+        while they converge fast (refreshed when they do not)."""
+        from ..kernels import steady_solver as solver
+
+        z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
+        nut_offset = np.array(state.nut_offset, dtype=np.float64)
+        force_scale, moment_scale = self._scales(scene, loads)
+        scales = (force_scale, moment_scale, force_scale * self.config.screw.balls_per_nut)
+        jacobian, reuse = self._reusable_jacobian(len(z), scales, warm)
+        iterations, worst, status, linearisations, ev = solver.solve_compiled(
+            z,
+            nut_offset,
+            jacobian,
+            reuse,
+            balls.nut,
+            balls.weight,
+            np.ascontiguousarray(balls.gravity),
+            np.ascontiguousarray(loads, dtype=np.float64),
+            scales,
+            self.inertial_terms,
+            self.tolerance,
+            self._kernel_parameters(scene),
+        )
+        self._jacobian = (jacobian, scales) if linearisations or reuse else None
+        if status == solver.STATUS_SINGULAR:
+            raise SolverError("steady state: singular sphere Jacobian")
+        if status == solver.STATUS_NOT_FINITE:
+            raise SolverError(
+                "steady state: every line-search step gave a non-finite residual "
+                f"(iteration {iterations + 1}, scaled residual {worst:.3g})"
+            )
+        if status != solver.STATUS_CONVERGED:
+            raise SolverError(
+                f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
+                f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
+            )
+        solved = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), nut_offset, scene.screw_speed)
+        return solved, ev, iterations, worst
+
+    def _newton_readable(
         self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         count = len(balls.nut)
@@ -442,7 +549,9 @@ class SteadyStateModel:
             if start.screw_speed != op.screw_speed:
                 start = self._rescaled(start, scene, balls, op.screw_speed)
             try:
-                state, ev, iterations, residual = self._newton(scene, balls, start, loads)
+                state, ev, iterations, residual = self._newton(
+                    scene, balls, start, loads, warm=True
+                )
             except SolverError:
                 state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         else:
@@ -494,6 +603,7 @@ class SteadyStateModel:
     def forget_warm_start(self) -> None:
         """Make the next solve start cold (used by benchmarks and after a scene change)."""
         self._warm = None
+        self._jacobian = None
 
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
@@ -515,15 +625,8 @@ class SteadyStateModel:
         weight = balls.weight[:, None]
         speed = op.screw_speed
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
-        per_nut_power = [
-            float(
-                sum(
-                    np.sum(ev.dissipation[m][balls.nut == k] * weight[balls.nut == k])
-                    for m in MECHANISMS
-                )
-            )
-            for k in (0, 1)
-        ]
+        sphere_power = np.sum([ev.dissipation[m] for m in MECHANISMS], axis=(0, 2)) * balls.weight
+        per_nut_power = [float(np.sum(sphere_power[balls.nut == k])) for k in (0, 1)]
         notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
         if not self.inertial_terms:
             notes.append("centrifugal force and gyroscopic moment of the spheres dropped")
@@ -574,21 +677,20 @@ class SteadyStateModel:
         """
         geom = scene.geometry
         lead_rate = geom.lead / (2.0 * math.pi)
-        zhat = geometry.axis_direction(geom.helix_angle)
-        r_ball = np.stack(
-            [
-                np.zeros(len(balls.nut)),
-                state.ball_nb[:, 0] - geom.pitch_radius,
-                state.ball_nb[:, 1],
-            ],
-            axis=-1,
-        )
-        orbit = np.cross(zhat, r_ball)
+        z_t, _, z_b = geometry.axis_direction(geom.helix_angle)  # z has no n-component
+        r_n = state.ball_nb[:, 0] - geom.pitch_radius  # centre from the axis: (0, r_n, b)
+        r_b = state.ball_nb[:, 1]
         w_ball = state.kinematics[:, 0]
-        v_abs = (w_ball + scene.screw_speed)[:, None] * orbit + (w_ball * lead_rate)[:, None] * zhat
-        balls_power = scene.ball_mass * float(
-            np.sum(balls.weight * np.einsum("bi,bi->b", balls.gravity, v_abs))
+        orbit_rate = w_ball + scene.screw_speed
+        along = w_ball * lead_rate
+        # v = (w_B + Omega) z x r + w_B p/(2 pi) z, z x r = (-z_b r_n, -z_t r_b, z_t r_n).
+        acc = balls.gravity
+        g_dot_v = (
+            acc[:, 0] * (orbit_rate * (-z_b * r_n) + along * z_t)
+            + acc[:, 1] * (orbit_rate * (-z_t * r_b))
+            + acc[:, 2] * (orbit_rate * (z_t * r_n) + along * z_b)
         )
+        balls_power = scene.ball_mass * float(np.sum(balls.weight * g_dot_v))
         nut_power = 0.0  # gravity's power on the two nuts, moving at -Omega p/(2 pi) z
         if self.config.screw.orientation == "vertical":
             g = self.config.environment.gravity

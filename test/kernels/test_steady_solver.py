@@ -1,0 +1,261 @@
+"""The structured compiled steady solver equals the readable reference.
+
+Oracles:
+- the sphere Jacobian blocks computed by forward mode (dual numbers) against central differences
+  of the plain residuals (relative 1e-5 of each block's scale: the difference quotient's own
+  error), and their value part against the plain residuals (bit for bit);
+- the plain residuals against the reference model's ``_residual`` (numpy contact laws);
+- whole solves against ``SteadyStateModel(backend="reference")`` (numpy contact laws, Python
+  Newton with a central-difference Jacobian) over the envelope: speed (both signs, standstill),
+  temperature (-40..100 C), preload (0..5000 N), axial load, symmetric and full mode, cold and
+  along a warm-started path. Drag torque, nut torques and mechanism breakdown to 1e-9 relative.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.errors import SolverError
+from ballscrew_twin.kernels import steady_solver
+from ballscrew_twin.kernels.contacts import scene_arrays
+from ballscrew_twin.kernels.steady_solver import (
+    DEPENDENCY_STAMP,
+    compiled_stamp,
+    ensure_fresh_cache,
+    frozen_constants,
+    linearise,
+    lu_solve_pair,
+    residuals,
+)
+from ballscrew_twin.models import steady
+from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
+from ballscrew_twin.models.steady import SteadySolution, SteadyState, SteadyStateModel
+from ballscrew_twin.params import TwinConfig, load_config
+
+RPM = 2.0 * math.pi / 60.0
+RTOL = 1e-9
+
+
+def operating_point(
+    rpm: float, celsius: float, preload: float, axial_load: float = 0.0
+) -> OperatingPoint:
+    return OperatingPoint(
+        screw_speed=rpm * RPM,
+        temperature=celsius + 273.15,
+        preload=preload,
+        axial_load=axial_load,
+    )
+
+
+@pytest.fixture(scope="module")
+def config() -> TwinConfig:
+    return load_config()
+
+
+def assert_same_solution(got: SteadySolution, ref: SteadySolution) -> None:
+    out, expected = got.output, ref.output
+    scale = max(abs(expected.drag_torque), 1e-300)
+    assert out.drag_torque == pytest.approx(expected.drag_torque, rel=RTOL, abs=0)
+    np.testing.assert_allclose(out.nut_torque, expected.nut_torque, rtol=RTOL, atol=RTOL * scale)
+    for name in MECHANISMS:
+        got_part = getattr(out.breakdown, name)
+        assert got_part == pytest.approx(getattr(expected.breakdown, name), abs=RTOL * scale)
+    for name in ("ball_nb", "kinematics", "nut_offset"):
+        want = getattr(ref.state, name)
+        size = float(np.max(np.abs(want), initial=0.0))
+        np.testing.assert_allclose(
+            getattr(got.state, name), want, rtol=1e-7, atol=1e-7 * size, err_msg=name
+        )
+    assert got.contacts.active.tolist() == ref.contacts.active.tolist()
+    assert got.residual < 1e-10
+
+
+# ----------------------------------------------------------------------------- compiled constants
+def test_frozen_constants_are_the_current_ones() -> None:
+    ensure_fresh_cache()
+    assert frozen_constants() == (
+        steady.NEWTON_MAX_ITER,
+        steady.LINE_SEARCH_STEPS,
+        steady.MIN_STEP,
+        steady.DIAGONAL_SHIFT,
+        steady_solver.CHORD_DECREASE,
+        steady_solver.CHORD_POLISH,
+    )
+    assert compiled_stamp() == DEPENDENCY_STAMP
+    assert ensure_fresh_cache() is False  # checked once per process
+
+
+def test_lu_solve_pair_equals_numpy_and_flags_singular_blocks() -> None:
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        a = rng.normal(size=(6, 6)) * 10.0 ** rng.integers(-6, 7, size=6)[:, None]
+        r1, r2 = rng.normal(size=6), rng.normal(size=6)
+        x1, x2 = np.empty(6), np.empty(6)
+        assert lu_solve_pair(a.copy(), r1, r2, x1, x2)
+        np.testing.assert_allclose(x1, np.linalg.solve(a, r1), rtol=1e-9, atol=1e-12)
+        np.testing.assert_allclose(x2, np.linalg.solve(a, r2), rtol=1e-9, atol=1e-12)
+    singular = rng.normal(size=(6, 6))
+    singular[:, 3] = 0.0
+    assert not lu_solve_pair(singular.copy(), np.ones(6), np.ones(6), np.empty(6), np.empty(6))
+
+
+# ----------------------------------------------------------------------------- residual, Jacobian
+def _problem(config: TwinConfig, mode: str, point: OperatingPoint):  # type: ignore[no-untyped-def]
+    """A state near the solution of ``point`` and the arguments of the residual kernels."""
+    model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
+    solution = model.solve(point)
+    scene = model.scene(point.temperature, point.screw_speed)
+    balls = solution.balls
+    loads = model.nut_axial_loads(point)
+    force, moment = model._scales(scene, loads)
+    scales = (force, moment, force * config.screw.balls_per_nut)
+    rng = np.random.default_rng(3)
+    state = solution.state
+    count = len(balls.nut)
+    z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
+    z[:, :2] += rng.normal(scale=1e-8, size=(count, 2))
+    z[:, 2:] *= 1.0 + rng.normal(scale=1e-3, size=(count, 4))
+    e = state.nut_offset + rng.normal(scale=1e-8, size=2)
+    args = (
+        balls.nut,
+        balls.weight,
+        np.ascontiguousarray(balls.gravity),
+        loads,
+        scales,
+        True,
+        np.array(scene_arrays(scene)),
+    )
+    return model, scene, balls, z, e, args
+
+
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+def test_residuals_are_those_of_the_reference_model(config: TwinConfig, mode: str) -> None:
+    point = operating_point(1000.0, -20.0, 800.0, axial_load=300.0)
+    model, scene, balls, z, e, args = _problem(config, mode, point)
+    res = np.empty((len(z), 6))
+    nut_res = residuals(z, e, *args, res)
+    state = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), e, scene.screw_speed)
+    reference = SteadyStateModel(config, mode=mode, backend="reference")  # type: ignore[arg-type]
+    ref_res, _, ref_nut, _ = reference._residual(scene, balls, state, model.nut_axial_loads(point))
+    np.testing.assert_allclose(res, ref_res, rtol=1e-9, atol=1e-12 * np.abs(ref_res).max())
+    np.testing.assert_allclose(nut_res, ref_nut, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+@pytest.mark.parametrize("rpm", [300.0, -2000.0])
+def test_forward_mode_blocks_equal_difference_quotients(
+    config: TwinConfig, mode: str, rpm: float
+) -> None:
+    point = operating_point(rpm, 40.0, 1200.0)
+    _, _, _, z, e, args = _problem(config, mode, point)
+    count = len(z)
+    res, axial, jac = np.empty((count, 6)), np.empty(count), np.empty((count, 7, 7))
+    nut_res = linearise(z, e, *args, res, axial, jac)
+    plain = np.empty((count, 6))
+    assert np.array_equal(residuals(z, e, *args, plain), nut_res)
+    assert np.array_equal(plain, res)  # the value part is the plain evaluation
+
+    def rows(zz: np.ndarray, ee: np.ndarray) -> np.ndarray:
+        """(B, 7): scaled residual rows and weighted axial push of every sphere (value parts)."""
+        out, push, scratch = np.empty((count, 6)), np.empty(count), np.empty((count, 7, 7))
+        linearise(zz, ee, *args, out, push, scratch)
+        return np.concatenate([out, push[:, None]], axis=1)
+
+    steps = [1e-10, 1e-10] + [1e-6 * abs(point.screw_speed)] * 4 + [1e-10]
+    for c in range(7):
+        zp, zm, ep, em = z.copy(), z.copy(), e.copy(), e.copy()
+        if c < 6:  # spheres are independent given the nut offsets: all move at once
+            zp[:, c] += steps[c]
+            zm[:, c] -= steps[c]
+        else:
+            ep += steps[c]
+            em -= steps[c]
+        quotient = (rows(zp, ep) - rows(zm, em)) / (2.0 * steps[c])
+        for i in range(count):
+            scale = np.abs(jac[i]).max(axis=1)  # per row
+            assert np.all(np.abs(jac[i, :, c] - quotient[i]) <= 1e-5 * scale), (i, c)
+
+
+# ----------------------------------------------------------------------------- whole solves
+ENVELOPE = {
+    "20C-100rpm-1500N": (100.0, 20.0, 1500.0, 0.0),
+    "-40C-3000rpm-5000N": (3000.0, -40.0, 5000.0, 0.0),
+    "100C-6000rpm-300N": (6000.0, 100.0, 300.0, 0.0),
+    "60C--1500rpm-2500N": (-1500.0, 60.0, 2500.0, 0.0),
+    "0C-500rpm-1000N+800N": (500.0, 0.0, 1000.0, 800.0),
+    "20C-200rpm-800N-2000N": (200.0, 20.0, 800.0, -2000.0),
+    "20C-0rpm-1500N": (0.0, 20.0, 1500.0, 0.0),
+    "20C-100rpm-0N": (100.0, 20.0, 0.0, 0.0),
+    "30C-1000rpm-100N": (1000.0, 30.0, 100.0, 0.0),
+}
+
+
+@pytest.mark.parametrize("name", list(ENVELOPE))
+def test_symmetric_solves_equal_the_reference(config: TwinConfig, name: str) -> None:
+    point = operating_point(*ENVELOPE[name])
+    ref = SteadyStateModel(config, mode="symmetric", backend="reference").solve(point)
+    got = SteadyStateModel(config, mode="symmetric").solve(point)
+    assert_same_solution(got, ref)
+
+
+@pytest.mark.parametrize("name", ["20C-100rpm-1500N", "60C--1500rpm-2500N", "0C-500rpm-1000N+800N"])
+def test_full_solves_equal_the_reference(config: TwinConfig, name: str) -> None:
+    point = operating_point(*ENVELOPE[name])
+    ref = SteadyStateModel(config, mode="full", backend="reference").solve(point)
+    got = SteadyStateModel(config, mode="full").solve(point)
+    assert_same_solution(got, ref)
+
+
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+def test_warm_started_path_equals_cold_reference_solves(config: TwinConfig, mode: str) -> None:
+    """A path through speed, temperature, preload and load, each point warm-started from the
+    last (reused Jacobian blocks), against the readable Newton solving each point afresh."""
+    path = [
+        (100.0, 20.0, 1500.0, 0.0),
+        (110.0, 21.0, 1550.0, 0.0),
+        (400.0, 25.0, 1550.0, 200.0),
+        (400.0, 45.0, 900.0, 200.0),
+        (-400.0, 45.0, 900.0, 0.0),
+        (0.0, 45.0, 900.0, 0.0),
+        (2500.0, 10.0, 3000.0, -500.0),
+    ]
+    model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
+    for values in path:
+        point = operating_point(*values)
+        reference = SteadyStateModel(config, mode=mode, backend="newton")  # type: ignore[arg-type]
+        assert_same_solution(model.solve(point), reference.solve(point))
+
+
+def test_inertia_free_reduction_equals_the_reference(config: TwinConfig) -> None:
+    point = operating_point(4000.0, 20.0, 1000.0)
+    ref = SteadyStateModel(
+        config, mode="symmetric", backend="reference", inertial_terms=False
+    ).solve(point)
+    got = SteadyStateModel(config, mode="symmetric", inertial_terms=False).solve(point)
+    assert_same_solution(got, ref)
+
+
+# ----------------------------------------------------------------------------- failures
+@pytest.mark.parametrize("backend", ["compiled", "reference"])
+def test_unreachable_tolerance_raises_a_clear_error(config: TwinConfig, backend: str) -> None:
+    model = SteadyStateModel(config, mode="symmetric", tolerance=1e-300, backend=backend)  # type: ignore[arg-type]
+    prefix = f"steady state did not converge in {steady.NEWTON_MAX_ITER} iterations"
+    with pytest.raises(SolverError, match=prefix):
+        model.solve(operating_point(100.0, 20.0, 1500.0))
+
+
+def test_absurd_start_gives_up_with_a_solver_error(config: TwinConfig) -> None:
+    point = operating_point(100.0, 20.0, 1500.0)
+    model = SteadyStateModel(config, mode="symmetric")
+    balls = model.ball_set("symmetric")
+    loads = model.nut_axial_loads(point)
+    scene = model.scene(point.temperature, point.screw_speed)
+    start = model._initial_state(scene, balls, loads)
+    absurd = SteadyState(
+        np.full_like(start.ball_nb, 1e-3), start.kinematics, 3.0 * start.nut_offset, 1.0
+    )
+    with pytest.raises(SolverError, match="steady state"):
+        model._newton(scene, balls, absurd, loads)
