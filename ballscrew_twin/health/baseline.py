@@ -46,7 +46,7 @@ BASELINE_VERSION = 1
 #: Speed about which the shape correction is taken [rad/s].
 SHAPE_REFERENCE_SPEED = 30.0
 #: Edges of the speed bands of the model error [rad/s].
-ERROR_BAND_EDGES = (10.0, 100.0)
+ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
 
 FIELD_DOCS: dict[str, str] = {
     "config": "screw parameter set the baseline was fitted with (its name)",
@@ -61,7 +61,7 @@ FIELD_DOCS: dict[str, str] = {
     "shape_curvature": "beta_2, drag change per decade of speed squared [-]",
     "sensor_noise": "sigma_s, noise of one torque sample [N m]",
     "error_relative": "e_rel, twin error relative to the drag torque after the fit (1 sigma) [-]",
-    "error_bands": "e_rel in the speed bands below 10, 10-100, above 100 rad/s [-] (empty: one)",
+    "error_bands": "e_rel in the speed bands split at 3, 10, 30, 100, 300 rad/s [-] (empty: one)",
     "error_absolute": "e_abs, twin error floor (1 sigma) [N m]",
     "inertia_error": "e_J, relative error of the inertia torque (1 sigma) [-]",
     "temperature_error": "e_T, relative error growth per K outside the commissioned range [1/K]",

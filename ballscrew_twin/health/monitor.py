@@ -105,7 +105,7 @@ class MonitorSettings:
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
     false_alarm_rate: float = 0.01
     warmup: float = 5.0
-    cusum_shift: float = 4.0
+    cusum_shift: float = 5.0
     chi_square_window: int = 20
     spectral_window: float = 4.0
     spectral_period: float = 1.0
@@ -427,6 +427,8 @@ class HealthMonitor:
         op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
         angle = self._block_angle(block)
         gate = self.gate.check(block)
+        if not gate and "speed" in block.held:
+            gate = "gated: the speed was held past its last sample (late or ended)"
         if gate:
             self.gated_time += block.span
             return self._unknown(block, gate, op)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import replace
 from pathlib import Path
@@ -31,7 +32,7 @@ def _fitted() -> Baseline:
         shape_curvature=-0.01,
         sensor_noise=2e-4,
         error_relative=0.012,
-        error_bands=(0.02, 0.01, 0.015),
+        error_bands=(0.03, 0.02, 0.01, 0.008, 0.012, 0.015),
         temperature_min=290.0,
         temperature_max=300.0,
         fit_rms=0.009,
@@ -81,8 +82,14 @@ def test_shape_and_error_bands_follow_their_definitions() -> None:
     x = np.log10(speeds / SHAPE_REFERENCE_SPEED)
     np.testing.assert_allclose(b.shape(speeds), 1.0 + 0.03 * x - 0.01 * x * x, rtol=1e-15)
     assert b.shape(np.array([-30.0]))[0] == 1.0  # the shape depends on |speed|
-    below, between, above = ERROR_BAND_EDGES[0] / 2, sum(ERROR_BAND_EDGES) / 2, 2 * 100.0
-    assert [b.error_at(v) for v in (below, between, above, -above)] == [0.02, 0.01, 0.015, 0.015]
+    # one speed inside each band, and the sign does not matter
+    inside = (
+        [ERROR_BAND_EDGES[0] / 2]
+        + [0.5 * (low + high) for low, high in itertools.pairwise(ERROR_BAND_EDGES)]
+        + [2 * ERROR_BAND_EDGES[-1]]
+    )
+    assert [b.error_at(v) for v in inside] == list(b.error_bands)
+    assert b.error_at(-inside[2]) == b.error_bands[2]
     assert replace(b, error_bands=()).error_at(5.0) == 0.012
     assert b.temperature_distance(295.0) == 0.0
     assert b.temperature_distance(280.0) == pytest.approx(10.0)

@@ -42,7 +42,7 @@ def test_trajectories_stay_within_their_ranges(seed: int) -> None:
     assert np.max(np.abs(trajectory.speed)) <= PEAK_SPEED_RPM[1] * RPM * 1.0001
     assert 600.0 <= trajectory.preload[0] <= 2500.0 and np.ptp(trajectory.preload) == 0.0
     celsius = trajectory.temperature - CELSIUS_ZERO
-    assert -20.0 <= celsius.min() and celsius.max() <= 45.0
+    assert celsius.min() >= -20.0 and celsius.max() <= 45.0
     # every segment starts and ends at standstill and the joins are ramped: bounded dw/dt
     assert trajectory.speed[0] == 0.0
     acceleration = np.abs(np.diff(trajectory.speed)) / 1e-3

@@ -66,9 +66,7 @@ def test_the_gate_holds_for_its_angle_after_a_reversal() -> None:
     gate = ReversalGate(settings)
     blocks = _blocks(lambda t: alpha * (t - 1.0), 3.0, settings)
     gated = [b.time for b in blocks if gate.check(b)]
-    open_from = 1.0 + max(
-        math.sqrt(2.0 * settings.gate_angle / alpha), settings.gate_speed / alpha
-    )
+    open_from = 1.0 + max(math.sqrt(2.0 * settings.gate_angle / alpha), settings.gate_speed / alpha)
     first_open = min(b.stamps[0] for b in blocks if b.time > 1.0 and b.time not in gated)
     assert open_from <= first_open <= open_from + settings.block_duration + 1e-9
     assert any(0.0 < t < 1.0 for t in gated)  # slowing down into the reversal is gated too
