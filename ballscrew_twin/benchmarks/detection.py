@@ -13,7 +13,8 @@ Units are numbered; their number seeds the unit, its duty cycles, faults and noi
 (the monitor's error scale, gates, thresholds) may use only the training range
 (``--units 0:30``); the reported figures come from the test range (``--units 1000:1030``, the
 default), printed with the range. Per unit: one commissioning recording (``--commission`` s,
-ambient temperature), one healthy recording (``--healthy`` s, a new duty cycle, 1 in 4 a cold
+a cold start warming through the temperatures the unit will see: commission through a
+warm-up), one healthy recording (``--healthy`` s, a new duty cycle, 1 in 4 a cold
 start) and ``--faults`` fault recordings (``--fault-length`` s, onset uniform in the middle
 third) of the classes in turn at the severities of :data:`SEVERITIES`.
 
@@ -217,7 +218,7 @@ def run_unit(number: int, plan: Plan, config: TwinConfig, settings: MonitorSetti
     set_preload = float(rng.uniform(600.0, 2500.0))
     seeds = rng.integers(0, 2**31, size=3 + 2 * plan.faults)
     commissioning = _with_preload(
-        draw_trajectory(int(seeds[0]), plan.commission, cold_start=False), set_preload
+        draw_trajectory(int(seeds[0]), plan.commission, cold_start=True), set_preload
     )
     data = generate_unit_data(
         config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"
@@ -408,7 +409,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help=f"unit numbers FIRST:STOP (test {TEST_UNITS[0]}:{TEST_UNITS[1]}, training "
         f"{TRAINING_UNITS[0]}:{TRAINING_UNITS[1]})",
     )
-    parser.add_argument("--commission", type=float, default=300.0, help="commissioning [s]")
+    parser.add_argument(
+        "--commission", type=float, default=600.0, help="commissioning warm-up run [s]"
+    )
     parser.add_argument("--healthy", type=float, default=1200.0, help="healthy run per unit [s]")
     parser.add_argument("--faults", type=int, default=2, help="fault runs per unit [-]")
     parser.add_argument("--fault-length", type=float, default=60.0, help="fault run [s]")

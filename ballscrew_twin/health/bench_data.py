@@ -8,6 +8,9 @@ Subcommands:
 - ``samples [--out DIR]``: the committed sample bags ``data/samples/<name>`` from
   ``config/bench_scenes/<name>.yaml`` (healthy and one per fault class), deterministically
   (also ``python -m ballscrew_twin.health.bench_data samples``);
+- ``unit --unit N --seed S --duration D --out BAG [--fault CLASS:SEVERITY:ONSET]``: a bag of
+  a drawn unit that is not the twin (:mod:`.units`) through a random EMA duty cycle
+  (:mod:`.duty_cycles`), truth side file included;
 - ``info BAG``: channels, sample counts and rates, ground truth and reading issues of a bag.
 
 How a bag is made (:func:`generate`): the operating profile gives the true speed, temperature
@@ -672,6 +675,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     gen.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
     gen.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
     gen.add_argument("--plot", default=None, help="also write a PNG of the channels here")
+    unit = sub.add_parser(
+        "unit",
+        help="a bag of a drawn unit (not the twin) through a random EMA duty cycle",
+    )
+    unit.add_argument("--out", required=True, help="bag folder to create (must not exist)")
+    unit.add_argument("--unit", type=int, default=0, help="unit number (seeds the unit) [-]")
+    unit.add_argument("--seed", type=int, default=0, help="seed of the duty cycle and noise [-]")
+    unit.add_argument("--duration", type=float, default=60.0, help="length [s]")
+    unit.add_argument("--preload", type=float, default=1500.0, help="set preload [N]")
+    unit.add_argument(
+        "--temperature",
+        choices=("ambient", "cold-start", "random"),
+        default="random",
+        help="ambient 10-35 C, a cold start from -20..5 C, or 1 in 4 cold (random)",
+    )
+    unit.add_argument(
+        "--fault",
+        default=None,
+        metavar="CLASS:SEVERITY:ONSET",
+        help="inject one fault, e.g. preload_loss:0.05:30 (onset in s, growth the class's)",
+    )
+    unit.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
+    unit.add_argument("--plot", default=None, help="also write a PNG of the channels here")
     samples = sub.add_parser("samples", help="regenerate the sample bags of data/samples")
     samples.add_argument("--out", default=str(SAMPLE_DIR), help="folder of the sample bags")
     info = sub.add_parser("info", help="channels, rates, truth and issues of a bag")
@@ -699,10 +725,65 @@ def _info(bag: str) -> int:
     return 0
 
 
+def _fault_argument(text: str) -> FaultSpec:
+    """``CLASS:SEVERITY:ONSET`` -> a fault with the class's default growth."""
+    from .fault_profiles import DEFAULT_GROWTH
+
+    parts = text.split(":")
+    if len(parts) != 3 or parts[0] not in DEFAULT_GROWTH:
+        raise ConfigError(
+            f"--fault {text!r}: expected CLASS:SEVERITY:ONSET with CLASS one of "
+            f"{sorted(DEFAULT_GROWTH)}"
+        )
+    growth = DEFAULT_GROWTH[parts[0]]
+    return faults_from_list(
+        [
+            {
+                "class": parts[0],
+                "severity": parts[1],
+                "onset": parts[2],
+                "growth": growth,
+                "growth_time": 0.0 if growth == "step" else 1.0,
+            }
+        ],
+        "--fault",
+    )[0]
+
+
+def _unit_bag(args: argparse.Namespace) -> BenchData:
+    """``bench-data unit``: a drawn unit through a random duty cycle, written as a bag."""
+    from .duty_cycles import draw_trajectory
+    from .units import draw_unit
+
+    cold = {"ambient": False, "cold-start": True, "random": None}[args.temperature]
+    trajectory = draw_trajectory(args.seed, args.duration, cold_start=cold, preload=args.preload)
+    faults = (_fault_argument(args.fault),) if args.fault else ()
+    config = load_config(None)
+    data = generate_unit_data(
+        config,
+        draw_unit(args.unit),
+        trajectory,
+        faults=faults,
+        seed=args.seed,
+        name=f"unit {args.unit}",
+    )
+    write_bench_bag(data, args.out, storage=args.storage)
+    return data
+
+
 def run(args: argparse.Namespace) -> int:
-    """``bench-data``: generate, samples or info."""
+    """``bench-data``: generate, unit, samples or info."""
     if args.action == "info":
         return _info(args.bag)
+    if args.action == "unit":
+        data = _unit_bag(args)
+        print(
+            f"wrote {args.out} (unit {args.unit}, {len(data.torque)} torque samples, "
+            f"{len(data.faults)} fault(s)) and {truth_path(args.out)}"
+        )
+        if args.plot:
+            print(f"wrote {plot_bench_data(data, args.plot)}")
+        return 0
     if args.action == "samples":
         for bag in regenerate_samples(args.out, progress=True):
             print(f"wrote {bag} and {truth_path(bag).name}")

@@ -57,6 +57,8 @@ PRIOR_SIGMA = {"torque_gain": 0.02, "preload_scale": 0.15, "temperature_shift": 
 #: across a preload step or a hard acceleration does not pull the whole fit).
 FIT_SIGMA = 0.01
 ROBUST_SCALE = 3.0
+#: Weight of the priors as a share of the fitted blocks [-].
+PRIOR_SHARE = 0.1
 #: Most blocks the fit uses (evenly picked) and speeds per block for its drag mean [-].
 FIT_BLOCKS = 600
 FIT_SPEEDS = 8
@@ -221,6 +223,10 @@ def commission(
         ]
     )
 
+    # The twin's misfit is systematic over a regime, not independent from block to block: the
+    # priors weigh as PRIOR_SHARE of the blocks (a data set cannot argue a unit far outside its
+    # production spread by repeating one regime's error).
+    prior_weight = math.sqrt(PRIOR_SHARE * len(fit_blocks))
     # The fit runs on u, theta = nominal + step * u, so every unknown is of order one (the
     # finite-difference steps and the trust region are then alike for all of them).
     j0 = config.screw.screw_inertia
@@ -232,7 +238,7 @@ def commission(
         theta = nominal_theta + step * u
         misfit = (measured - _predict(twin, theta, fit_blocks)) / scale / FIT_SIGMA
         deviation = np.array([theta[0] - 1.0, theta[2], theta[3], theta[5], theta[6]])
-        return np.concatenate([misfit, deviation / priors])
+        return np.concatenate([misfit, deviation / priors * prior_weight])
 
     fit = least_squares(
         cost,
