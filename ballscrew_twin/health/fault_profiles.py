@@ -141,6 +141,21 @@ def faults_from_list(data: Any, where: str) -> tuple[FaultSpec, ...]:
         cls = item.pop("class", None)
         if cls not in FAULT_CLASSES:
             raise ConfigError(f"{path}.class = {cls!r} is not one of {list(FAULT_CLASSES)}")
+        severity = item.get("severity")
+        try:
+            value = float(severity)  # type: ignore[arg-type]
+        except (TypeError, ValueError):
+            value = math.nan  # not a number: from_mapping names it below
+        if math.isfinite(value) and not 0.0 < value <= MAX_SEVERITY[cls]:
+            hint = (
+                " (a viscosity or preload *increase* is not a fault of this class)"
+                if value < 0.0 and cls in ("lubricant_degradation", "preload_loss")
+                else ""
+            )
+            raise ConfigError(
+                f"{path}.severity = {severity!r} is outside the range of {cls}, "
+                f"(0, {MAX_SEVERITY[cls]:g}]{hint}"
+            )
         item.setdefault("growth", DEFAULT_GROWTH[cls])
         out.append(from_mapping(FaultSpec, item, path, fault_class=cls))
     return tuple(out)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -186,7 +187,7 @@ def test_faulted_twin_equals_the_steady_model_of_the_changed_screw_and_caches() 
         ({"class": "wear", "onset": 1.0, "severity": 0.1}, r"class = 'wear' is not one of"),
         (
             {"class": "preload_loss", "onset": 1.0, "severity": 1.5, "growth": "step"},
-            r"severity = 1.5 must be in",
+            r"severity = 1.5 is outside the range of preload_loss",
         ),
         ({"class": "preload_loss", "onset": -1.0, "severity": 0.1}, r"onset = -1.0 is outside"),
         (
@@ -215,3 +216,19 @@ def test_fault_validation_names_file_and_field(item: dict[str, object], match: s
     with pytest.raises(ConfigError, match=match) as err:
         faults_from_list([item], "scene.yaml: faults")
     assert "scene.yaml: faults[0]" in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("cls", "severity", "expected"),
+    [
+        ("lubricant_degradation", -0.2, "(0, 0.95]"),
+        ("preload_loss", 1.5, "(0, 0.95]"),
+        ("jam_onset", 12.0, "(0, 10]"),
+    ],
+)
+def test_a_severity_outside_the_class_range_names_that_range(
+    cls: str, severity: float, expected: str
+) -> None:
+    with pytest.raises(ConfigError, match=re.escape(expected)) as err:
+        faults_from_list([{"class": cls, "onset": 1.0, "severity": severity}], "scene: faults")
+    assert cls in str(err.value) and "[0, 10]" not in str(err.value)
