@@ -77,6 +77,9 @@ from .scheduler import TickScheduler
 from .tick_thread import TickThread, prepare_process
 
 NODE_NAME = "ballscrew_twin"
+#: ``header.frame_id`` of the screw, the one of every message and bag of the project (the
+#: simulation writer, the bench-data generator and the health node use the same).
+SCREW_FRAME_ID = "screw"
 #: What drives the ticks on wall time (parameter ``tick_source``); under ``use_sim_time`` the
 #: executor's timer always does (it follows ``/clock``).
 TICK_SOURCES = ("thread", "executor")
@@ -439,7 +442,7 @@ class TwinNode(Node):
             ),
             (
                 "frame_id",
-                "ball_screw",
+                SCREW_FRAME_ID,
                 sd("header.frame_id of published messages", read_only=False),
             ),
             (
