@@ -3,8 +3,12 @@
 Subscribes (topic names, message types and QoS are parameters; see ``config/twin_node.yaml``):
     ``speed_command``       std_msgs/Float64 or sensor_msgs/JointState (velocity) [rad/s]
     ``temperature``         sensor_msgs/Temperature [deg C], converted to [K] on arrival
-    ``preload_command``     std_msgs/Float64 [N]
-    ``axial_load_command``  std_msgs/Float64 [N], optional external axial load (default 0 N)
+    ``preload_command``     std_msgs/Float64 or geometry_msgs/WrenchStamped (force.z) [N]
+    ``axial_load_command``  std_msgs/Float64 or geometry_msgs/WrenchStamped (force.z) [N],
+                            optional external axial load (default 0 N)
+``input_preset: bench`` makes the input defaults those of the bench-bag schema (README):
+``/bench/joint_states`` (JointState, joint ``screw``), ``/bench/temperature``, ``/bench/preload``
+and ``/bench/axial_load`` (WrenchStamped), so a replayed bench bag drives the twin as it is.
 
 Publishes:
     ``drag_torque``      ballscrew_twin_msgs/DragTorque every simulation tick (default 1 kHz),
@@ -39,6 +43,7 @@ import numpy as np
 import rclpy
 from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -57,6 +62,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..errors import BallscrewTwinError
+from ..health.bags import BenchTopics
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.validity import all_finite
 from ..params import load_config
@@ -136,11 +142,44 @@ def _string_descriptor(
     )
 
 
+#: Message types of a force input: std_msgs/Float64 (data) or geometry_msgs/WrenchStamped
+#: (wrench.force.z, header stamp checked) [N].
+FORCE_TYPES = ("float64", "wrench_stamped")
+_BENCH = BenchTopics()
+#: Defaults of the input parameters per ``input_preset``: the command topics the demo publishes,
+#: or the bench-bag schema of the README (what ``bench-data generate`` writes and ``replay``
+#: plays; the axial load is not in the generated bags, so it stays 0 N unless published).
+INPUT_PRESETS: dict[str, dict[str, str]] = {
+    "commands": {
+        "speed_topic": "speed_command",
+        "speed_type": "float64",
+        "speed_joint": "",
+        "temperature_topic": "temperature",
+        "preload_topic": "preload_command",
+        "preload_type": "float64",
+        "axial_load_topic": "axial_load_command",
+        "axial_load_type": "float64",
+    },
+    "bench": {
+        "speed_topic": _BENCH.speed,
+        "speed_type": "joint_state",
+        "speed_joint": _BENCH.joint_name,
+        "temperature_topic": _BENCH.temperature,
+        "preload_topic": _BENCH.preload,
+        "preload_type": "wrench_stamped",
+        "axial_load_topic": "/bench/axial_load",
+        "axial_load_type": "wrench_stamped",
+    },
+}
+
 #: String parameters restricted to a set of values.
 CHOICES: dict[str, tuple[str, ...]] = {
     "fidelity": fidelity.FIDELITY_MODES,
     "steady_mode": ("auto", "symmetric", "full"),
+    "input_preset": tuple(INPUT_PRESETS),
     "speed_type": ("float64", "joint_state"),
+    "preload_type": FORCE_TYPES,
+    "axial_load_type": FORCE_TYPES,
     "input_qos": ("sensor_data", "reliable"),
     "executor": EXECUTORS,
     "tick_source": TICK_SOURCES,
@@ -296,11 +335,17 @@ class TwinNode(Node):
         self.create_subscription(
             Temperature, self._str("temperature_topic"), self._on_temperature, qos
         )
-        self.create_subscription(Float64, self._str("preload_topic"), self._on_preload, qos)
-        if self._str("axial_load_topic"):
-            self.create_subscription(
-                Float64, self._str("axial_load_topic"), self._on_axial_load, qos
-            )
+        for name, on_float, on_wrench in (
+            ("preload", self._on_preload, self._on_preload_wrench),
+            ("axial_load", self._on_axial_load, self._on_axial_load_wrench),
+        ):
+            topic = self._str(f"{name}_topic")
+            if not topic:  # the axial load may be switched off
+                continue
+            if self._str(f"{name}_type") == "wrench_stamped":
+                self.create_subscription(WrenchStamped, topic, on_wrench, qos)
+            else:
+                self.create_subscription(Float64, topic, on_float, qos)
 
         #: Held while ticks run and while anything they read is changed (parameters,
         #: inputs, diagnostics windows): the ticks may run on a thread of their own.
@@ -333,6 +378,21 @@ class TwinNode(Node):
         d = InputLimits()
         fd = _float_descriptor
         sd = _string_descriptor
+        self.declare_parameter(
+            "input_preset",
+            "commands",
+            sd(
+                "Defaults of the input topics and types: commands (speed_command ...) or bench "
+                "(the bench-bag schema: /bench/joint_states ...); each can be set on its own",
+                choices=CHOICES["input_preset"],
+            ),
+        )
+        preset_name = self._str("input_preset")
+        if preset_name not in INPUT_PRESETS:
+            raise ValueError(
+                f"parameter input_preset = {preset_name!r} is not one of {', '.join(INPUT_PRESETS)}"
+            )
+        preset = INPUT_PRESETS[preset_name]
         params: list[tuple[str, Any, ParameterDescriptor]] = [
             (
                 "sim_rate_hz",
@@ -429,23 +489,43 @@ class TwinNode(Node):
                     integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
                 ),
             ),
-            ("speed_topic", "speed_command", sd("Input: screw speed [rad/s]")),
+            ("speed_topic", preset["speed_topic"], sd("Input: screw speed [rad/s]")),
             (
                 "speed_type",
-                "float64",
+                preset["speed_type"],
                 sd("Message type of the speed input", choices=CHOICES["speed_type"]),
             ),
             (
                 "speed_joint",
-                "",
+                preset["speed_joint"],
                 sd("JointState joint whose velocity is the screw speed; empty: the first"),
             ),
-            ("temperature_topic", "temperature", sd("Input: sensor_msgs/Temperature [deg C]")),
-            ("preload_topic", "preload_command", sd("Input: preload, std_msgs/Float64 [N]")),
+            (
+                "temperature_topic",
+                preset["temperature_topic"],
+                sd("Input: sensor_msgs/Temperature [deg C]"),
+            ),
+            ("preload_topic", preset["preload_topic"], sd("Input: preload [N]")),
+            (
+                "preload_type",
+                preset["preload_type"],
+                sd(
+                    "Message type of the preload: float64 (data) or wrench_stamped (force.z)",
+                    choices=FORCE_TYPES,
+                ),
+            ),
             (
                 "axial_load_topic",
-                "axial_load_command",
-                sd("Input: external axial load, std_msgs/Float64 [N]; empty: not subscribed"),
+                preset["axial_load_topic"],
+                sd("Input: external axial load along +z [N]; empty: not subscribed"),
+            ),
+            (
+                "axial_load_type",
+                preset["axial_load_type"],
+                sd(
+                    "Message type of the axial load: float64 (data) or wrench_stamped (force.z)",
+                    choices=FORCE_TYPES,
+                ),
             ),
             (
                 "input_qos",
@@ -743,6 +823,16 @@ class TwinNode(Node):
         """External axial load command [N]."""
         value = float(msg.data)
         self._take(self.axial_load, value, check_axial_load(value, self.limits))
+
+    def _on_preload_wrench(self, msg: WrenchStamped) -> None:
+        """Preload measured by a load cell: ``wrench.force.z`` [N]."""
+        value = float(msg.wrench.force.z)
+        self._take(self.preload, value, check_preload(value, self.limits), msg.header.stamp)
+
+    def _on_axial_load_wrench(self, msg: WrenchStamped) -> None:
+        """External axial load along +z measured as a wrench: ``wrench.force.z`` [N]."""
+        value = float(msg.wrench.force.z)
+        self._take(self.axial_load, value, check_axial_load(value, self.limits), msg.header.stamp)
 
     # ------------------------------------------------------------------ simulation
     def _on_timer(self) -> None:
