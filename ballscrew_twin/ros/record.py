@@ -14,7 +14,7 @@ with the ``rosbags`` library:
 - the message definitions are stored in the bag (standard types and ``ballscrew_twin_msgs``),
   so any reader can decode it;
 - an mcap bag's chunks are compressed with zstd, as the bench-data generator writes them (a
-  replay of a sample bag: 803 kB uncompressed, 212 kB so; docs/benchmarks.md);
+  replay of a sample bag: 803 kB uncompressed, 231 kB so; docs/benchmarks.md);
 - the bag says it was recorded under ROS 2 ``jazzy`` (``ros_distro`` of its metadata, in
   ``metadata.yaml``, the mcap file's own copy and the sqlite3 schema table), where the bag
   library would write its own name.
