@@ -37,6 +37,7 @@ from typing import Any
 
 from ..errors import BallscrewTwinError
 from .command_args import add_ros_arguments, ros_argv
+from .executors import spin_once
 from .replay import ReplayError, message_class
 
 QOS_MODES = ("auto", "reliable", "best_effort")
@@ -300,7 +301,7 @@ def run(args: argparse.Namespace) -> int:
                     print(f"record: {line}", flush=True)
                     reported = line
                 next_report = now + PROGRESS_PERIOD
-            executor.spin_once(timeout_sec=0.05)
+            spin_once(executor, 0.05)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -158,3 +158,26 @@ def test_record_refuses_an_existing_bag(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "exists already" in result.stderr
+
+
+def test_a_shutdown_just_before_the_wait_still_closes_the_bag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SIGINT shuts the context down between the loop's ``context.ok()`` and the executor's
+    wait (rclpy then raises RCLError building the wait set): a clean stop all the same."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from ballscrew_twin.cli import main
+
+    original = SingleThreadedExecutor.spin_once
+
+    def shut_down_then_wait(self: SingleThreadedExecutor, timeout_sec: float) -> None:
+        rclpy.try_shutdown(context=self.context)  # what rclpy's SIGINT handler does
+        original(self, timeout_sec=timeout_sec)
+
+    monkeypatch.setattr(SingleThreadedExecutor, "spin_once", shut_down_then_wait)
+    out = tmp_path / "bag"
+    assert main(["record", "--out", str(out), "/x:std_msgs/msg/Float64"]) == 0
+    assert "record: wrote" in capsys.readouterr().out
+    with Reader(out) as reader:  # closed and valid
+        assert (reader.message_count, reader.ros_distro) == (0, "jazzy")
