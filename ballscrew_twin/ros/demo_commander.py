@@ -28,6 +28,8 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
+from .executors import spin_once
+
 #: Longest wait for the twin node to subscribe [s].
 STARTUP_TIMEOUT = 60.0
 #: Publish rate of the commands [Hz].
@@ -201,7 +203,7 @@ def main(args: list[str] | None = None) -> None:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         while rclpy.ok() and node.elapsed() < opts.duration:
-            executor.spin_once(timeout_sec=0.05)
+            spin_once(executor, 0.05)
             if node.waited() > STARTUP_TIMEOUT:
                 print(
                     f"twin_demo_commander: no twin node torque with {opts.listeners} "

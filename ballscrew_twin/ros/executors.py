@@ -34,9 +34,15 @@ def spin(executor: Executor, until: Callable[[], bool] | None = None) -> None:
     """
     context = executor.context
     while context.ok() and (until is None or not until()):
-        try:
-            executor.spin_once(timeout_sec=0.1)
-        except Exception:
-            if context.ok():
-                raise
-            # Shut down (SIGINT/SIGTERM) while waiting: the wait set could not be built.
+        spin_once(executor, 0.1)
+
+
+def spin_once(executor: Executor, timeout_sec: float) -> None:
+    """``executor.spin_once(timeout_sec)`` [s], where a shutdown (SIGINT/SIGTERM) between the
+    caller's ``context.ok()`` and the wait is not an error (rclpy then raises RCLError: the wait
+    set cannot be built on a shut-down context): the caller's ``context.ok()`` loop ends."""
+    try:
+        executor.spin_once(timeout_sec=timeout_sec)
+    except Exception:
+        if executor.context.ok():
+            raise

@@ -3,8 +3,12 @@
 Subscribes (topic names, message types and QoS are parameters; see ``config/twin_node.yaml``):
     ``speed_command``       std_msgs/Float64 or sensor_msgs/JointState (velocity) [rad/s]
     ``temperature``         sensor_msgs/Temperature [deg C], converted to [K] on arrival
-    ``preload_command``     std_msgs/Float64 [N]
-    ``axial_load_command``  std_msgs/Float64 [N], optional external axial load (default 0 N)
+    ``preload_command``     std_msgs/Float64 or geometry_msgs/WrenchStamped (force.z) [N]
+    ``axial_load_command``  std_msgs/Float64 or geometry_msgs/WrenchStamped (force.z) [N],
+                            optional external axial load (default 0 N)
+``input_preset: bench`` makes the input defaults those of the bench-bag schema (README):
+``/bench/joint_states`` (JointState, joint ``screw``), ``/bench/temperature``, ``/bench/preload``
+and ``/bench/axial_load`` (WrenchStamped), so a replayed bench bag drives the twin as it is.
 
 Publishes:
     ``drag_torque``      ballscrew_twin_msgs/DragTorque every simulation tick (default 1 kHz),
@@ -39,6 +43,7 @@ import numpy as np
 import rclpy
 from ballscrew_twin_msgs.msg import ContactStateArray, DragTorque
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import WrenchStamped
 from rcl_interfaces.msg import (
     FloatingPointRange,
     IntegerRange,
@@ -57,6 +62,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..errors import BallscrewTwinError
+from ..health.bags import BenchTopics
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.validity import all_finite
 from ..params import load_config
@@ -77,16 +83,27 @@ from .scheduler import TickScheduler
 from .tick_thread import TickThread, prepare_process
 
 NODE_NAME = "ballscrew_twin"
+#: ``header.frame_id`` of the screw, the one of every message and bag of the project (the
+#: simulation writer, the bench-data generator and the health node use the same).
+SCREW_FRAME_ID = "screw"
 #: What drives the ticks on wall time (parameter ``tick_source``); under ``use_sim_time`` the
 #: executor's timer always does (it follows ``/clock``).
 TICK_SOURCES = ("thread", "executor")
 #: A tick published within this time of its due time is on time [ns].
 ON_TIME_NS = 1_000_000
+#: Default share of ticks on time below which ``real time`` is WARN [-] (parameter
+#: ``min_on_time_share``). A 2-core machine shared with other work keeps 99.3 % on average,
+#: and a bare sleep loop 99.7 % (docs/benchmarks.md): 99.9 % warned every second there.
+MIN_ON_TIME_SHARE = 0.98
 #: Minimum interval between two log lines about the same input or failure [s].
 LOG_THROTTLE = 1.0
 #: Windows (of one simulated second) in a row in which the model's mean step time exceeds the
 #: step budget before ``fidelity: auto`` steps down [-].
 OVER_BUDGET_WINDOWS = 2
+#: Longest start-up phase (steady clock from the node's creation) [ns]: ticks skipped before the
+#: first tick on time and within this time are start-up (loading and warming the model up),
+#: counted apart and not a warning.
+STARTUP_GRACE_NS = 10 * NS_PER_S
 #: Substrings of model notes that are validity warnings (outside the validated envelope).
 VALIDITY_WORDS = ("validity:", "outside", "clamped", "blended", "failed", "not converged")
 
@@ -125,11 +142,44 @@ def _string_descriptor(
     )
 
 
+#: Message types of a force input: std_msgs/Float64 (data) or geometry_msgs/WrenchStamped
+#: (wrench.force.z, header stamp checked) [N].
+FORCE_TYPES = ("float64", "wrench_stamped")
+_BENCH = BenchTopics()
+#: Defaults of the input parameters per ``input_preset``: the command topics the demo publishes,
+#: or the bench-bag schema of the README (what ``bench-data generate`` writes and ``replay``
+#: plays; the axial load is not in the generated bags, so it stays 0 N unless published).
+INPUT_PRESETS: dict[str, dict[str, str]] = {
+    "commands": {
+        "speed_topic": "speed_command",
+        "speed_type": "float64",
+        "speed_joint": "",
+        "temperature_topic": "temperature",
+        "preload_topic": "preload_command",
+        "preload_type": "float64",
+        "axial_load_topic": "axial_load_command",
+        "axial_load_type": "float64",
+    },
+    "bench": {
+        "speed_topic": _BENCH.speed,
+        "speed_type": "joint_state",
+        "speed_joint": _BENCH.joint_name,
+        "temperature_topic": _BENCH.temperature,
+        "preload_topic": _BENCH.preload,
+        "preload_type": "wrench_stamped",
+        "axial_load_topic": "/bench/axial_load",
+        "axial_load_type": "wrench_stamped",
+    },
+}
+
 #: String parameters restricted to a set of values.
 CHOICES: dict[str, tuple[str, ...]] = {
     "fidelity": fidelity.FIDELITY_MODES,
     "steady_mode": ("auto", "symmetric", "full"),
+    "input_preset": tuple(INPUT_PRESETS),
     "speed_type": ("float64", "joint_state"),
+    "preload_type": FORCE_TYPES,
+    "axial_load_type": FORCE_TYPES,
     "input_qos": ("sensor_data", "reliable"),
     "executor": EXECUTORS,
     "tick_source": TICK_SOURCES,
@@ -250,6 +300,9 @@ class TwinNode(Node):
         self.clock_jumps_back = 0
         self.clock_jumps_forward = 0
         self.skipped_total = 0
+        #: Ticks skipped during start-up (before the first tick on time; not a warning).
+        self.startup_skipped = 0
+        self._startup_ends_ns = time.monotonic_ns() + STARTUP_GRACE_NS
         self.late_total = 0
         self.window = TickWindow()
         self._window_start_ns = self._now_ns()
@@ -282,11 +335,17 @@ class TwinNode(Node):
         self.create_subscription(
             Temperature, self._str("temperature_topic"), self._on_temperature, qos
         )
-        self.create_subscription(Float64, self._str("preload_topic"), self._on_preload, qos)
-        if self._str("axial_load_topic"):
-            self.create_subscription(
-                Float64, self._str("axial_load_topic"), self._on_axial_load, qos
-            )
+        for name, on_float, on_wrench in (
+            ("preload", self._on_preload, self._on_preload_wrench),
+            ("axial_load", self._on_axial_load, self._on_axial_load_wrench),
+        ):
+            topic = self._str(f"{name}_topic")
+            if not topic:  # the axial load may be switched off
+                continue
+            if self._str(f"{name}_type") == "wrench_stamped":
+                self.create_subscription(WrenchStamped, topic, on_wrench, qos)
+            else:
+                self.create_subscription(Float64, topic, on_float, qos)
 
         #: Held while ticks run and while anything they read is changed (parameters,
         #: inputs, diagnostics windows): the ticks may run on a thread of their own.
@@ -319,6 +378,21 @@ class TwinNode(Node):
         d = InputLimits()
         fd = _float_descriptor
         sd = _string_descriptor
+        self.declare_parameter(
+            "input_preset",
+            "commands",
+            sd(
+                "Defaults of the input topics and types: commands (speed_command ...) or bench "
+                "(the bench-bag schema: /bench/joint_states ...); each can be set on its own",
+                choices=CHOICES["input_preset"],
+            ),
+        )
+        preset_name = self._str("input_preset")
+        if preset_name not in INPUT_PRESETS:
+            raise ValueError(
+                f"parameter input_preset = {preset_name!r} is not one of {', '.join(INPUT_PRESETS)}"
+            )
+        preset = INPUT_PRESETS[preset_name]
         params: list[tuple[str, Any, ParameterDescriptor]] = [
             (
                 "sim_rate_hz",
@@ -355,6 +429,16 @@ class TwinNode(Node):
                 "step_budget",
                 0.5,
                 fd("Share of the step a model may take before auto steps down [-]", 0.05, 1.0),
+            ),
+            (
+                "min_on_time_share",
+                MIN_ON_TIME_SHARE,
+                fd(
+                    "real time on /diagnostics is WARN when a smaller share of the ticks is "
+                    "published within 1 ms of its due time [-]",
+                    0.0,
+                    1.0,
+                ),
             ),
             (
                 "max_catch_up_ticks",
@@ -405,23 +489,43 @@ class TwinNode(Node):
                     integer_range=[IntegerRange(from_value=0, to_value=99, step=1)],
                 ),
             ),
-            ("speed_topic", "speed_command", sd("Input: screw speed [rad/s]")),
+            ("speed_topic", preset["speed_topic"], sd("Input: screw speed [rad/s]")),
             (
                 "speed_type",
-                "float64",
+                preset["speed_type"],
                 sd("Message type of the speed input", choices=CHOICES["speed_type"]),
             ),
             (
                 "speed_joint",
-                "",
+                preset["speed_joint"],
                 sd("JointState joint whose velocity is the screw speed; empty: the first"),
             ),
-            ("temperature_topic", "temperature", sd("Input: sensor_msgs/Temperature [deg C]")),
-            ("preload_topic", "preload_command", sd("Input: preload, std_msgs/Float64 [N]")),
+            (
+                "temperature_topic",
+                preset["temperature_topic"],
+                sd("Input: sensor_msgs/Temperature [deg C]"),
+            ),
+            ("preload_topic", preset["preload_topic"], sd("Input: preload [N]")),
+            (
+                "preload_type",
+                preset["preload_type"],
+                sd(
+                    "Message type of the preload: float64 (data) or wrench_stamped (force.z)",
+                    choices=FORCE_TYPES,
+                ),
+            ),
             (
                 "axial_load_topic",
-                "axial_load_command",
-                sd("Input: external axial load, std_msgs/Float64 [N]; empty: not subscribed"),
+                preset["axial_load_topic"],
+                sd("Input: external axial load along +z [N]; empty: not subscribed"),
+            ),
+            (
+                "axial_load_type",
+                preset["axial_load_type"],
+                sd(
+                    "Message type of the axial load: float64 (data) or wrench_stamped (force.z)",
+                    choices=FORCE_TYPES,
+                ),
             ),
             (
                 "input_qos",
@@ -439,7 +543,7 @@ class TwinNode(Node):
             ),
             (
                 "frame_id",
-                "ball_screw",
+                SCREW_FRAME_ID,
                 sd("header.frame_id of published messages", read_only=False),
             ),
             (
@@ -720,6 +824,16 @@ class TwinNode(Node):
         value = float(msg.data)
         self._take(self.axial_load, value, check_axial_load(value, self.limits))
 
+    def _on_preload_wrench(self, msg: WrenchStamped) -> None:
+        """Preload measured by a load cell: ``wrench.force.z`` [N]."""
+        value = float(msg.wrench.force.z)
+        self._take(self.preload, value, check_preload(value, self.limits), msg.header.stamp)
+
+    def _on_axial_load_wrench(self, msg: WrenchStamped) -> None:
+        """External axial load along +z measured as a wrench: ``wrench.force.z`` [N]."""
+        value = float(msg.wrench.force.z)
+        self._take(self.axial_load, value, check_axial_load(value, self.limits), msg.header.stamp)
+
     # ------------------------------------------------------------------ simulation
     def _on_timer(self) -> None:
         """Run the ticks that are due on the node's clock (nothing once shutting down)."""
@@ -786,16 +900,32 @@ class TwinNode(Node):
                 "simulation restarted there"
             )
         if plan.skipped:
-            self.window.skipped += plan.skipped
-            self._auto_window.skipped += plan.skipped
-            self.skipped_total += plan.skipped
-            self._log_throttled(
-                "skipped",
-                f"{plan.skipped} ticks skipped: the node fell "
-                f"more than {self.scheduler.max_catch_up} ticks behind",
-            )
+            self.book_skipped(plan.skipped)
         for index in plan.ticks:
             self._tick(index)
+
+    @property
+    def starting_up(self) -> bool:
+        """Whether the node is still starting: no tick on time yet, within STARTUP_GRACE_NS."""
+        return time.monotonic_ns() < self._startup_ends_ns
+
+    def book_skipped(self, count: int) -> None:
+        """Count ``count`` skipped ticks: as start-up (logged as information) while
+        :attr:`starting_up`, else in the diagnostics windows (a warning)."""
+        if self.starting_up:
+            self.startup_skipped += count
+            self.get_logger().info(
+                f"{count} ticks skipped at start-up (loading and warming up the model)"
+            )
+            return
+        self.window.skipped += count
+        self._auto_window.skipped += count
+        self.skipped_total += count
+        self._log_throttled(
+            "skipped",
+            f"{count} ticks skipped: the node fell "
+            f"more than {self.scheduler.max_catch_up} ticks behind",
+        )
 
     def _step(self, op: OperatingPoint, contacts: bool = True) -> TwinOutput:
         """One model step at ``op``; the catalogue model stands in if the model fails.
@@ -848,6 +978,8 @@ class TwinNode(Node):
         self.last_output = out
         # Tick latency: due time to torque published (contact states follow, at a lower rate).
         latency = self._now_ns() - tick_ns
+        if latency <= ON_TIME_NS:
+            self._startup_ends_ns = 0  # keeping up: start-up is over
         self.window.add(step_time, latency)
         self._auto_window.add(step_time, latency)
         if latency > ON_TIME_NS:
@@ -997,7 +1129,7 @@ class TwinNode(Node):
         )
         level = diagnostics.OK
         message = f"{on_time:.2%} of ticks on time, real-time factor {rtf:.3g}"
-        if w.skipped or on_time < 0.999:
+        if w.skipped or on_time < self._float("min_on_time_share"):
             level = diagnostics.WARN
             message += f"; {w.late} late (> 1 ms), {w.skipped} skipped"
         if due == 0:
@@ -1016,6 +1148,8 @@ class TwinNode(Node):
                 ("on time within 1 ms [-]", f"{on_time:.5f}"),
                 ("late ticks (window / total)", f"{w.late} / {self.late_total}"),
                 ("skipped ticks (window / total)", f"{w.skipped} / {self.skipped_total}"),
+                ("skipped ticks at start-up", str(self.startup_skipped)),
+                ("on time share below which WARN [-]", f"{self._float('min_on_time_share'):g}"),
                 ("latency p50 / p99 / max [ms]", f"{p50:.3f} / {p99:.3f} / {pmax:.3f}"),
                 (
                     "model step mean / max [ms]",

@@ -17,7 +17,7 @@ from .conftest import SpinUntil
 
 
 def _header(sec: int) -> Header:
-    return Header(stamp=Time(sec=sec, nanosec=123_456_789), frame_id="ball_screw")
+    return Header(stamp=Time(sec=sec, nanosec=123_456_789), frame_id="screw")
 
 
 def _contact(i: int) -> ContactState:

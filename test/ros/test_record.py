@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import select
 import signal
+import sqlite3
 import subprocess
 import sys
 import time
@@ -12,10 +13,12 @@ from pathlib import Path
 
 import pytest
 import rclpy
+import yaml
 from rclpy.context import Context
+from rosbags.rosbag2 import Reader
 
 from ballscrew_twin.health.bags import open_raw_bag
-from ballscrew_twin.ros.record import RecordError, parse_topic
+from ballscrew_twin.ros.record import ROS_DISTRO, BagRecorder, RecordError, parse_topic
 from ballscrew_twin.ros.replay import BagPlayer
 
 from .test_replay import TORQUES, write_test_bag
@@ -95,6 +98,34 @@ def test_record_writes_back_what_replay_publishes(tmp_path: Path, ros_context: C
             assert got == sent  # byte for byte, in order
         clock = [m.log_time for m in b.messages(["/clock"])]
         assert clock and clock == sorted(clock)
+    # mcap chunk compression (storage-internal, so metadata.yaml says none): each chunk record
+    # names its compression as a length-prefixed string
+    (mcap,) = out.glob("*.mcap")
+    assert b"\x04\x00\x00\x00zstd" in mcap.read_bytes()
+    info = yaml.safe_load((out / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert info["ros_distro"] == ROS_DISTRO == "jazzy"
+
+
+class NoNode:
+    """A recorder that never subscribes needs no ROS node."""
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_bag_says_jazzy_everywhere_it_keeps_its_metadata(tmp_path: Path, storage: str) -> None:
+    out = tmp_path / "bag"
+    BagRecorder(NoNode(), out, [parse_topic("/x")], storage=storage, log=print).close()
+    with Reader(out) as reader:
+        assert reader.ros_distro == "jazzy"
+    (data,) = out.glob("*.mcap" if storage == "mcap" else "*.db3")
+    if storage == "mcap":  # the metadata record outside the (compressed) chunks
+        assert b"ros_distro: jazzy" in data.read_bytes()
+        assert b"rosbags" not in data.read_bytes().split(b"serialized_metadata")[1]
+    else:
+        with sqlite3.connect(data) as con:
+            assert con.execute("SELECT ros_distro FROM schema").fetchall() == [("jazzy",)]
+            (stored,) = con.execute("SELECT metadata FROM metadata").fetchone()
+        con.close()
+        assert yaml.safe_load(stored)["ros_distro"] == "jazzy"
 
 
 def test_parse_topic() -> None:
@@ -127,3 +158,26 @@ def test_record_refuses_an_existing_bag(tmp_path: Path) -> None:
     )
     assert result.returncode == 2
     assert "exists already" in result.stderr
+
+
+def test_a_shutdown_just_before_the_wait_still_closes_the_bag(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """SIGINT shuts the context down between the loop's ``context.ok()`` and the executor's
+    wait (rclpy then raises RCLError building the wait set): a clean stop all the same."""
+    from rclpy.executors import SingleThreadedExecutor
+
+    from ballscrew_twin.cli import main
+
+    original = SingleThreadedExecutor.spin_once
+
+    def shut_down_then_wait(self: SingleThreadedExecutor, timeout_sec: float) -> None:
+        rclpy.try_shutdown(context=self.context)  # what rclpy's SIGINT handler does
+        original(self, timeout_sec=timeout_sec)
+
+    monkeypatch.setattr(SingleThreadedExecutor, "spin_once", shut_down_then_wait)
+    out = tmp_path / "bag"
+    assert main(["record", "--out", str(out), "/x:std_msgs/msg/Float64"]) == 0
+    assert "record: wrote" in capsys.readouterr().out
+    with Reader(out) as reader:  # closed and valid
+        assert (reader.message_count, reader.ros_distro) == (0, "jazzy")
