@@ -64,12 +64,12 @@ from ..health.commission import commission
 from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMonitor, HealthSample
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
+from ..models.validity import celsius_to_kelvin
 from ..params import load_config
 from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import ERROR, STALE, Check, to_message
 from .diagnostics import OK as DIAG_OK
 from .diagnostics import WARN as DIAG_WARN
-from .inputs import celsius_to_kelvin
 
 NODE_NAME = "ballscrew_health"
 #: Minimum interval between two warnings of the same kind [s].

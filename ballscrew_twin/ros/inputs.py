@@ -18,11 +18,6 @@ RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 NS_PER_S = 1_000_000_000
 
 
-def celsius_to_kelvin(celsius: float) -> float:
-    """Convert a temperature from degrees Celsius to kelvin [K]."""
-    return celsius + CELSIUS_TO_KELVIN_OFFSET
-
-
 @dataclass(frozen=True, kw_only=True)
 class InputLimits:
     """Plausibility limits of commanded inputs; outside them a command is rejected.

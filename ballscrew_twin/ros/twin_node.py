@@ -64,7 +64,7 @@ from std_msgs.msg import Float64
 from ..errors import BallscrewTwinError
 from ..health.bags import BenchTopics
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
-from ..models.validity import all_finite
+from ..models.validity import all_finite, celsius_to_kelvin
 from ..params import load_config
 from . import cdr, diagnostics, fidelity
 from .executors import EXECUTORS, make_executor, spin
@@ -72,7 +72,6 @@ from .inputs import (
     NS_PER_S,
     InputChannel,
     InputLimits,
-    celsius_to_kelvin,
     check_axial_load,
     check_preload,
     check_screw_speed,

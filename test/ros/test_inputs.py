@@ -8,12 +8,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from ballscrew_twin.models.validity import celsius_to_kelvin
 from ballscrew_twin.ros.demo_commander import RPM_TO_RAD_S, command_at
 from ballscrew_twin.ros.inputs import (
     NS_PER_S,
     InputChannel,
     InputLimits,
-    celsius_to_kelvin,
     check_axial_load,
     check_preload,
     check_screw_speed,
@@ -135,3 +135,11 @@ def test_demo_schedule() -> None:
         assert check_screw_speed(cmd.screw_speed, LIMITS) is None
         assert check_preload(cmd.preload, LIMITS) is None
         assert check_temperature(celsius_to_kelvin(cmd.temperature_c), LIMITS) is None
+
+
+def test_the_node_accepts_its_own_lower_temperature_limit_in_celsius() -> None:
+    # -40 C, the documented limit, arrives as a Temperature message in Celsius; the node's
+    # conversion must land exactly on 233.15 K (a naive -40 + 273.15 is 233.14999999999998).
+    limits = InputLimits()
+    assert check_temperature(celsius_to_kelvin(-40.0), limits) is None
+    assert check_temperature(-40.0 + 273.15, limits) is not None  # the old conversion failed
