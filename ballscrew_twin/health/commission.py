@@ -14,7 +14,8 @@ gain 2 %, temperature shift 5 K, each shape coefficient 0.1: :data:`PRIOR_SIGMA`
 matter: at one set preload a preload scale and a gain change the torque nearly alike, and the
 priors split that change the way the spreads of a production lot make likeliest (a maximum a
 posteriori fit). The uncertainty of each fitted value
-comes from the Jacobian at the optimum, (J' J)^-1 times the reduced residual variance.
+comes from the Jacobian at the optimum, (J' J)^-1 times the reduced residual variance (it does
+not include the pull of the priors where the data hardly tell two unknowns apart).
 
 The twin's error after the fit sets the baseline's error model: e_rel is ``error_scale`` times
 the 95th percentile of |r_j| / |T_j| over 1.96 (a 1-sigma equivalent that a few outliers do not
