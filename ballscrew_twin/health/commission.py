@@ -29,9 +29,8 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -382,7 +381,7 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``commission``."""
-    from .bags import BenchTopics
+    from .detect import add_topic_arguments
 
     parser.add_argument("bag", help="healthy recording: bag folder or file (mcap or sqlite3)")
     parser.add_argument("--out", required=True, help="baseline YAML file to write")
@@ -394,26 +393,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=ERROR_SCALE,
         help="model error = this x the fit's 95th-percentile error / 1.96 [-]",
     )
-    parser.add_argument("--torque-topic", default=BenchTopics.torque)
-    parser.add_argument("--speed-topic", default=BenchTopics.speed)
-    parser.add_argument("--temperature-topic", default=BenchTopics.temperature)
-    parser.add_argument("--preload-topic", default=BenchTopics.preload)
-    parser.add_argument("--joint", default=BenchTopics.joint_name, help="joint of the screw")
+    add_topic_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     """Fit, write the baseline (and the plot), print the fitted values."""
-    from .bags import BenchTopics, read_bench_bag
-    from .detect import CHANNELS, recording_channels
+    from .detect import read_recording, recording_channels
 
-    topics = BenchTopics(
-        torque=args.torque_topic,
-        speed=args.speed_topic,
-        temperature=args.temperature_topic,
-        preload=args.preload_topic,
-        joint_name=args.joint,
-    )
-    recording = read_bench_bag(args.bag, topics, required=CHANNELS)
+    recording = read_recording(args)
     config = load_config(args.config)
     result = commission(
         recording_channels(recording),
@@ -438,23 +425,3 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         print(f"wrote {plot_commissioning(result, args.plot)}")
     return 0
-
-
-def with_error_scale(baseline: Baseline, factor: float) -> Baseline:
-    """``baseline`` with its relative model error times ``factor`` (benchmark tuning)."""
-    return replace(baseline, error_relative=baseline.error_relative * factor)
-
-
-def summary_values(result: CommissioningResult) -> dict[str, Any]:
-    """JSON-ready fitted values and uncertainties."""
-    b = result.baseline
-    return {
-        "torque_gain": b.torque_gain,
-        "torque_bias_Nm": b.torque_bias,
-        "preload_scale": b.preload_scale,
-        "temperature_shift_K": b.temperature_shift,
-        "inertia_kgm2": b.inertia,
-        "uncertainty": result.uncertainty,
-        "error_relative": b.error_relative,
-        "gated_share": result.gated_share,
-    }

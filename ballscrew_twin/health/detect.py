@@ -280,16 +280,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=MonitorSettings.warmup,
         help="healthy warm-up at the start [s]",
     )
+    add_topic_arguments(parser)
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+
+
+def add_topic_arguments(parser: argparse.ArgumentParser) -> None:
+    """The bench topics of a bag and the screw's joint (``detect``, ``commission``)."""
     parser.add_argument("--torque-topic", default=BenchTopics.torque)
     parser.add_argument("--speed-topic", default=BenchTopics.speed)
     parser.add_argument("--temperature-topic", default=BenchTopics.temperature)
     parser.add_argument("--preload-topic", default=BenchTopics.preload)
     parser.add_argument("--joint", default=BenchTopics.joint_name, help="joint of the screw")
-    parser.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the detector over the bag; print the verdict; exit 0 (1 for a FAULT verdict)."""
+def read_recording(args: argparse.Namespace) -> BenchRecording:
+    """The bag of ``args.bag`` with the topics of :func:`add_topic_arguments`."""
     topics = BenchTopics(
         torque=args.torque_topic,
         speed=args.speed_topic,
@@ -297,7 +302,12 @@ def run(args: argparse.Namespace) -> int:
         preload=args.preload_topic,
         joint_name=args.joint,
     )
-    recording = read_bench_bag(args.bag, topics, required=CHANNELS)
+    return read_bench_bag(args.bag, topics, required=CHANNELS)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the detector over the bag; print the verdict; exit 0 (1 for a FAULT verdict)."""
+    recording = read_recording(args)
     settings = MonitorSettings(false_alarm_rate=args.false_alarm_rate, warmup=args.warmup)
     config = load_config(args.config)
     out = Path(args.out)

@@ -658,13 +658,3 @@ def within_block_variance(block: Block) -> float | None:
     else:
         scatter = block.torque - block.torque.mean()
     return float(np.sum(scatter**2) / (n - 2))
-
-
-def block_acceleration(block: Block) -> float:
-    """Mean angular acceleration of the screw over a block [rad/s^2] (slope of a straight
-    line through the speed at the torque stamps; 0 with fewer than 3 samples). The drive
-    torque includes the screw's inertia torque I_s dw/dt on top of the drag torque."""
-    if len(block.stamps) < 3 or np.ptp(block.stamps) <= 0.0:
-        return 0.0
-    t = block.stamps - block.stamps.mean()
-    return float(np.polyfit(t, block.speed, 1)[0])

@@ -17,7 +17,6 @@ from ballscrew_twin.health.residuals import (
     SlowSignal,
     StampOrderError,
     TwinPredictor,
-    block_acceleration,
     within_block_variance,
 )
 from ballscrew_twin.models.base import OperatingPoint, TorqueBreakdown, TwinOutput
@@ -139,15 +138,14 @@ def test_within_block_variance_estimates_the_noise_around_a_trend() -> None:
     assert math.sqrt(variance) == pytest.approx(2e-4, rel=0.15)
 
 
-def test_block_acceleration_of_a_speed_ramp() -> None:
-    t = np.linspace(0.0, 0.1, 21)
-    block = Block(0, t, np.zeros(21), 5.0 + 30.0 * t, 300.0, 1500.0, ())
-    assert block_acceleration(block) == pytest.approx(30.0)
-
-
 @pytest.mark.parametrize(
     ("field", "value"),
-    [("block_duration", 0.0), ("sensor_noise", -1.0), ("model_error_relative", math.inf)],
+    [
+        ("block_duration", 0.0),
+        ("sensor_noise", -1.0),
+        ("model_error_relative", math.inf),
+        ("gate_angle", -1.0),
+    ],
 )
 def test_bad_residual_settings_name_the_field(field: str, value: float) -> None:
     with pytest.raises(ConfigError, match=field):
