@@ -28,6 +28,7 @@ import numpy as np
 from .errors import BallscrewTwinError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation import MECHANISMS, SimulationResult
+from .models.validity import CELSIUS_ZERO
 
 #: Folder of the message definitions (repository layout).
 MSG_DIR = Path(__file__).resolve().parents[1] / "msg_defs" / "msg"
@@ -213,8 +214,9 @@ def write_bag(
                     fidelity=FIDELITY,
                     real_time_factor=float(rtf) if math.isfinite(rtf) else 0.0,
                     screw_speed=float(result.screw_speed[i]),
-                    temperature=float(sc.temperature),
+                    temperature=float(sc.temperature) - CELSIUS_ZERO,
                     preload=float(result.preload_command[i]),
+                    axial_load=0.0,  # the dynamic scenarios apply no external axial load
                 )
                 writer.write(drag_conn, t_ns, store.serialize_cdr(msg, drag_cls.__msgtype__))
             for j, t in enumerate(result.contact_time):

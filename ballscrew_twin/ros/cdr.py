@@ -126,7 +126,7 @@ class DragTorqueEncoder:
         rest_at = _align(fidelity_at + len(fid), 8)
         layout = (
             f"<4siI{len(self._frame)}s{torques_at - 8 - len(self._frame)}x9d"
-            f"{len(fid)}s{rest_at - fidelity_at - len(fid)}x4d"
+            f"{len(fid)}s{rest_at - fidelity_at - len(fid)}x5d"
         )
         if len(self._packers) >= MAX_CACHED_FIDELITIES:
             self._packers.clear()
@@ -143,6 +143,7 @@ class DragTorqueEncoder:
         screw_speed: float,
         temperature: float,
         preload: float,
+        axial_load: float,
     ) -> bytes:
         """The CDR bytes (with encapsulation header) of one ``DragTorque``, ready to publish.
 
@@ -155,8 +156,9 @@ class DragTorqueEncoder:
             fidelity: name of the model that produced the values [-].
             real_time_factor: simulated time advanced / wall time spent [-].
             screw_speed: screw angular speed [rad/s].
-            temperature: lubricant / contact temperature [K].
+            temperature: lubricant / contact temperature [deg C] (the message's unit).
             preload: axial preload between the nuts [N].
+            axial_load: external axial load on the nut assembly [N].
 
         Raises:
             ValueError: not nine torques, a stamp out of range, a non-numeric value or a
@@ -178,6 +180,7 @@ class DragTorqueEncoder:
                 screw_speed,
                 temperature,
                 preload,
+                axial_load,
             )
         except struct.error as err:
             if len(values) != 9:

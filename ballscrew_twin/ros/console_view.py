@@ -32,7 +32,7 @@ from rclpy.utilities import remove_ros_args
 
 from .diagnostics import LEVEL_NAMES, level_of
 from .executors import make_executor, spin
-from .inputs import CELSIUS_TO_KELVIN_OFFSET, RAD_S_PER_RPM
+from .inputs import RAD_S_PER_RPM
 
 #: Longest wait for the first torque message [s].
 STARTUP_TIMEOUT = 60.0
@@ -141,7 +141,7 @@ class ConsoleView(Node):
         on_time = self.real_time.get("on time within 1 ms [-]", "n/a")
         print(
             f"t={self.elapsed():5.1f} s  {msg.screw_speed / RAD_S_PER_RPM:7.1f} rpm  "
-            f"{msg.temperature - CELSIUS_TO_KELVIN_OFFSET:5.1f} C  {msg.preload:6.0f} N  "
+            f"{msg.temperature:5.1f} C  {msg.preload:6.0f} N  "
             f"torque {msg.total * 1e3:8.3f} mN m  [{msg.fidelity}]  {rate:5.0f} msg/s  "
             f"rtf {rtf}  on time {on_time} ({self.real_time_level})  "
             f"health {self.health_text()}",
@@ -175,7 +175,7 @@ class ConsoleView(Node):
         rows = (
             (np.asarray(s.torque) * 1e3, "drag torque [mN m]"),
             (np.asarray(s.speed) / RAD_S_PER_RPM, "speed [rpm]"),
-            (np.asarray(s.temperature) - CELSIUS_TO_KELVIN_OFFSET, "temperature [C]"),
+            (np.asarray(s.temperature), "temperature [C]"),
             (np.asarray(s.preload), "preload [N]"),
         )
         for ax, (values, label) in zip(axes, rows, strict=True):

@@ -64,7 +64,7 @@ from std_msgs.msg import Float64
 from ..errors import BallscrewTwinError
 from ..health.bags import BenchTopics
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
-from ..models.validity import all_finite, celsius_to_kelvin
+from ..models.validity import CELSIUS_ZERO, all_finite, celsius_to_kelvin
 from ..params import load_config
 from . import cdr, diagnostics, fidelity
 from .executors import EXECUTORS, make_executor, spin
@@ -1036,8 +1036,9 @@ class TwinNode(Node):
             out.fidelity,
             real_time_factor,
             op.screw_speed,
-            op.temperature,
+            op.temperature - CELSIUS_ZERO,
             op.preload,
+            op.axial_load,
         )
 
     def _publish_contacts(self, out: TwinOutput, sec: int, nanosec: int) -> None:

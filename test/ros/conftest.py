@@ -26,7 +26,7 @@ TORQUES = (
     "spin",
 )
 #: DragTorque's float fields after ``fidelity``, in message order.
-OPERATING_POINT = ("real_time_factor", "screw_speed", "temperature", "preload")
+OPERATING_POINT = ("real_time_factor", "screw_speed", "temperature", "preload", "axial_load")
 
 
 @pytest.fixture

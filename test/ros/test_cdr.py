@@ -58,7 +58,7 @@ class Drag:
     frame_id: str
     fidelity: str
     torques: tuple[float, ...]
-    point: tuple[float, ...]  # real_time_factor, screw_speed, temperature, preload
+    point: tuple[float, ...]  # real_time_factor, screw_speed, temperature, preload, axial_load
 
 
 @dataclass(frozen=True)
@@ -275,7 +275,7 @@ def test_drag_torque_every_string_length(store: Any, frame_len: int) -> None:
     rng = np.random.default_rng(frame_len)
     encoder = DragTorqueEncoder("abcdefghi"[:frame_len])
     for fidelity_len in LENGTHS:
-        values = _wild_floats(rng, 13).tolist()
+        values = _wild_floats(rng, 14).tolist()
         drag = Drag(
             sec=int(rng.integers(-(2**31), 2**31)),
             nanosec=int(rng.integers(0, 2**32)),
@@ -324,7 +324,7 @@ def test_drag_torque_encoder_many_fidelities(store: Any) -> None:
     encoder = DragTorqueEncoder("ball_screw")
     for i in range(2 * 40):
         fidelity = f"model-{i % 40}" + "x" * (i % 5)
-        values = tuple(float(i + k) for k in range(13))
+        values = tuple(float(i + k) for k in range(14))
         _check_drag(store, encoder, Drag(i, i, "ball_screw", fidelity, values[:9], values[9:]))
 
 
@@ -338,7 +338,7 @@ def test_drag_torque_encoder_many_fidelities(store: Any) -> None:
     nanosec=st.integers(0, 2**32 - 1),
     frame_id=TEXT,
     fidelity=TEXT,
-    values=st.lists(FINITE, min_size=13, max_size=13),
+    values=st.lists(FINITE, min_size=14, max_size=14),
 )
 def test_drag_torque_property(
     store: Any, sec: int, nanosec: int, frame_id: str, fidelity: str, values: list[float]
@@ -380,8 +380,9 @@ def _encode_drag(**change: Any) -> bytes:
         "fidelity": "catalog-zhou",
         "real_time_factor": 1.0,
         "screw_speed": 10.0,
-        "temperature": 300.0,
+        "temperature": 26.85,
         "preload": 1000.0,
+        "axial_load": -250.0,
     }
     args.update(change)
     return DragTorqueEncoder("ball_screw").encode(**args)
@@ -469,7 +470,7 @@ def test_published_bytes_arrive_as_messages(
     drag_pub = node.create_publisher(DragTorque, "cdr_drag", 10)
     contacts_pub = node.create_publisher(ContactStateArray, "cdr_contacts", 10)
     drag = DragTorqueEncoder("ball_screw").encode(
-        7, 8, tuple(0.01 * k for k in range(9)), "catalog-zhou", 2.0, -10.47, 313.15, 3000.0
+        7, 8, tuple(0.01 * k for k in range(9)), "catalog-zhou", 2.0, -10.47, 40.0, 3000.0, 150.0
     )
     contacts = _contacts(200, "ball_screw", "quasi-static")
 
@@ -481,6 +482,7 @@ def test_published_bytes_arrive_as_messages(
     assert torques[0].fidelity == "catalog-zhou"
     assert math.isclose(torques[0].spin, 0.08)
     assert torques[0].screw_speed == -10.47
+    assert (torques[0].temperature, torques[0].axial_load) == (40.0, 150.0)
     got = states[0]
     assert len(got.contacts) == 200
     assert got.contacts[199].sphere_index == contacts.sphere_index[199]

@@ -98,7 +98,7 @@ def _reach(
         return (
             math.isclose(m.screw_speed, speed)
             and math.isclose(m.preload, preload)
-            and math.isclose(m.temperature, temp_c + 273.15)
+            and math.isclose(m.temperature, temp_c, abs_tol=1e-9)
         )
 
     assert spin_until(executor, arrived, every=bench.command(speed, temp_c, preload)), (
@@ -128,7 +128,7 @@ def test_command_moves_torque_the_right_way_within_a_few_ticks(
 ) -> None:
     bench = Bench(executor)
     low = _reach(spin_until, executor, bench, SPEED, 20.0, 1000.0)
-    assert low.temperature == pytest.approx(293.15)  # deg C converted to K at the edge
+    assert low.temperature == pytest.approx(20.0)  # deg C at the message edge (REP 103)
 
     # One preload step; note when the node took it, then find the first torque computed at it.
     accepted_at: list[int] = []

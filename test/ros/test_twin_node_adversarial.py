@@ -131,7 +131,8 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
         ]
         assert all(math.isfinite(v) for v in values), m
         assert abs(m.screw_speed) <= limits.max_screw_speed
-        assert limits.min_temperature <= m.temperature <= limits.max_temperature
+        kelvin = m.temperature + 273.15  # the message carries deg C
+        assert limits.min_temperature - 1e-9 <= kelvin <= limits.max_temperature + 1e-9
         assert 0.0 <= m.preload <= limits.max_preload
         assert m.fidelity.startswith("catalog")
 
