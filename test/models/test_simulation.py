@@ -421,7 +421,9 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
         assert t_ns == start + round(result.time[i] * 1e9)
         assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t_ns
         assert msg.total == result.drag_torque[i]
-        assert msg.fidelity == "dynamic" and msg.temperature == 293.15
+        # the message carries deg C (REP 103); the scenario is at 293.15 K
+        assert msg.fidelity == "dynamic" and msg.temperature == pytest.approx(20.0, abs=1e-12)
+        assert msg.axial_load == 0.0
         assert msg.screw_speed == result.screw_speed[i]
     moving = int(np.argmax(np.abs(result.screw_speed) > 1.0))
     msg = drags[moving][1]
