@@ -67,7 +67,7 @@ DETECTORS: tuple[str, ...] = ("cusum", "chi_square", "spectral")
 HISTORY_BLOCKS = 1200
 #: Samples of a block at which the twin is evaluated (evenly spread) [-].
 EVALUATED_SAMPLES = 20
-#: Speeds of a block kept for the classification's signatures (evenly picked) [-].
+#: Samples of a block at which the preload sensitivity dT/dF is taken (evenly picked) [-].
 SIGNATURE_SPEEDS = 5
 #: Tracker priors of a commissioned unit relative to the nominal ones [-].
 COMMISSIONED_PRIOR = 0.05
@@ -213,9 +213,7 @@ class _Record:
     time: float
     measured: float
     predicted: float
-    drag: float
     preload_sensitivity: float
-    speeds: FloatArray
     operating_point: OperatingPoint
     noise_variance: float
     state: FloatArray
@@ -449,7 +447,6 @@ class HealthMonitor:
             ) * b.shape(block.speed[few])
         except BallscrewTwinError as err:  # invalid operating point, solver failure
             return self._unknown(block, f"no prediction: {err}", None)
-        picked = block.speed[few]
         drag = float(np.mean(drags))
         heavy = float(np.mean(drags[few]))
         load = max(block.preload, 1e-9)
@@ -500,9 +497,7 @@ class HealthMonitor:
                 block.time,
                 measured,
                 predicted,
-                b.torque_gain * drag,
                 preload_sensitivity,
-                np.array(picked, dtype=float),
                 op,
                 noise_var,
                 prior_state,

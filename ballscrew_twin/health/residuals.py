@@ -236,9 +236,6 @@ class TwinPredictor:
         self._changed: dict[tuple[str, float], SteadyStateModel] = {}
         self._cache: dict[tuple[int, int, int, int], Prediction] = {}
         self._signature_cache: dict[tuple[str, float, tuple[int, int, int, int]], float] = {}
-        #: Number of model evaluations so far (four per new grid cell, one more for each
-        #: fault signature asked for).
-        self.evaluations = 0
 
     def _key(self, op: OperatingPoint) -> tuple[int, int, int, int]:
         s = self.settings
@@ -260,7 +257,6 @@ class TwinPredictor:
         )
 
     def _torque(self, model: SteadyStateModel, op: OperatingPoint) -> float:
-        self.evaluations += 1
         value = float(model.evaluate(op).drag_torque)
         if not math.isfinite(value):
             raise OperatingPointError(f"the twin returned a non-finite torque at {op}")
@@ -351,7 +347,6 @@ class UnitTwin:
         self.model = RealTimeModel(config)
         self.preload_scale = preload_scale
         self.temperature_shift = temperature_shift
-        self.evaluations = 0
 
     def adjusted(self, preload_scale: float, temperature_shift: float) -> UnitTwin:
         """A twin of other scales sharing this one's map."""
@@ -372,7 +367,6 @@ class UnitTwin:
         """Drag torque [N m] at each ``speed`` [rad/s], one ``temperature`` [K] and measured
         ``preload`` [N], the preload times ``preload_factor`` [-] (a preload loss)."""
         load = max(self.preload_scale * preload_factor * preload, 0.0)
-        self.evaluations += len(speed)
         return self.model.map.total_torque(
             np.asarray(speed, dtype=np.float64),
             temperature + self.temperature_shift,
