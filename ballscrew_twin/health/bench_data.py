@@ -55,6 +55,7 @@ from .fault_profiles import (
     ripple_torque,
 )
 from .sensors import (
+    Encoder,
     SensorSet,
     cumulative_angle,
     measure,
@@ -215,6 +216,55 @@ def _ripple_amplitudes(
     return raceway, sphere
 
 
+def _sample_times(sensors: SensorSet, duration: float) -> dict[str, FloatArray]:
+    """Sampling instants [s] of every sensor over ``duration`` [s]."""
+    return {
+        name: sample_times(getattr(sensors, name).rate, duration)
+        for name in ("torque", "speed", "temperature", "preload")
+    }
+
+
+def _drive(
+    fine: FloatArray, nominal: FloatArray, encoder: Encoder
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The drive's true speed with its ripple [rad/s], the screw angle [rad] and the
+    acceleration [rad/s^2] on the instants ``fine`` [s], from the ``nominal`` speed."""
+    speed = speed_with_ripple(
+        nominal, cumulative_angle(fine, nominal), encoder.ripple, encoder.ripple_order
+    )
+    angle = cumulative_angle(fine, speed)
+    acceleration = np.gradient(speed, fine) if len(fine) > 1 else np.zeros_like(fine)
+    return speed, angle, acceleration
+
+
+def _slow_readings(
+    sensors: SensorSet,
+    times: dict[str, FloatArray],
+    speed: FloatArray,
+    angle: FloatArray,
+    true_temperature: FloatArray,
+    set_preload: FloatArray,
+    rng: np.random.Generator,
+) -> dict[str, FloatArray]:
+    """Encoder, thermometer and load-cell readings (the :class:`BenchData` fields) from the
+    true values at each sensor's instants; the noise is drawn in this order, after the torque
+    meter's, so that a seed reproduces a bag."""
+    enc, th, cell = sensors.speed, sensors.temperature, sensors.preload
+    t_temp = times["temperature"]
+    return {
+        "speed_time": times["speed"],
+        "speed": measure(speed, enc.noise, 0.0, 0.0, rng),
+        "angle": quantise(angle, enc.angle_resolution),
+        "temperature_time": t_temp,
+        "temperature": measure(
+            true_temperature + th.drift * t_temp, th.noise, 0.0, th.resolution, rng
+        ),
+        "temperature_variance": np.full_like(t_temp, th.noise**2),
+        "preload_time": times["preload"],
+        "preload": measure(set_preload, cell.noise, cell.bias, cell.resolution, rng),
+    }
+
+
 def generate(scene: BenchScene, seed: int | None = None, progress: bool = False) -> BenchData:
     """A recording of ``scene`` (see the module docstring); ``seed`` None: the scene's."""
     config = load_config(scene.config_path())
@@ -227,19 +277,10 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
     grid = model_grid(scene)
     grid_torque = _model_torque(scene, config, grid, progress)
 
-    times = {
-        name: sample_times(getattr(sensors, name).rate, scene.duration)
-        for name in ("torque", "speed", "temperature", "preload")
-    }
+    times = _sample_times(sensors, scene.duration)
     # The drive's true speed and angle on the union of the torque and encoder instants.
     fine = np.union1d(times["torque"], times["speed"])
-    nominal, _, _ = scene.profile_at(fine)
-    enc = sensors.speed
-    speed = speed_with_ripple(
-        nominal, cumulative_angle(fine, nominal), enc.ripple, enc.ripple_order
-    )
-    angle = cumulative_angle(fine, speed)
-    acceleration = np.gradient(speed, fine) if len(fine) > 1 else np.zeros_like(fine)
+    speed, angle, acceleration = _drive(fine, scene.profile_at(fine)[0], sensors.speed)
 
     # Torque meter: drag (interpolated) + defect ripple + inertia torque.
     tt = times["torque"]
@@ -251,21 +292,17 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
     meter = sensors.torque
     torque = measure(drag + ripple + inertia, meter.noise, meter.bias, meter.resolution, rng)
 
-    # Encoder.
-    ts = times["speed"]
-    on_speed = np.searchsorted(fine, ts)
-    measured_speed = measure(speed[on_speed], enc.noise, 0.0, 0.0, rng)
-    measured_angle = quantise(angle[on_speed], enc.angle_resolution)
-
-    # Thermometer and load cell.
-    th = sensors.temperature
-    t_temp = times["temperature"]
-    _, true_temperature, _ = scene.profile_at(t_temp)
-    temperature = measure(true_temperature + th.drift * t_temp, th.noise, 0.0, th.resolution, rng)
-    cell = sensors.preload
-    t_pre = times["preload"]
-    _, _, set_preload = scene.profile_at(t_pre)
-    preload = measure(set_preload, cell.noise, cell.bias, cell.resolution, rng)
+    # Encoder, thermometer and load cell.
+    on_speed = np.searchsorted(fine, times["speed"])
+    slow = _slow_readings(
+        sensors,
+        times,
+        speed[on_speed],
+        angle[on_speed],
+        scene.profile_at(times["temperature"])[1],
+        scene.profile_at(times["preload"])[2],
+        rng,
+    )
 
     truth = {
         "seed": int(seed),
@@ -285,14 +322,7 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
         model_torque=grid_torque,
         torque_time=tt,
         torque=torque,
-        speed_time=ts,
-        speed=measured_speed,
-        angle=measured_angle,
-        temperature_time=t_temp,
-        temperature=temperature,
-        temperature_variance=np.full_like(t_temp, th.noise**2),
-        preload_time=t_pre,
-        preload=preload,
+        **slow,
         truth=truth,
     )
 
@@ -417,18 +447,9 @@ def generate_unit_data(
     table = table or unit_table_for(config, unit, trajectory, faults)
     rng = np.random.default_rng(seed)
     duration = trajectory.duration
-    times = {
-        name_: sample_times(getattr(sensors, name_).rate, duration)
-        for name_ in ("torque", "speed", "temperature", "preload")
-    }
-    enc = sensors.speed
+    times = _sample_times(sensors, duration)
     fine = trajectory.time
-    nominal = trajectory.speed
-    speed = speed_with_ripple(
-        nominal, cumulative_angle(fine, nominal), enc.ripple, enc.ripple_order
-    )
-    angle = cumulative_angle(fine, speed)
-    acceleration = np.gradient(speed, fine)
+    speed, angle, acceleration = _drive(fine, trajectory.speed, sensors.speed)
 
     tt = times["torque"]
     w_t = np.interp(tt, fine, speed)
@@ -449,16 +470,14 @@ def generate_unit_data(
     )
 
     ts = times["speed"]
-    measured_speed = measure(np.interp(ts, fine, speed), enc.noise, 0.0, 0.0, rng)
-    measured_angle = quantise(np.interp(ts, fine, angle), enc.angle_resolution)
-    th = sensors.temperature
-    t_temp = times["temperature"]
-    true_temperature = np.interp(t_temp, fine, trajectory.temperature)
-    temperature = measure(true_temperature + th.drift * t_temp, th.noise, 0.0, th.resolution, rng)
-    cell = sensors.preload
-    t_pre = times["preload"]
-    preload = measure(
-        np.interp(t_pre, fine, trajectory.preload), cell.noise, cell.bias, cell.resolution, rng
+    slow = _slow_readings(
+        sensors,
+        times,
+        np.interp(ts, fine, speed),
+        np.interp(ts, fine, angle),
+        np.interp(times["temperature"], fine, trajectory.temperature),
+        np.interp(times["preload"], fine, trajectory.preload),
+        rng,
     )
     truth = {
         "seed": int(seed),
@@ -480,14 +499,7 @@ def generate_unit_data(
         model_torque=drag,
         torque_time=tt,
         torque=torque,
-        speed_time=ts,
-        speed=measured_speed,
-        angle=measured_angle,
-        temperature_time=t_temp,
-        temperature=temperature,
-        temperature_variance=np.full_like(t_temp, th.noise**2),
-        preload_time=t_pre,
-        preload=preload,
+        **slow,
         truth=truth,
     )
 
