@@ -168,9 +168,10 @@ class Baseline:
         )
 
     def save(self, path: str | Path) -> Path:
-        """Write :meth:`to_yaml` to ``path``."""
+        """Write :meth:`to_yaml` to ``path`` (its folder is created if missing)."""
         file = Path(path)
         try:
+            file.parent.mkdir(parents=True, exist_ok=True)
             file.write_text(self.to_yaml(), encoding="utf-8")
         except OSError as err:
             raise ConfigError(f"{file}: cannot write baseline ({err.strerror})") from err

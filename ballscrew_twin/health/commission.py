@@ -371,6 +371,7 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
     fig.tight_layout()
     file = Path(path)
     try:
+        file.parent.mkdir(parents=True, exist_ok=True)
         fig.savefig(file, dpi=110)
     except OSError as err:
         raise BallscrewTwinError(f"{file}: cannot write plot ({err.strerror})") from err

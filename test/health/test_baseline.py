@@ -95,3 +95,9 @@ def test_shape_and_error_bands_follow_their_definitions() -> None:
     assert b.temperature_distance(280.0) == pytest.approx(10.0)
     assert b.temperature_distance(310.0) == pytest.approx(10.0)
     assert math.isfinite(b.error_absolute)
+
+
+def test_saving_creates_the_folder(tmp_path: Path) -> None:
+    # The README's `commission ... --out out/unit.yaml` on a fresh clone has no out/ yet.
+    file = _fitted().save(tmp_path / "out" / "unit.yaml")
+    assert load_baseline(file) == _fitted()
