@@ -86,6 +86,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model", default="steady", choices=("catalog", "zhou", "steady"))
     parser.add_argument("--mode", default="auto", choices=("auto", "symmetric", "full"))
     parser.add_argument("--json", action="store_true", help="machine-readable output (SI)")
+    parser.add_argument(
+        "--plot",
+        default=None,
+        metavar="PNG",
+        help="write the contact states per sphere of each nut here (steady model)",
+    )
 
 
 def output_to_dict(out: TwinOutput) -> dict[str, Any]:
@@ -182,6 +188,10 @@ def run(args: argparse.Namespace) -> int:
     note of the output, also printed on stderr; a temperature that reads as kelvin typed as
     degrees Celsius is refused with that hint.
     """
+    if args.plot is not None and args.model != "steady":
+        raise BallscrewTwinError(
+            f"--plot: the {args.model} model does not resolve contacts; use --model steady"
+        )
     config = load_config(args.config)
     envelope = ValidityEnvelope.for_config(config)
     op = OperatingPoint(
@@ -197,6 +207,17 @@ def run(args: argparse.Namespace) -> int:
             print(f"ballscrew-twin drag: {note}", file=sys.stderr)
     data = output_to_dict(out)
     print(json.dumps(data, indent=2) if args.json else format_output(data))
+    if args.plot is not None and out.contacts is not None:
+        from .plots.contact_states import from_contact_states, plot_sphere_states
+
+        title = (
+            f"{out.fidelity}: {args.speed:g} rpm, {args.temperature:g} °C, "
+            f"preload {args.preload:g} N, axial load {args.axial_load:g} N"
+        )
+        path = plot_sphere_states(
+            from_contact_states(out.contacts), config.screw.balls_per_nut, title, args.plot
+        )
+        print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
     return 0
 
 

@@ -16,11 +16,71 @@ failures found are saved and replayed first until fixed.
 from __future__ import annotations
 
 import os
+from typing import Any
 
+import pytest
 from hypothesis import settings
+from matplotlib.figure import Figure
 
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(os.getpid() % 100 + 1))
 
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI", "").lower() == "true" else "default")
+
+
+class SavedFigures:
+    """Figures saved while a test runs (``Figure.savefig`` recorded), and a check of their axes.
+
+    An axes with something drawn on it must carry a unit in brackets on its y label and on the
+    x label of itself or of an axes sharing its x axis (``[-]`` for a ratio); a colour bar on
+    its own label.
+    """
+
+    def __init__(self) -> None:
+        self.saved: list[tuple[Figure, str]] = []
+
+    def paths(self) -> list[str]:
+        return [path for _, path in self.saved]
+
+    def missing_units(self) -> list[str]:
+        """One line per axis label without a unit: ``file: title: x|y label 'text'``."""
+        problems = []
+        for fig, path in self.saved:
+            for ax in fig.axes:
+                drawn = ax.lines or ax.collections or ax.images or ax.patches or ax.containers
+                if not drawn or not ax.get_visible():
+                    continue
+                where = f"{path}: {ax.get_title() or fig.get_suptitle()!r}"
+                colorbar = getattr(ax, "_colorbar", None)
+                if colorbar is not None:
+                    label = ax.get_ylabel() or ax.get_xlabel()
+                    if not _has_unit(label):
+                        problems.append(f"{where}: colour bar label {label!r}")
+                    continue
+                if not _has_unit(ax.get_ylabel()):
+                    problems.append(f"{where}: y label {ax.get_ylabel()!r}")
+                siblings = ax.get_shared_x_axes().get_siblings(ax)
+                if not any(_has_unit(other.get_xlabel()) for other in siblings):
+                    problems.append(f"{where}: x label {ax.get_xlabel()!r}")
+        return problems
+
+
+def _has_unit(label: str) -> bool:
+    """A label names a unit: ``quantity [unit]`` with a non-empty unit."""
+    opening, closing = label.rfind("["), label.rfind("]")
+    return 0 <= opening < closing - 1
+
+
+@pytest.fixture
+def saved_figures(monkeypatch: pytest.MonkeyPatch) -> SavedFigures:
+    """Record every figure saved during the test (the file is still written)."""
+    record = SavedFigures()
+    original = Figure.savefig
+
+    def savefig(fig: Figure, fname: Any, *args: Any, **kwargs: Any) -> Any:
+        record.saved.append((fig, str(fname)))
+        return original(fig, fname, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", savefig)
+    return record
