@@ -33,10 +33,7 @@ __all__ = ["CELSIUS_ZERO", "RPM", "build_model", "main"]
 #: ``module:name`` takes them from the object ``name`` of the module instead.
 COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
-    "calibrate": (
-        "ballscrew_twin.checked_commands:calibrate",
-        "fit the parameters the paper omits",
-    ),
+    "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
     "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
