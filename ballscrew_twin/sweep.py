@@ -26,7 +26,8 @@ distributed cluster; both give the same file. A point that fails is a row with
 
 Output: ``--out FILE.csv`` (one row per point), ``FILE.json`` (the exact settings: model, mode,
 parameter file and its SHA-256, dimensions, seed, package versions, run statistics) and
-``FILE.png`` (drag torque against each varying dimension).
+``FILE.png`` (drag torque as curves over a grid, one per value of the second varying
+dimension, or as a heat map of random draws: :mod:`ballscrew_twin.plots.sweep`).
 """
 
 from __future__ import annotations
@@ -498,29 +499,14 @@ def write_csv(result: SweepResult, path: Path) -> None:
             writer.writerow([_cell(row.get(c, "")) for c in result.columns])
 
 
-def write_plot(result: SweepResult, dimensions: Sequence[Dimension], path: Path) -> None:
-    """Drag torque against each swept dimension (PNG, one panel a dimension)."""
-    import matplotlib
+def write_plot(result: SweepResult, dimensions: Sequence[Dimension], path: Path) -> Path | None:
+    """Drag torque over the swept dimensions (PNG; see :mod:`ballscrew_twin.plots.sweep`);
+    None when nothing varies or no point succeeded."""
+    from .plots.sweep import plot_sweep
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    ok = [r for r in result.rows if r["status"] == "ok"]
-    shown = [d for d in dimensions if len(d.values) != 1]
-    if not shown:
-        return
-    fig, axes = plt.subplots(1, len(shown), figsize=(4.0 * len(shown), 3.5), squeeze=False)
-    torque = np.array([r["drag_torque_Nm"] for r in ok]) * 1e3
-    for ax, dim in zip(axes[0], shown, strict=True):
-        column = OPERATING_COLUMNS.get(dim.name, dim.name)
-        ax.plot([r[column] for r in ok], torque, ".", alpha=0.6)
-        ax.set_xlabel(f"{column} [{dim.unit}]" if dim.name not in OPERATING_COLUMNS else column)
-        ax.set_ylabel("drag torque [N mm]")
-        ax.grid(True, alpha=0.3)
-    fig.suptitle(f"sweep: {result.settings['model']}, {len(ok)} of {len(result.rows)} points ok")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    ok = sum(r["status"] == "ok" for r in result.rows)
+    title = f"sweep: {result.settings['model']}, {ok} of {len(result.rows)} points ok"
+    return plot_sweep(result.rows, dimensions, OPERATING_COLUMNS, title, path)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -609,13 +595,12 @@ def run(args: argparse.Namespace) -> int:
     out.parent.mkdir(parents=True, exist_ok=True)
     write_csv(result, out)
     out.with_suffix(".json").write_text(json.dumps(result.settings, indent=2), encoding="utf-8")
-    if not args.no_plot:
-        write_plot(result, dims, out.with_suffix(".png"))
+    plot = None if args.no_plot else write_plot(result, dims, out.with_suffix(".png"))
     failed = result.settings["failed_points"]
     print(
         f"sweep: {len(points)} points ({failed} failed) of {args.model} in "
         f"{result.settings['wall_time_s']:.2f} s ({result.settings['executor']}); "
-        f"wrote {out}, {out.with_suffix('.json')}"
+        f"wrote {out}, {out.with_suffix('.json')}" + (f", {plot}" if plot else "")
     )
     clamped = sum("validity:" in str(row.get("notes", "")) for row in result.rows)
     if clamped:

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
@@ -222,3 +223,56 @@ def test_unreachable_scheduler_is_a_clear_error(
     )
     assert code == 2
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in capsys.readouterr().err
+
+
+def test_grid_plot_is_curves_per_temperature_in_panels_per_preload(
+    tmp_path: Path, saved_figures: SavedFigures
+) -> None:
+    out = tmp_path / "grid.csv"
+    grid = ["--speed", "100,1000,3000", "--temperature=20,60", "--preload", "500,1500"]
+    assert (
+        main(["sweep", "--model", "steady", *grid, "--workers", "1", "--quiet", "--out", str(out)])
+        == 0
+    )
+    assert saved_figures.paths() == [str(out.with_suffix(".png"))]
+    assert out.with_suffix(".png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert saved_figures.missing_units() == []
+    fig = saved_figures.saved[0][0]
+    panels = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title() for ax in panels] == ["preload = 500 N", "preload = 1500 N"]
+    rows = _rows(out)
+    for ax, preload in zip(panels, (500.0, 1500.0), strict=True):
+        assert [line.get_label() for line in ax.lines] == [
+            "temperature = 20 °C",
+            "temperature = 60 °C",
+        ]
+        for line, celsius in zip(ax.lines, (20.0, 60.0), strict=True):
+            expected = [
+                float(r["drag_torque_Nm"]) * 1e3
+                for r in rows
+                if float(r["preload_N"]) == preload
+                and float(r["temperature_K"]) == pytest.approx(celsius + 273.15)
+            ]
+            np.testing.assert_allclose(line.get_xdata(), [100.0, 1000.0, 3000.0])
+            np.testing.assert_allclose(line.get_ydata(), expected)
+
+
+def test_random_plot_is_a_heat_map(tmp_path: Path, saved_figures: SavedFigures) -> None:
+    out = tmp_path / "random.csv"
+    draw = ["--samples", "40", "--speed", "uniform:50:3000", "--temperature=uniform:-20:60"]
+    assert (
+        main(["sweep", "--model", "steady", *draw, "--workers", "1", "--quiet", "--out", str(out)])
+        == 0
+    )
+    assert saved_figures.missing_units() == []
+    fig = saved_figures.saved[0][0]
+    heat = fig.axes[0]
+    assert (heat.get_xlabel(), heat.get_ylabel()) == ("screw speed [rpm]", "temperature [°C]")
+    (mesh,) = heat.collections
+    cells = np.asarray(mesh.get_array())
+    torque = np.array([float(r["drag_torque_Nm"]) for r in _rows(out)]) * 1e3
+    # every cell is the mean of some points: within the points' range, and some cells filled
+    filled = cells[np.isfinite(cells)]
+    assert 0 < filled.size <= 40
+    assert torque.min() - 1e-9 <= filled.min() and filled.max() <= torque.max() + 1e-9
+    assert fig.axes[1].get_ylabel() == "mean drag torque [mN m]"
