@@ -10,6 +10,8 @@
   header stamps are the run's wall-clock start (``summary["start_time_unix_ns"]``) plus the
   simulated time, in integer nanoseconds; the metadata name the ROS distribution (jazzy).
 - :func:`plot_result`: speed, motor torque and drag over time, and the power-balance error.
+- :func:`plot_contacts`: the contact states per sphere of each nut at the last contact sample
+  (normal force, contact angle, film thickness, Tallian parameter; screw and nut side).
 
 SI units throughout (REP 103).
 """
@@ -300,9 +302,9 @@ def plot_result(result: SimulationResult, path: str | Path) -> Path:
     ax.plot(t_ms, result.drag_torque * 1e3, lw=1, label="drag (motor - gravity)")
     drag = result.summary.get("drag_torque_Nm")
     if drag is not None and math.isfinite(drag):
-        ax.axhline(drag * 1e3, color="r", lw=1, label=f"mean drag {drag * 1e3:.4g} N mm")
+        ax.axhline(drag * 1e3, color="r", lw=1, label=f"mean drag {drag * 1e3:.4g} mN m")
     ax.axvspan((sc.duration - sc.average_window) * 1e3, sc.duration * 1e3, color="0.9")
-    ax.set_ylabel("torque [N mm]")
+    ax.set_ylabel("torque [mN m]")
     ax.legend(loc="best")
     ax = axes[2]
     ax.plot(t_ms, result.power_balance_error * 1e3, lw=1, label="E - E0 - int(P_in - P_diss)")
@@ -319,3 +321,38 @@ def plot_result(result: SimulationResult, path: str | Path) -> Path:
     finally:
         plt.close(fig)
     return file
+
+
+def plot_contacts(result: SimulationResult, path: str | Path) -> Path | None:
+    """PNG of every sphere's loaded contact on each side at the last contact sample (see
+    :mod:`ballscrew_twin.plots.contact_states`); None when the run recorded no contact sample."""
+    from .plots.contact_states import loaded_contacts, plot_sphere_states
+
+    if len(result.contact_time) == 0:
+        return None
+    balls = len(result.ball_nut)
+    grooves = result.in_contact.shape[-1]
+
+    def last(values: np.ndarray) -> np.ndarray:
+        return np.asarray(values[-1]).reshape(balls * grooves)
+
+    states = loaded_contacts(
+        np.repeat(np.arange(balls), grooves),
+        np.repeat(result.ball_nut, grooves),
+        np.tile(np.arange(grooves), balls),
+        last(result.in_contact),
+        last(result.normal_force),
+        last(result.contact_angle),
+        last(result.film_thickness),
+        last(result.tallian),
+    )
+    sc = result.scenario
+    title = (
+        f"{sc.name}: dynamic model at t = {result.contact_time[-1] * 1e3:.4g} ms, "
+        f"{result.screw_speed[-1]:.4g} rad/s, {sc.temperature - CELSIUS_ZERO:.4g} °C"
+    )
+    per_nut = int(np.count_nonzero(result.ball_nut == 0))
+    try:
+        return plot_sphere_states(states, per_nut, title, path)
+    except BallscrewTwinError as err:
+        raise ResultsError(str(err)) from err

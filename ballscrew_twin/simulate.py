@@ -121,7 +121,7 @@ def _progress_bar(total_time: float, quiet: bool) -> tuple[Any, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """``simulate``: run, write every output, print the summary."""
-    from .results import plot_result, summary_json, write_bag, write_csv, write_npz
+    from .results import plot_contacts, plot_result, summary_json, write_bag, write_csv, write_npz
 
     scenario = load_scenario(args.scenario)
     out = Path(args.out)
@@ -142,6 +142,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.no_bag:
         write_bag(result, bag, storage=args.storage)
     plot_result(result, out / "simulation.png")
+    plot_contacts(result, out / "contact_states.png")
     (out / "summary.json").write_text(summary_json(result) + "\n", encoding="utf-8")
     print(format_summary(result))
     print(f"outputs in {out}")

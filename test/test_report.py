@@ -7,9 +7,10 @@ import math
 from pathlib import Path
 
 import pytest
+from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
-from ballscrew_twin.report.paper import COLUMNS, CSV_NAME, FILE_NAMES, paper_grid
+from ballscrew_twin.report.paper import COLUMNS, CSV_NAME, FILE_NAMES, Row, paper_grid, plot_paper
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
@@ -94,3 +95,21 @@ def test_eq51_and_eq52_columns_are_the_catalogue_formulas(report: tuple[Path, st
     # docs/model.md section 8: 97.0 and 38.3 N mm at 3000 N with mu_lit = 0.002.
     assert float(at_3000["eq51_drag_torque_Nm"]) == pytest.approx(0.0970, rel=2e-3)
     assert float(at_3000["eq52_drag_torque_Nm"]) == pytest.approx(0.0383, rel=2e-3)
+
+
+def test_every_figure_carries_units(report: tuple[Path, str], saved_figures: SavedFigures) -> None:
+    # Redraw the figures from the report's CSV and look at their axes (Fig. 10 (c)/(d) too).
+    _, text_rows = read_rows(report[0])
+    rows: list[Row] = [
+        {
+            k: (v if k in ("figure", "status") or "half_groove" in k else float(v))
+            for k, v in r.items()
+        }
+        for r in text_rows
+    ]
+    paths = plot_paper(rows, report[0] / "again")
+    assert saved_figures.paths() == [str(p) for p in paths]
+    assert saved_figures.missing_units() == []
+    fig10 = saved_figures.saved[1][0]
+    labels = {ax.get_title()[:3]: ax.get_ylabel() for ax in fig10.axes}
+    assert labels["(c)"].endswith("[N]") and labels["(d)"].endswith("[N]")

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
 
@@ -37,9 +38,17 @@ def check_common_outputs(out: Path) -> dict[str, object]:
     return dict(s)
 
 
-def test_simulate_without_bag(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_simulate_without_bag(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], saved_figures: SavedFigures
+) -> None:
     out = tmp_path / "run"
     assert main(["simulate", "--scenario", str(SHORT), "--out", str(out), "--no-bag"]) == 0
+    # the plots: time series and the contact states per sphere (3 a nut), axes with units
+    assert saved_figures.paths() == [str(out / "simulation.png"), str(out / "contact_states.png")]
+    assert (out / "contact_states.png").read_bytes()[:4] == b"\x89PNG"
+    assert saved_figures.missing_units() == []
+    contacts = saved_figures.saved[1][0]
+    assert all(len(line.get_xdata()) == 3 for ax in contacts.axes for line in ax.lines)
     printed = capsys.readouterr()
     assert "drag torque" in printed.out and "N mm" in printed.out
     assert "real-time factor" in printed.out and "power-balance error" in printed.out

@@ -118,6 +118,7 @@ def plot_sphere_states(
     """
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
+    from matplotlib.ticker import MaxNLocator
 
     fig = Figure(figsize=(9, 10), layout="constrained")
     axes = fig.subplots(len(PANELS), 1, sharex=True)
@@ -139,6 +140,7 @@ def plot_sphere_states(
         ax.set_ylabel(label)
         ax.grid(True, alpha=0.3)
     axes[-1].set_xlabel("sphere in its nut, along the loaded helix [-]")
+    axes[-1].xaxis.set_major_locator(MaxNLocator(integer=True))
     handles = [
         Line2D([], [], color=f"C{n}", label=f"{name} nut") for n, name in enumerate(NUT_NAMES)
     ]

@@ -374,7 +374,7 @@ def _save(fig: Figure, path: Path) -> Path:
 
 
 def _plot_fig09(rows: Sequence[Row], path: Path) -> Path:
-    """Drag torque [N mm] vs preload at 100 rpm per temperature, with Eqs. 51 and 52."""
+    """Drag torque [mN m] vs preload at 100 rpm per temperature, with Eqs. 51 and 52."""
     fig = Figure(figsize=(8, 5.5), layout="constrained")
     ax = fig.add_subplot()
     speed = _distinct(rows, "fig09", "speed_rpm")[0]
@@ -399,7 +399,7 @@ def _plot_fig09(rows: Sequence[Row], path: Path) -> Path:
         ax.plot(preloads, torque, style, linewidth=width, label=f"{label}, μ_lit = {MU_LIT:g}")
     ax.set_title(f"Fig. 9: no-load drag torque at {speed:g} rpm")
     ax.set_xlabel("preload F_pr [N]")
-    ax.set_ylabel("drag torque [N mm]")
+    ax.set_ylabel("drag torque [mN m]")
     ax.grid(True, alpha=0.3)
     ax.legend()
     return _save(fig, path)
@@ -507,7 +507,7 @@ def _plot_fig11(rows: Sequence[Row], path: Path) -> Path:
                     color=colours[speed],
                 )
         drag_ax.set_title(f"(a) drag torque, {temperature:g} °C")
-        drag_ax.set_ylabel("drag torque [N mm]")
+        drag_ax.set_ylabel("drag torque [mN m]")
         mu_ax.set_title(f"(b) friction coefficient F_t/F_n, master nut, {temperature:g} °C")
         mu_ax.set_ylabel("F_t / F_n [-]")
         angle_ax.set_title(f"(c) contact angle, master nut, {temperature:g} °C")
