@@ -5,7 +5,10 @@ real-time and input checks) and, when some node publishes it, ``health``
 (ballscrew_twin_msgs/HealthResidual; "n/a" otherwise). After ``--duration`` seconds it prints a
 summary and writes a PNG plot of torque and operating point over time, then exits 0 if torque
 arrived, 1 otherwise. The duration counts from the first torque message (the twin node may
-take seconds to start).
+take seconds to start). The plot shows the drag torque with its split between the master and
+the slave nut, and marks every command the twin node rejected: the node reports rejections in
+its ``input ...`` diagnostics, so a mark stands at the diagnostic that reported it, at most one
+diagnostics period (1 s by default) after the command.
 
 Run: ``python -m ballscrew_twin.ros.console_view --duration 20 [--ros-args ...]``.
 """
@@ -49,10 +52,29 @@ class Series:
 
     time: list[float] = field(default_factory=list)  # s since the first message (stamps)
     torque: list[float] = field(default_factory=list)  # N m
+    nut_master: list[float] = field(default_factory=list)  # N m
+    nut_slave: list[float] = field(default_factory=list)  # N m
     speed: list[float] = field(default_factory=list)  # rad/s
-    temperature: list[float] = field(default_factory=list)  # K
+    temperature: list[float] = field(default_factory=list)  # deg C (DragTorque's convention)
     preload: list[float] = field(default_factory=list)  # N
     fidelity: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Rejection:
+    """Commands of one input the twin node rejected, as a diagnostic reported them.
+
+    Attributes:
+        time: twin time of the reporting diagnostic [s] (same origin as :class:`Series`).
+        channel: the input (``screw_speed``, ``preload``, ...).
+        count: commands rejected since the previous report [-].
+        reason: the last rejection's reason.
+    """
+
+    time: float
+    channel: str
+    count: int
+    reason: str
 
 
 class ConsoleView(Node):
@@ -76,6 +98,8 @@ class ConsoleView(Node):
         self.warnings: dict[str, str] = {}
         self.health: HealthResidual | None = None
         self.health_at = -math.inf
+        self.rejections: list[Rejection] = []
+        self._rejected_so_far: dict[str, int] = {}
         self._first_stamp: float | None = None
         self._count_at_print = 0
         self.create_subscription(DragTorque, torque_topic, self._on_torque, 100)
@@ -99,6 +123,8 @@ class ConsoleView(Node):
         s = self.series
         s.time.append(stamp - self._first_stamp)
         s.torque.append(msg.total)
+        s.nut_master.append(msg.nut_master)
+        s.nut_slave.append(msg.nut_slave)
         s.speed.append(msg.screw_speed)
         s.temperature.append(msg.temperature)
         s.preload.append(msg.preload)
@@ -106,7 +132,9 @@ class ConsoleView(Node):
         self.latest = msg
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
+        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
         for status in msg.status:
+            self._note_rejections(status, stamp)
             level = LEVEL_NAMES[min(level_of(status), 3)]
             if status.name.endswith(": real time"):
                 self.real_time = {kv.key: kv.value for kv in status.values}
@@ -115,6 +143,23 @@ class ConsoleView(Node):
                 self.warnings[status.name] = f"{level} {status.message}"
             else:
                 self.warnings.pop(status.name, None)
+
+    def _note_rejections(self, status: Any, stamp: float) -> None:
+        """Record the commands an ``input ...`` status counts as rejected since its last report."""
+        _, sep, channel = status.name.partition(": input ")
+        if not sep:
+            return
+        values = {kv.key: kv.value for kv in status.values}
+        try:
+            rejected = int(values.get("rejected", "0"))
+        except ValueError:
+            return
+        new = rejected - self._rejected_so_far.get(status.name, 0)
+        self._rejected_so_far[status.name] = rejected
+        if new > 0:
+            origin = stamp if self._first_stamp is None else self._first_stamp
+            reason = values.get("last rejection", "")
+            self.rejections.append(Rejection(stamp - origin, channel, new, reason))
 
     def _on_health(self, msg: HealthResidual) -> None:
         self.health = msg
@@ -159,28 +204,54 @@ class ConsoleView(Node):
         torque = np.asarray(s.torque)
         span = s.time[-1] - s.time[0] if len(s.time) > 1 else 0.0
         models = sorted(set(s.fidelity))
+        rejected = sum(r.count for r in self.rejections)
         return (
             f"{len(torque)} drag_torque messages over {span:.2f} s of twin time "
             f"({len(torque) / max(span, 1e-9):.0f}/s); torque {torque.min() * 1e3:.3f} .. "
-            f"{torque.max() * 1e3:.3f} mN m; models {', '.join(models)}; health "
-            f"{self.health_text()}"
+            f"{torque.max() * 1e3:.3f} mN m; models {', '.join(models)}; "
+            f"{rejected} command(s) rejected; health {self.health_text()}"
         )
 
     def plot(self, path: Path) -> Path:
-        """Torque and operating point over twin time, PNG at ``path``."""
+        """Torque (total and per nut), operating point and rejected commands over twin time,
+        PNG at ``path``."""
         s = self.series
-        fig = Figure(figsize=(9, 7), layout="constrained")
+        fig = Figure(figsize=(9, 8), layout="constrained")
         axes = fig.subplots(4, 1, sharex=True)
         t = np.asarray(s.time)
+        torque_ax = axes[0]
+        for torques, label, style in (
+            (s.torque, "total", "k-"),
+            (s.nut_master, "master nut", "C0-"),
+            (s.nut_slave, "slave nut", "C1--"),
+        ):
+            torque_ax.plot(t, np.asarray(torques) * 1e3, style, lw=1.0, label=label)
         rows = (
-            (np.asarray(s.torque) * 1e3, "drag torque [mN m]"),
             (np.asarray(s.speed) / RAD_S_PER_RPM, "speed [rpm]"),
-            (np.asarray(s.temperature), "temperature [C]"),
+            (np.asarray(s.temperature), "temperature [°C]"),
             (np.asarray(s.preload), "preload [N]"),
         )
-        for ax, (values, label) in zip(axes, rows, strict=True):
+        for ax, (values, label) in zip(axes[1:], rows, strict=True):
             ax.plot(t, values, lw=1.0)
             ax.set_ylabel(label)
+        torque_ax.set_ylabel("drag torque [mN m]")
+        middle = 0.5 * (t[0] + t[-1]) if len(t) else 0.0
+        for k, rejection in enumerate(self.rejections):
+            for ax in axes:
+                ax.axvline(rejection.time, color="r", ls=":", lw=1.2)
+            torque_ax.annotate(
+                f" rejected: {rejection.reason[:40]} ",
+                (rejection.time, 1.0 - 0.1 * (k % 3)),
+                xycoords=("data", "axes fraction"),
+                va="top",
+                ha="right" if rejection.time > middle else "left",
+                fontsize="x-small",
+                color="r",
+            )
+        if self.rejections:
+            torque_ax.plot([], [], "r:", label="command rejected (reported at)")
+        torque_ax.legend(loc="lower right", fontsize="small")
+        for ax in axes:
             ax.grid(True, alpha=0.3)
         axes[0].set_title("ballscrew twin: drag torque published by the twin node")
         axes[-1].set_xlabel("twin time [s]")
