@@ -8,7 +8,8 @@
   pure-Python ``rosbags`` library (0.11); the custom message definitions are read from
   ``msg_defs/msg/*.msg`` and stored in the bag, so any reader can decode them. Bag times and
   header stamps are the run's wall-clock start (``summary["start_time_unix_ns"]``) plus the
-  simulated time, in integer nanoseconds; the metadata name the ROS distribution (jazzy).
+  simulated time, in integer nanoseconds; the metadata name the ROS distribution (jazzy,
+  :mod:`ballscrew_twin.bag_writer`).
 - :func:`plot_result`: speed, motor torque and drag over time, and the power-balance error.
 - :func:`plot_contacts`: the contact states per sphere of each nut at the last contact sample
   (normal force, contact angle, film thickness, Tallian parameter; screw and nut side).
@@ -39,8 +40,6 @@ DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
 FRAME_ID = "screw"
 FIDELITY = "dynamic"
-#: ROS distribution written into the bag's metadata (the message definitions are Jazzy's).
-ROS_DISTRO = "jazzy"
 
 
 class ResultsError(BallscrewTwinError):
@@ -178,7 +177,9 @@ def write_bag(
     only in the CSV/NPZ outputs). ``real_time_factor`` is simulated time per wall time (>= 1
     keeps up).
     """
-    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.rosbag2 import StoragePlugin
+
+    from .bag_writer import BagWriter
 
     plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
     if storage not in plugins:
@@ -200,7 +201,7 @@ def write_bag(
     nut_torque = result.nut_torque()
     index = {name: k for k, name in enumerate(MECHANISMS)}
     try:
-        with Writer(folder, version=9, storage_plugin=plugins[storage]) as writer:
+        with BagWriter(folder, plugins[storage]) as writer:
             drag_conn = writer.add_connection(DRAG_TOPIC, drag_cls.__msgtype__, typestore=store)
             contact_conn = writer.add_connection(
                 CONTACT_TOPIC, array_cls.__msgtype__, typestore=store
@@ -230,28 +231,9 @@ def write_bag(
                     contacts=states,
                 )
                 writer.write(contact_conn, t_ns, store.serialize_cdr(msg, array_cls.__msgtype__))
-        _name_distribution(folder, storage)
     except OSError as err:
         raise ResultsError(f"{folder}: cannot write bag ({err.strerror})") from err
     return folder
-
-
-def _name_distribution(folder: Path, storage: str) -> None:
-    """Write :data:`ROS_DISTRO` where rosbags 0.11 writes its own name: metadata.yaml and, for
-    SQLite3, the schema table of the database."""
-    import sqlite3
-
-    import yaml
-
-    meta_file = folder / "metadata.yaml"
-    meta = yaml.safe_load(meta_file.read_text(encoding="utf-8"))
-    meta["rosbag2_bagfile_information"]["ros_distro"] = ROS_DISTRO
-    meta_file.write_text(yaml.safe_dump(meta, sort_keys=False), encoding="utf-8")
-    if storage == "sqlite3":
-        for db in folder.glob("*.db3"):
-            with sqlite3.connect(db) as connection:
-                connection.execute("UPDATE schema SET ros_distro = ?", (ROS_DISTRO,))
-            connection.close()
 
 
 def _contact_states(result: SimulationResult, j: int, state_cls: Any) -> list[Any]:

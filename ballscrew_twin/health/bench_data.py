@@ -522,8 +522,10 @@ def write_bench_bag(
     Raises:
         BagError: the bag folder exists already or cannot be written; unknown storage.
     """
-    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
     from rosbags.typesys import Stores, get_typestore
+
+    from ..bag_writer import BagWriter
 
     plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
     if storage not in plugins:
@@ -579,7 +581,7 @@ def write_bench_bag(
     ]
     truth_json = json.dumps(data.truth, sort_keys=True)
     try:
-        writer = Writer(folder, version=9, storage_plugin=plugins[storage])
+        writer = BagWriter(folder, plugins[storage])
         if storage == "mcap":
             writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         writer.set_custom_data(TRUTH_KEY, truth_json)

@@ -45,10 +45,6 @@ QOS_MODES = ("auto", "reliable", "best_effort")
 GRAPH_POLL = 0.2
 #: Interval between progress lines (messages so far per topic, printed when they change) [s].
 PROGRESS_PERIOD = 0.5
-#: ROS 2 distribution the bags are recorded under (the project's; see package.xml).
-ROS_DISTRO = "jazzy"
-#: How the bag library labels ``ros_distro`` in the metadata it writes (replaced by ROS_DISTRO).
-_LIBRARY_DISTRO = "ros_distro: rosbags"
 
 
 class RecordError(BallscrewTwinError, ValueError):
@@ -108,7 +104,9 @@ class BagRecorder:
         depth: int = 1000,
         log: Callable[[str], None] = print,
     ) -> None:
-        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
+        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
+
+        from ..bag_writer import BagWriter
 
         plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
         if storage not in plugins:
@@ -133,14 +131,13 @@ class BagRecorder:
         self._subscriptions: list[Any] = []
         self._connections: dict[str, Any] = {}
         self.storage = storage
-        self.writer = Writer(self.out, version=9, storage_plugin=plugins[storage])
+        self.writer = BagWriter(self.out, plugins[storage])
         if storage == "mcap":
             self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
         try:
             self.writer.open()
         except OSError as err:
             raise RecordError(f"{self.out}: cannot create bag ({err.strerror})") from err
-        _label_distro_on_close(self.writer.storage)
         self._closed = False
 
     def _qos_for(self, topic: str) -> Any:
@@ -214,38 +211,6 @@ class BagRecorder:
             for sub in self._subscriptions:
                 self.node.destroy_subscription(sub)
             self.writer.close()
-            _label_distro_after_close(self.out, self.storage)
-
-
-def _jazzy(metadata: str) -> str:
-    """``metadata`` (the bag's YAML metadata text) with ``ros_distro`` set to ROS_DISTRO."""
-    if _LIBRARY_DISTRO not in metadata:
-        raise RecordError(f"bag metadata has no {_LIBRARY_DISTRO!r} line to relabel")
-    return metadata.replace(_LIBRARY_DISTRO, f"ros_distro: {ROS_DISTRO}")
-
-
-def _label_distro_on_close(storage: Any) -> None:
-    """Make the storage write ROS_DISTRO into the metadata it keeps (the mcap file's metadata
-    record, the sqlite3 metadata table) when the writer closes it."""
-    close = storage.close
-
-    def close_as_jazzy(version: int, metadata: str) -> None:
-        close(version, _jazzy(metadata))
-
-    storage.close = close_as_jazzy
-
-
-def _label_distro_after_close(out: Path, storage: str) -> None:
-    """Set ROS_DISTRO in ``metadata.yaml`` and, for sqlite3, in the database's schema table."""
-    import sqlite3
-
-    meta = out / "metadata.yaml"
-    meta.write_text(_jazzy(meta.read_text(encoding="utf-8")), encoding="utf-8")
-    if storage == "sqlite3":
-        for db in out.glob("*.db3"):
-            with sqlite3.connect(db) as con:
-                con.execute("UPDATE schema SET ros_distro = ?", (ROS_DISTRO,))
-            con.close()
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
