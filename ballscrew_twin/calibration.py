@@ -5,8 +5,8 @@ Targets are operating points with a drag torque:
 - by default the paper's statement (section 3) that at 100 rpm its drag torque matches Eq. 52
   with mu_lit = 0.002 at 20 C and 60 C;
 - a user's CSV with columns ``speed_rpm, temperature_C, preload_N, torque_Nm``;
-- a bench bag (the bench-bag schema of the README, read by
-  :func:`ballscrew_twin.health.detect.read_recording`): its steady segments, found by
+- a bench bag (the bench-bag schema of the README, topics as ``detect`` takes them, read by
+  :func:`ballscrew_twin.health.bags.read_bench_bag`): its steady segments, found by
   :func:`steady_segments`, each one target (mean torque, speed, temperature and load-cell
   preload over the segment).
 
@@ -43,8 +43,8 @@ from scipy.optimize import least_squares
 
 from .cli import CELSIUS_ZERO, RPM
 from .errors import BallscrewTwinError, ConfigError
-from .health.bags import BenchRecording
-from .health.detect import add_topic_arguments, read_recording
+from .health.bags import BenchRecording, BenchTopics, read_bench_bag
+from .health.detect import add_topic_arguments
 from .models.base import OperatingPoint
 from .models.catalog import CatalogModel
 from .models.steady import SteadyState, SteadyStateModel
@@ -62,6 +62,8 @@ PAPER_TEMPERATURES = (20.0, 60.0)  # C
 FAILED_SOLVE_RESIDUAL = 10.0  # relative error charged to a point that does not converge
 #: Condition number of J^T J above which the fitted parameters are not told apart [-].
 SINGULAR_CONDITION = 1e12
+#: Bench channels a calibration target is made of.
+STEADY_CHANNELS = ("torque", "speed", "temperature", "preload")
 #: File names read as a bag rather than a CSV (a bag folder is a directory).
 BAG_SUFFIXES = (".mcap", ".db3")
 
@@ -258,8 +260,16 @@ def steady_segments(recording: BenchRecording, criteria: SteadyCriteria) -> list
 def bag_targets(
     args: argparse.Namespace, criteria: SteadyCriteria
 ) -> tuple[list[Target], list[Segment]]:
-    """Targets of the steady segments of the bag ``args.data`` (topics of ``args``)."""
-    recording = read_recording(argparse.Namespace(**{**vars(args), "bag": args.data}))
+    """Targets of the steady segments of the bag ``args.data`` (topics of ``args``; the screw's
+    angle is not needed)."""
+    topics = BenchTopics(
+        torque=args.torque_topic,
+        speed=args.speed_topic,
+        temperature=args.temperature_topic,
+        preload=args.preload_topic,
+        joint_name=args.joint,
+    )
+    recording = read_bench_bag(args.data, topics, required=STEADY_CHANNELS)
     segments = steady_segments(recording, criteria)
     if not segments:
         raise ConfigError(

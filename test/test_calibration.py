@@ -194,3 +194,12 @@ def test_a_bag_without_steady_running_is_refused(
     assert main(["calibrate", *args]) == 2
     err = capsys.readouterr().err.strip()
     assert "no steady segment" in err and len(err.splitlines()) == 1
+
+
+def test_a_bag_without_a_needed_topic_is_refused_naming_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = ["--data", str(SAMPLES / "healthy"), "--preload-topic", "/bench/no_load_cell"]
+    assert main(["calibrate", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "/bench/no_load_cell" in err and len(err.splitlines()) == 1
