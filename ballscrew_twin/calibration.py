@@ -483,9 +483,10 @@ def parameter_unit(name: str) -> str:
 def plot_calibration(
     result: CalibrationResult, targets: Sequence[Target], title: str, path: str | Path
 ) -> Path:
-    """PNG: (a) predicted against measured torque with the 1:1 line, (b) relative error of each
-    target against its speed, (c) each fitted value over its starting value with its standard
-    uncertainty (error bar), the values themselves in the legend."""
+    """PNG: (a) predicted against target torque with the 1:1 line, (b) relative error of each
+    target against its speed (or its preload, or its temperature: the first that varies among
+    the targets), (c) each fitted value over its starting value with its standard uncertainty
+    (error bar), the values themselves in the legend."""
     from matplotlib.figure import Figure
 
     from .plots.save import save_png
@@ -494,24 +495,32 @@ def plot_calibration(
     measured_ax, error_ax, value_ax = fig.subplots(1, 3)
     measured = np.array([t.torque for t in targets]) * 1e3
     predicted = np.array(result.predicted) * 1e3
-    speed = np.array([t.point.screw_speed for t in targets]) / RPM
     temperature = np.array([t.point.temperature for t in targets]) - CELSIUS_ZERO
+    candidates = (
+        (np.array([t.point.screw_speed for t in targets]) / RPM, "screw speed [rpm]"),
+        (np.array([t.point.preload for t in targets]), "preload [N]"),
+        (temperature, "temperature [°C]"),
+    )
+    x, x_label = next(
+        ((v, label) for v, label in candidates if np.ptp(v) > 1e-6 * np.max(np.abs(v))),
+        candidates[0],
+    )
     errors = np.array(result.relative_errors) * 100.0
     for k, level in enumerate(np.unique(np.round(temperature, 1))):
         at = np.round(temperature, 1) == level
         style = {"color": f"C{k % 10}", "label": f"{level:g} °C"}
         measured_ax.plot(measured[at], predicted[at], "o", **style)
-        error_ax.plot(speed[at], errors[at], "o", **style)
+        error_ax.plot(x[at], errors[at], "o", **style)
     finite = np.concatenate([measured, predicted[np.isfinite(predicted)]])
     span = [float(np.min(finite)), float(np.max(finite))]
-    measured_ax.plot(span, span, "k-", lw=0.8, label="predicted = measured")
-    measured_ax.set_xlabel("measured drag torque [mN m]")
+    measured_ax.plot(span, span, "k-", lw=0.8, label="predicted = target")
+    measured_ax.set_xlabel("target drag torque (measured or stated) [mN m]")
     measured_ax.set_ylabel("predicted drag torque [mN m]")
     measured_ax.set_title(f"(a) {len(targets)} targets, rms error {result.rms_relative_error:.2%}")
     measured_ax.legend(loc="best", fontsize="small")
     error_ax.axhline(0.0, color="k", lw=0.8)
-    error_ax.set_xlabel("screw speed [rpm]")
-    error_ax.set_ylabel("relative error (predicted / measured - 1) [%]")
+    error_ax.set_xlabel(x_label)
+    error_ax.set_ylabel("relative error (predicted / target - 1) [%]")
     error_ax.set_title("(b) residuals")
     names = list(result.values)
     ratio = np.array([result.values[n] / result.initial[n] for n in names])
