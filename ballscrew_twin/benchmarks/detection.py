@@ -43,7 +43,7 @@ from ..errors import ConfigError
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
 from ..health.classify import FAULT_CLASSES
 from ..health.commission import commission
-from ..health.duty_cycles import Trajectory, draw_trajectory
+from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import DETECTORS, HealthMonitor, MonitorSettings, feed
 from ..health.residuals import FloatArray, UnitTwin
@@ -218,7 +218,10 @@ def run_unit(number: int, plan: Plan, config: TwinConfig, settings: MonitorSetti
     set_preload = float(rng.uniform(600.0, 2500.0))
     seeds = rng.integers(0, 2**31, size=3 + 2 * plan.faults)
     commissioning = _with_preload(
-        draw_trajectory(int(seeds[0]), plan.commission, cold_start=True), set_preload
+        draw_trajectory(
+            int(seeds[0]), plan.commission, cold_start=True, warmup=COMMISSIONING_WARMUP
+        ),
+        set_preload,
     )
     data = generate_unit_data(
         config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..params import TwinConfig, read_yaml
+from .correction import MIN_SUPPORT, ResidualSurface
 
 FloatArray = NDArray[np.float64]
 
@@ -64,10 +65,15 @@ FIELD_DOCS: dict[str, str] = {
     "error_bands": "e_rel in the speed bands split at 3, 10, 30, 100, 300 rad/s [-] (empty: one)",
     "error_absolute": "e_abs, twin error floor (1 sigma) [N m]",
     "inertia_error": "e_J, relative error of the inertia torque (1 sigma) [-]",
+    "unseen_error": "e_rel where the residual surface has no support (not commissioned) [-]",
     "temperature_error": "e_T, relative error growth per K outside the commissioned range [1/K]",
     "temperature_min": "lowest temperature of the commissioning recording [K]",
     "temperature_max": "highest temperature of the commissioning recording [K]",
     "fit_rms": "rms relative block residual of the fit (not scaled) [-]",
+    "settling_angle": "screw rotation after a reversal or stop from which the unit's torque is "
+    "predicted as well as anywhere, measured at commissioning [rad] (null: the monitor's gate)",
+    "surface": "c(x, T), the residual surface over log speed and temperature: values [-] and "
+    "support [blocks] at the nodes of health/correction.py (null: none)",
     "blocks": "blocks used by the fit [-]",
 }
 
@@ -92,10 +98,13 @@ class Baseline:
     error_absolute: float = 1.0e-4
     inertia_error: float = 0.15
     temperature_error: float = 0.0
+    unseen_error: float = 0.03
     temperature_min: float = 0.0
     temperature_max: float = 1.0e4
     fit_rms: float = math.nan
     blocks: int = 0
+    surface: ResidualSurface | None = None
+    settling_angle: float | None = None
 
     def __post_init__(self) -> None:
         positive = ("torque_gain", "preload_scale", "inertia")
@@ -110,6 +119,10 @@ class Baseline:
         for name in ("error_relative", "error_absolute", "inertia_error", "temperature_error"):
             if getattr(self, name) < 0.0:
                 raise ConfigError(f"baseline: {name} = {getattr(self, name)!r} must be >= 0")
+        if self.settling_angle is not None and not (
+            math.isfinite(self.settling_angle) and self.settling_angle > 0.0
+        ):
+            raise ConfigError(f"baseline: settling_angle = {self.settling_angle!r} rad must be > 0")
         if self.sensor_noise is not None and not self.sensor_noise > 0.0:
             raise ConfigError(f"baseline: sensor_noise = {self.sensor_noise!r} N m must be > 0")
         if self.temperature_min > self.temperature_max:
@@ -133,12 +146,25 @@ class Baseline:
         x = np.log10(np.maximum(np.abs(speed), 1e-6) / SHAPE_REFERENCE_SPEED)
         return np.asarray(1.0 + self.shape_slope * x + self.shape_curvature * x * x)
 
-    def error_at(self, speed: float) -> float:
-        """e_rel at ``speed`` [rad/s]: the band's value, or ``error_relative``."""
+    def surface_factor(self, speed: FloatArray, temperature: float) -> FloatArray:
+        """1 + c(x, T) [-] at each ``speed`` [rad/s] and ``temperature`` [K] (ones without a
+        surface): the drag the unit shows over the adjusted twin's (:mod:`.correction`)."""
+        if self.surface is None:
+            return np.ones(len(speed))
+        return np.asarray(1.0 + self.surface.at(speed, temperature))
+
+    def error_at(self, speed: float, temperature: float) -> float:
+        """e_rel at ``speed`` [rad/s] and ``temperature`` [K]: the band's value (or
+        ``error_relative``), raised towards ``unseen_error`` where the residual surface has
+        thin support (fewer than MIN_SUPPORT blocks: the recording hardly saw that regime)."""
         if len(self.error_bands) != len(ERROR_BAND_EDGES) + 1:
-            return self.error_relative
-        band = int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))
-        return self.error_bands[band]
+            error = self.error_relative
+        else:
+            error = self.error_bands[int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))]
+        if self.surface is None:
+            return error
+        thin = max(1.0 - self.surface.support_at(speed, temperature) / MIN_SUPPORT, 0.0)
+        return math.hypot(error, thin * self.unseen_error)
 
     def temperature_distance(self, temperature: float) -> float:
         """How far ``temperature`` [K] lies outside the commissioned range [K] (0 inside)."""
@@ -163,6 +189,11 @@ class Baseline:
         lines += [f"#   {name}: {doc}" for name, doc in FIELD_DOCS.items()]
         body = {"format": BASELINE_VERSION, **asdict(self)}
         body["error_bands"] = list(self.error_bands)
+        if self.surface is not None:
+            body["surface"] = {
+                "values": np.round(self.surface.values, 7).tolist(),
+                "support": np.round(self.surface.support, 3).tolist(),
+            }
         return (
             "\n".join(lines) + "\n" + yaml.safe_dump(body, sort_keys=False, default_flow_style=None)
         )
@@ -200,6 +231,8 @@ def baseline_from_mapping(data: Any, source: str) -> Baseline:
             ):
                 raise ConfigError(f"{source}: error_bands must be a list of numbers")
             values[name] = tuple(float(v) for v in value)
+        elif name == "surface":
+            values[name] = _surface_from(value, source)
         elif name == "blocks":
             if isinstance(value, bool) or not isinstance(value, int):
                 raise ConfigError(f"{source}: blocks must be a whole number")
@@ -211,6 +244,22 @@ def baseline_from_mapping(data: Any, source: str) -> Baseline:
         return Baseline(**values)
     except TypeError as err:
         raise ConfigError(f"{source}: {err}") from None
+    except ConfigError as err:
+        raise ConfigError(f"{source}: {err}") from None
+
+
+def _surface_from(value: Any, source: str) -> ResidualSurface | None:
+    """The residual surface of a baseline file (None when null)."""
+    if value is None:
+        return None
+    if not isinstance(value, dict) or set(value) != {"values", "support"}:
+        raise ConfigError(f"{source}: surface must be a mapping of 'values' and 'support'")
+    try:
+        arrays = {k: np.array(value[k], dtype=np.float64) for k in ("values", "support")}
+    except (TypeError, ValueError):
+        raise ConfigError(f"{source}: surface values and support must be number lists") from None
+    try:
+        return ResidualSurface(arrays["values"], arrays["support"])
     except ConfigError as err:
         raise ConfigError(f"{source}: {err}") from None
 

@@ -124,16 +124,38 @@ def segment_speed(kind: str, t: FloatArray, rng: np.random.Generator, top_rpm: f
     raise ConfigError(f"duty cycle: segment kind {kind!r} is not one of {SEGMENT_KINDS}")
 
 
+@dataclass(frozen=True)
+class ColdStart:
+    """How a cold start warms: first and final temperature ranges [C] and the range of the
+    time constant [s] (each drawn uniformly).
+
+    The default is the cold start of a day's duty cycle; a commissioning warm-up
+    (:data:`COMMISSIONING_WARMUP`) starts colder and reaches its final temperature within the
+    recording, so that the unit is learnt over the temperatures it will work at.
+    """
+
+    first: tuple[float, float] = (-20.0, 5.0)
+    last: tuple[float, float] = (30.0, 45.0)
+    time_constant: tuple[float, float] = (200.0, 900.0)
+
+
+#: A commissioning warm-up: from -20..-10 C to 35..45 C with a time constant of 100-250 s.
+COMMISSIONING_WARMUP = ColdStart(
+    first=(-20.0, -10.0), last=(35.0, 45.0), time_constant=(100.0, 250.0)
+)
+
+
 def temperature_path(
-    t: FloatArray, rng: np.random.Generator, cold_start: bool
+    t: FloatArray, rng: np.random.Generator, cold_start: bool, warmup: ColdStart | None = None
 ) -> tuple[FloatArray, str]:
-    """Temperature [K] at ``t`` [s] and a label: a cold start (-20..5 C warming towards
-    30..45 C with a time constant of 200-900 s) or an ambient 10..35 C with a drift of up to
-    +-1 C per 10 min."""
+    """Temperature [K] at ``t`` [s] and a label: a cold start (``warmup``, default
+    :class:`ColdStart`: -20..5 C warming towards 30..45 C with a time constant of 200-900 s)
+    or an ambient 10..35 C with a drift of up to +-1 C per 10 min."""
     if cold_start:
-        first = rng.uniform(-20.0, 5.0)
-        last = rng.uniform(30.0, 45.0)
-        tau = rng.uniform(200.0, 900.0)
+        w = warmup or ColdStart()
+        first = rng.uniform(*w.first)
+        last = rng.uniform(*w.last)
+        tau = rng.uniform(*w.time_constant)
         celsius = last + (first - last) * np.exp(-t / tau)
         label = f"cold start {first:.1f} -> {last:.1f} C (tau {tau:.0f} s)"
     else:
@@ -153,6 +175,7 @@ def draw_trajectory(
     cold_start: bool | None = None,
     preload: float | None = None,
     top_rpm: float = PEAK_SPEED_RPM[1],
+    warmup: ColdStart | None = None,
 ) -> Trajectory:
     """A random duty cycle of ``duration`` [s] on a grid of ``step`` [s].
 
@@ -162,6 +185,7 @@ def draw_trajectory(
         cold_start: force a cold start (True), an ambient run (False); None: 1 in 4 cold.
         preload: set preload [N]; None: drawn from 600-2500 N.
         top_rpm: highest peak speed [rpm].
+        warmup: how a cold start warms (default :class:`ColdStart`).
     """
     if not (math.isfinite(duration) and duration > 0.0 and 0.0 < step < duration):
         raise ConfigError(f"duty cycle: duration = {duration!r} s, step = {step!r} s invalid")
@@ -186,7 +210,7 @@ def draw_trajectory(
             segments.append((start, kind))
         start += length
     cold = bool(rng.uniform() < 0.25) if cold_start is None else cold_start
-    temperature, label = temperature_path(time, rng, cold)
+    temperature, label = temperature_path(time, rng, cold, warmup)
     set_preload = float(rng.uniform(600.0, 2500.0)) if preload is None else preload
     segments.insert(0, (0.0, label))
     return Trajectory(

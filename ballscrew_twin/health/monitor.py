@@ -300,7 +300,12 @@ class HealthMonitor:
         #: Time of the blocks gated near standstill / reversals, and of those compared [s].
         self.gated_time = 0.0
         self.compared_time = 0.0
-        self.gate = ReversalGate(s.residual)
+        gate_settings = s.residual
+        if baseline.settling_angle is not None:  # the unit settles sooner than the default
+            gate_settings = replace(
+                s.residual, gate_angle=min(s.residual.gate_angle, baseline.settling_angle)
+            )
+        self.gate = ReversalGate(gate_settings)
         self._angle_at: tuple[float, float, float] | None = None
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
@@ -327,13 +332,18 @@ class HealthMonitor:
         """The tracker's priors: as set for the nominal twin (it learns the unit in the
         warm-up); for a commissioned unit the fit has already placed bias, friction level and
         preload, so the filter starts near certain and only follows slow drift (a fault is a
-        departure from the baseline, not something to learn)."""
+        departure from the baseline, not something to learn). There the bias is known to the
+        block-mean noise (both directions of rotation pin it down), while what is left of the
+        friction level is the twin's own error: an offset seen at one operating point is taken
+        as a friction scale (it flips with the direction of rotation), not as a sensor bias
+        (which does not, and would then alarm at the first reversal)."""
         t = self.settings.tracker
-        if self.baseline.source == "nominal":
+        b = self.baseline
+        if b.source == "nominal":
             return t
         return replace(
             t,
-            bias_prior=COMMISSIONED_PRIOR * t.bias_prior,
+            bias_prior=max(b.error_absolute, 1e-9),
             scale_prior=COMMISSIONED_PRIOR * t.scale_prior,
             preload_prior=COMMISSIONED_PRIOR * t.preload_prior,
         )
@@ -406,7 +416,7 @@ class HealthMonitor:
             else 0.0
         )
         outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
-        error = b.error_at(float(np.mean(block.speed)))
+        error = b.error_at(float(np.mean(block.speed)), block.temperature)
         return b.torque_gain * math.sqrt(
             (error * drag) ** 2
             + b.error_absolute**2
@@ -437,14 +447,19 @@ class HealthMonitor:
             stride = max(math.ceil(len(block.speed) / EVALUATED_SAMPLES), 1)
             at = np.unique(np.append(np.arange(0, len(block.speed), stride), len(block.speed) - 1))
             evaluated = self.twin.drag(block.speed[at], block.temperature, block.preload)
-            drags = np.interp(block.stamps, block.stamps[at], evaluated * b.shape(block.speed[at]))
-            few = at[:: max(len(at) // SIGNATURE_SPEEDS, 1)]
-            lighter = self.twin.drag(
-                block.speed[few],
-                block.temperature,
-                block.preload,
-                preload_factor=1.0 - PRELOAD_STEP,
-            ) * b.shape(block.speed[few])
+            factor = b.shape(block.speed[at]) * b.surface_factor(block.speed[at], block.temperature)
+            drags = np.interp(block.stamps, block.stamps[at], evaluated * factor)
+            picked = np.arange(0, len(at), max(len(at) // SIGNATURE_SPEEDS, 1))
+            few = at[picked]
+            lighter = (
+                self.twin.drag(
+                    block.speed[few],
+                    block.temperature,
+                    block.preload,
+                    preload_factor=1.0 - PRELOAD_STEP,
+                )
+                * factor[picked]
+            )
         except BallscrewTwinError as err:  # invalid operating point, solver failure
             return self._unknown(block, f"no prediction: {err}", None)
         drag = float(np.mean(drags))

@@ -611,11 +611,15 @@ class ReversalGate:
         self._sign = 0.0
         self._travel = math.inf
         self._last_stamp = -math.inf
+        #: Least screw rotation since the last reversal or stop over the last block checked
+        #: [rad] (inf before any).
+        self.block_travel = math.inf
 
     def check(self, block: Block) -> str:
         """Why ``block`` is not compared ("" when it is); updates the rotation count."""
         r = self.settings
         reason = ""
+        self.block_travel = math.inf
         for stamp, w in zip(block.stamps.tolist(), block.speed.tolist(), strict=True):
             dt = stamp - self._last_stamp if math.isfinite(self._last_stamp) else 0.0
             self._last_stamp = stamp
@@ -624,6 +628,7 @@ class ReversalGate:
                 self._sign, self._travel = sign, 0.0
             else:
                 self._travel += abs(w) * max(dt, 0.0)
+            self.block_travel = min(self.block_travel, self._travel)
             if reason:
                 continue
             if abs(w) < r.gate_speed:

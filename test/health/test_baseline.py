@@ -17,6 +17,7 @@ from ballscrew_twin.health.baseline import (
     Baseline,
     load_baseline,
 )
+from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
 from ballscrew_twin.params import load_config
 
 
@@ -88,13 +89,53 @@ def test_shape_and_error_bands_follow_their_definitions() -> None:
         + [0.5 * (low + high) for low, high in itertools.pairwise(ERROR_BAND_EDGES)]
         + [2 * ERROR_BAND_EDGES[-1]]
     )
-    assert [b.error_at(v) for v in inside] == list(b.error_bands)
-    assert b.error_at(-inside[2]) == b.error_bands[2]
-    assert replace(b, error_bands=()).error_at(5.0) == 0.012
+    assert [b.error_at(v, 295.0) for v in inside] == list(b.error_bands)
+    assert b.error_at(-inside[2], 295.0) == b.error_bands[2]
+    assert replace(b, error_bands=()).error_at(5.0, 295.0) == 0.012
     assert b.temperature_distance(295.0) == 0.0
     assert b.temperature_distance(280.0) == pytest.approx(10.0)
     assert b.temperature_distance(310.0) == pytest.approx(10.0)
     assert math.isfinite(b.error_absolute)
+
+
+def _with_surface() -> Baseline:
+    shape = (len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))
+    values = np.zeros(shape)
+    support = np.zeros(shape)
+    values[6, 12] = -0.02  # x = -0.5 (9.5 rad/s), 293.15 K
+    support[5:8, 11:14] = 50.0
+    return replace(_fitted(), surface=ResidualSurface(values, support))
+
+
+def test_a_baseline_with_a_residual_surface_survives_its_file(tmp_path: Path) -> None:
+    baseline = _with_surface()
+    loaded = load_baseline(baseline.save(tmp_path / "unit.yaml"))
+    assert loaded == baseline
+    assert loaded != _fitted()
+
+
+def test_the_surface_scales_the_drag_and_its_support_sets_the_error() -> None:
+    b = _with_surface()
+    node_speed = SHAPE_REFERENCE_SPEED * 10.0 ** LOG_SPEED_NODES[6]
+    np.testing.assert_allclose(b.surface_factor(np.array([node_speed]), 293.15), 0.98)
+    # half way to the next node along x: half the node's value (bilinear)
+    half = SHAPE_REFERENCE_SPEED * 10.0 ** (0.5 * (LOG_SPEED_NODES[6] + LOG_SPEED_NODES[7]))
+    np.testing.assert_allclose(b.surface_factor(np.array([half]), 293.15), 0.99)
+    # where it was learnt: the band's error; where it never was: the unseen error added
+    assert b.error_at(node_speed, 293.15) == b.error_bands[1]
+    assert b.error_at(node_speed, 353.15) == pytest.approx(math.hypot(0.02, b.unseen_error))
+    assert _fitted().surface_factor(np.array([1.0, 2.0]), 300.0).tolist() == [1.0, 1.0]
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["surface: 3", "surface: {values: [[0.0]], support: [[0.0]]}", "surface: {values: x}"],
+)
+def test_a_malformed_surface_is_named(tmp_path: Path, text: str) -> None:
+    file = tmp_path / "unit.yaml"
+    file.write_text(_fitted().to_yaml() + text + "\n")
+    with pytest.raises(ConfigError, match="surface"):
+        load_baseline(file)
 
 
 def test_saving_creates_the_folder(tmp_path: Path) -> None:

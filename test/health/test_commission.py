@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pytest
@@ -14,8 +15,9 @@ from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import Baseline, load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
-from ballscrew_twin.health.commission import commission
-from ballscrew_twin.health.residuals import UnitTwin
+from ballscrew_twin.health.commission import _settling_angle, commission
+from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
+from ballscrew_twin.health.residuals import Block, UnitTwin
 from ballscrew_twin.params import load_config
 
 # The gain is 1 here: at one temperature a gain trades against the preload scale, and the
@@ -164,3 +166,56 @@ def test_bench_data_unit_refuses_a_malformed_fault(tmp_path: Path) -> None:
         from ballscrew_twin.health.bench_data import _fault_argument
 
         _fault_argument("preload_loss-0.1")
+
+
+def test_a_twin_made_recording_leaves_a_flat_residual_surface(fitted: Baseline) -> None:
+    # the recording is made by the map itself with the TRUTH parameters: nothing is left for
+    # the surface to learn where the recording was (15-30 C, 5-300 rad/s)
+    assert fitted.surface is not None
+    speeds = np.array([6.0, 20.0, 60.0, 150.0])
+    for temperature in (292.0, 300.0):
+        assert fitted.surface_factor(speeds, temperature) == pytest.approx(1.0, abs=2e-3)
+        assert fitted.surface.support_at(20.0, temperature) > 10.0
+    assert fitted.surface.support_at(20.0, 350.0) == 0.0
+
+
+class _FlatTwin:
+    """A twin of constant drag 10 mN m (whatever the speed), for the settling study."""
+
+    def adjusted(self, preload_scale: float, temperature_shift: float) -> _FlatTwin:
+        return self
+
+    def drag(self, speed: np.ndarray, temperature: float, preload: float) -> np.ndarray:
+        return np.full(len(speed), 0.01)
+
+
+def _settling_blocks(phi_c: float) -> list[tuple[Block, float]]:
+    """Blocks after reversals at 2 rad/s of a unit whose torque approaches the drag from the
+    other direction's over a presliding angle phi_c: T = D (1 - 2 exp(-phi / phi_c))."""
+    rng = np.random.default_rng(4)
+    out = []
+    for _ in range(12):  # twelve reversals, travel sampled every 0.05 rad up to 2 rad
+        for travel in np.arange(0.0, 2.0, 0.05):
+            phi = travel + np.linspace(0.0, 0.05, 20)
+            torque = 0.01 * (1.0 - 2.0 * np.exp(-phi / phi_c)) + rng.normal(0.0, 2e-5, 20)
+            stamps = np.linspace(0.0, 0.025, 20)
+            block = Block(0, stamps, torque, np.full(20, 2.0), 293.0, 1000.0, ())
+            out.append((block, float(travel)))
+    return out
+
+
+@pytest.mark.parametrize(("phi_c", "low", "high"), [(0.02, 0.05, 0.2), (0.1, 0.4, 0.8)])
+def test_the_settling_angle_is_where_the_presliding_has_died_out(
+    phi_c: float, low: float, high: float
+) -> None:
+    theta = np.array([1.0, 0.0, 0.0, 0.0, 1e-5, 0.0, 0.0])
+    flat = ResidualSurface(
+        np.zeros((len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))),
+        np.full((len(LOG_SPEED_NODES), len(TEMPERATURE_NODES)), 100.0),
+    )
+    bands = (0.007,) * 6
+    twin = cast(UnitTwin, _FlatTwin())
+    angle = _settling_angle(twin, theta, flat, _settling_blocks(phi_c), bands, 2.0)
+    # 2 exp(-a / phi_c) <= 2 x 0.7 %: a >= phi_c ln(143) = 4.96 phi_c, on a 0.1 rad grid
+    assert low <= angle <= high
+    assert _settling_angle(twin, theta, flat, [], bands, 2.0) == 2.0

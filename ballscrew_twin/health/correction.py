@@ -1,0 +1,181 @@
+"""The commissioned unit's residual surface: what the adjusted twin still misses, over speed and
+temperature.
+
+After the parametric fit of :mod:`.commission` (gain, bias, preload scale, temperature shift,
+inertia, a two-term speed shape), a unit's drag still departs from the twin by a few percent in
+a pattern that is smooth in speed and temperature: its own viscosity, mu_dry and Eyring stress
+bend the drag-speed curve in ways two shape coefficients cannot follow (training units of
+``bench detection``: block means of a healthy run 3-4 % off at 3-30 rad/s and 34 C, systematic,
+with 0.3-1.4 % scatter). The surface c(x, T) with x = log10(|w| / 30 rad/s) is learnt from the
+relative block residuals of the healthy recording, as values at the nodes of a tensor grid with
+bilinear interpolation (a penalised spline of degree 1), minimising
+
+    sum_j (r_j - sum_k A_jk c_k)^2 + lambda_x |D_x c|^2 + lambda_T |D_T c|^2 + lambda_0 |c|^2,
+
+r_j the relative residual of block j, A_jk the block's drag-weighted mean of the basis function
+of node k over its speed samples, D first differences along each axis: where the recording has
+no data the surface continues flat from the nearest data and relaxes to zero over a few nodes
+(sqrt(lambda / lambda_0)). The monitor multiplies the twin's drag by 1 + c (queries beyond the
+grid are clamped to its edge). The support of each node (the sum of its basis weights over the
+blocks) says where the surface was learnt; the monitor widens its error where it is thin
+(:meth:`ResidualSurface.support_at`).
+
+All quantities SI: rad/s, K; c and r relative [-].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import ConfigError
+
+FloatArray = NDArray[np.float64]
+
+#: Speed about which x = log10(|w| / SPEED_REFERENCE) is taken [rad/s].
+SPEED_REFERENCE = 30.0
+#: Grid of the surface: x nodes (log10 of |w| / 30 rad/s, 0.3 to 530 rad/s) [-] and
+#: temperature nodes (-40 to 100 C) [K].
+LOG_SPEED_NODES = tuple(float(v) for v in np.arange(-2.0, 1.2501, 0.25))
+TEMPERATURE_NODES = tuple(float(v) for v in np.arange(233.15, 373.1501, 5.0))
+#: Penalty weights of first differences along x and T, and of the values [-] (relative to one
+#: block's squared relative residual).
+SMOOTH_SPEED = 2.0
+SMOOTH_TEMPERATURE = 2.0
+SHRINK = 0.05
+#: Support [blocks] from which the surface counts as learnt at a query; below, the monitor's
+#: error rises towards the baseline's ``unseen_error``.
+MIN_SUPPORT = 10.0
+
+
+def _axis_weights(nodes: FloatArray, values: FloatArray) -> tuple[NDArray[np.int64], FloatArray]:
+    """Lower node index and weight of the upper node of linear interpolation, clamped."""
+    clipped = np.clip(values, nodes[0], nodes[-1])
+    low = np.clip(np.searchsorted(nodes, clipped, side="right") - 1, 0, len(nodes) - 2)
+    fraction = (clipped - nodes[low]) / (nodes[low + 1] - nodes[low])
+    return low.astype(np.int64), np.asarray(fraction, dtype=np.float64)
+
+
+def log_speed(speed: FloatArray) -> FloatArray:
+    """x = log10(|w| / 30 rad/s) [-] of ``speed`` [rad/s] (|w| floored at 1e-6 rad/s)."""
+    return np.asarray(np.log10(np.maximum(np.abs(speed), 1e-6) / SPEED_REFERENCE))
+
+
+def basis(speed: FloatArray, temperature: FloatArray) -> FloatArray:
+    """Bilinear basis functions of every node at each (speed [rad/s], temperature [K]) pair:
+    an array (samples, nodes), rows summing to one (node k = i_x * len(T nodes) + i_T)."""
+    x_nodes = np.array(LOG_SPEED_NODES)
+    t_nodes = np.array(TEMPERATURE_NODES)
+    ix, fx = _axis_weights(x_nodes, log_speed(np.asarray(speed, dtype=np.float64)))
+    it, ft = _axis_weights(t_nodes, np.asarray(temperature, dtype=np.float64))
+    count = len(t_nodes)
+    out = np.zeros((len(ix), len(x_nodes) * count))
+    rows = np.arange(len(ix))
+    for dx, wx in ((0, 1.0 - fx), (1, fx)):
+        for dt, wt in ((0, 1.0 - ft), (1, ft)):
+            np.add.at(out, (rows, (ix + dx) * count + it + dt), wx * wt)
+    return out
+
+
+def _differences(size_x: int, size_t: int) -> tuple[FloatArray, FloatArray]:
+    """First-difference operators along x and along T of the node vector."""
+    n = size_x * size_t
+    index = np.arange(n).reshape(size_x, size_t)
+    along_x = np.zeros(((size_x - 1) * size_t, n))
+    for row, (a, b) in enumerate(zip(index[:-1].ravel(), index[1:].ravel(), strict=True)):
+        along_x[row, a], along_x[row, b] = -1.0, 1.0
+    along_t = np.zeros((size_x * (size_t - 1), n))
+    for row, (a, b) in enumerate(zip(index[:, :-1].ravel(), index[:, 1:].ravel(), strict=True)):
+        along_t[row, a], along_t[row, b] = -1.0, 1.0
+    return along_x, along_t
+
+
+@dataclass(frozen=True, eq=False)
+class ResidualSurface:
+    """c(x, T) on the grid of :data:`LOG_SPEED_NODES` x :data:`TEMPERATURE_NODES`.
+
+    Attributes:
+        values: c at the nodes, shape (x nodes, T nodes) [-].
+        support: sum of each node's basis weights over the fitted blocks [blocks].
+    """
+
+    values: FloatArray
+    support: FloatArray
+
+    def __post_init__(self) -> None:
+        shape = (len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))
+        for name in ("values", "support"):
+            array = np.asarray(getattr(self, name), dtype=np.float64)
+            if array.shape != shape:
+                raise ConfigError(f"residual surface: {name} has shape {array.shape}, not {shape}")
+            if not np.all(np.isfinite(array)):
+                raise ConfigError(f"residual surface: {name} is not finite")
+        if np.any(np.asarray(self.support) < 0.0):
+            raise ConfigError("residual surface: support must be >= 0")
+        if np.any(np.abs(np.asarray(self.values)) >= 1.0):
+            raise ConfigError("residual surface: |c| must be < 1 (a correction, not a new model)")
+
+    def __eq__(self, other: object) -> bool:
+        """Equal node values and support."""
+        if not isinstance(other, ResidualSurface):
+            return NotImplemented
+        same = np.array_equal(self.values, other.values)
+        return bool(same and np.array_equal(self.support, other.support))
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def at(self, speed: FloatArray, temperature: float) -> FloatArray:
+        """c [-] at each ``speed`` [rad/s] and one ``temperature`` [K]."""
+        speeds = np.asarray(speed, dtype=np.float64)
+        return basis(speeds, np.full(len(speeds), temperature)) @ np.ravel(self.values)
+
+    def support_at(self, speed: float, temperature: float) -> float:
+        """Interpolated support [blocks] at one ``speed`` [rad/s] and ``temperature`` [K]."""
+        row = basis(np.array([speed]), np.array([temperature]))[0]
+        return float(row @ np.ravel(self.support))
+
+
+def fit_surface(
+    design: FloatArray, residual: FloatArray, weight: FloatArray | None = None
+) -> ResidualSurface:
+    """The penalised least-squares surface (see the module docstring).
+
+    Args:
+        design: A, (blocks, nodes): each block's drag-weighted mean basis (rows of
+            :func:`basis` averaged over the block's samples with the drag as weight).
+        residual: r, each block's relative residual [-].
+        weight: per-block weight [-] (default one; robust reweighting passes smaller ones).
+    """
+    a = np.asarray(design, dtype=np.float64)
+    r = np.asarray(residual, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] != len(r) or not np.all(np.isfinite(r)):
+        raise ConfigError("residual surface: design and residuals disagree or are not finite")
+    w = np.ones(len(r)) if weight is None else np.asarray(weight, dtype=np.float64)
+    size_x, size_t = len(LOG_SPEED_NODES), len(TEMPERATURE_NODES)
+    along_x, along_t = _differences(size_x, size_t)
+    normal = (
+        a.T @ (a * w[:, None])
+        + SMOOTH_SPEED * along_x.T @ along_x
+        + SMOOTH_TEMPERATURE * along_t.T @ along_t
+        + SHRINK * np.eye(a.shape[1])
+    )
+    values = np.linalg.solve(normal, a.T @ (w * r))
+    values = np.clip(values, -0.5, 0.5)
+    support = np.sum(a, axis=0)
+    return ResidualSurface(values.reshape(size_x, size_t), support.reshape(size_x, size_t))
+
+
+def robust_fit(design: FloatArray, residual: FloatArray, scale: float) -> ResidualSurface:
+    """:func:`fit_surface` with two Huber reweightings at ``scale`` [-] (a block across a
+    preload step or a hard acceleration does not bend the surface)."""
+    if not (math.isfinite(scale) and scale > 0.0):
+        raise ConfigError(f"residual surface: scale = {scale!r} must be > 0")
+    surface = fit_surface(design, residual)
+    for _ in range(2):
+        misfit = np.abs(residual - design @ np.ravel(surface.values))
+        weight = np.minimum(1.0, scale / np.maximum(misfit, 1e-12))
+        surface = fit_surface(design, residual, weight)
+    return surface

@@ -1,0 +1,87 @@
+"""The residual surface: bilinear basis exact on bilinear functions, the penalised fit recovers a
+smooth surface where it has data and relaxes to zero far from it, outliers do not bend it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.correction import (
+    LOG_SPEED_NODES,
+    MIN_SUPPORT,
+    SPEED_REFERENCE,
+    TEMPERATURE_NODES,
+    ResidualSurface,
+    basis,
+    fit_surface,
+    log_speed,
+    robust_fit,
+)
+
+SHAPE = (len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))
+
+
+def _true_surface(speed: np.ndarray, temperature: np.ndarray) -> np.ndarray:
+    """A smooth unit misfit: -3 % at 8 rad/s and 300 K, fading over speed and temperature."""
+    x = np.log10(np.abs(speed) / 8.0)
+    return -0.03 * np.exp(-(x**2) / 0.5) * (1.0 + 0.004 * (temperature - 300.0))
+
+
+def test_basis_rows_sum_to_one_and_interpolate_bilinear_functions_exactly() -> None:
+    rng = np.random.default_rng(3)
+    speed = np.exp(rng.uniform(np.log(0.5), np.log(400.0), 200)) * rng.choice([-1, 1], 200)
+    temperature = rng.uniform(240.0, 360.0, 200)
+    rows = basis(speed, temperature)
+    np.testing.assert_allclose(rows.sum(axis=1), 1.0, rtol=0, atol=1e-14)
+    x_nodes, t_nodes = np.meshgrid(LOG_SPEED_NODES, TEMPERATURE_NODES, indexing="ij")
+    nodes = 0.2 + 0.1 * x_nodes - 0.002 * (t_nodes - 300.0)  # linear: exact under bilinear
+    expected = 0.2 + 0.1 * log_speed(speed) - 0.002 * (temperature - 300.0)
+    np.testing.assert_allclose(rows @ nodes.ravel(), expected, rtol=0, atol=1e-12)
+    assert log_speed(np.array([SPEED_REFERENCE, -SPEED_REFERENCE]))[1] == 0.0
+
+
+def test_the_fit_recovers_a_smooth_surface_where_it_has_data_and_relaxes_far_from_it() -> None:
+    rng = np.random.default_rng(5)
+    n = 3000
+    speed = np.exp(rng.uniform(np.log(2.0), np.log(300.0), n))
+    temperature = rng.uniform(280.0, 310.0, n)
+    truth = _true_surface(speed, temperature)
+    surface = fit_surface(basis(speed, temperature), truth + rng.normal(0.0, 0.003, n))
+    probe_w = np.array([3.0, 8.0, 30.0, 100.0])
+    for t in (285.0, 300.0):
+        # inside the data: the truth to 0.25 % of the drag (noise 0.3 % per block)
+        np.testing.assert_allclose(
+            surface.at(probe_w, t), _true_surface(probe_w, np.full(4, t)), rtol=0, atol=2.5e-3
+        )
+        assert surface.support_at(8.0, t) > MIN_SUPPORT
+    # 60 K beyond the data there is no support, and the surface has relaxed towards zero
+    assert surface.support_at(8.0, 370.0) == 0.0
+    assert abs(surface.at(np.array([8.0]), 370.0)[0]) < 0.3 * abs(
+        surface.at(np.array([8.0]), 305.0)[0]
+    )
+
+
+def test_outliers_do_not_bend_the_robust_fit() -> None:
+    rng = np.random.default_rng(8)
+    n = 2000
+    speed = np.exp(rng.uniform(np.log(3.0), np.log(100.0), n))
+    temperature = np.full(n, 295.0)
+    residual = np.full(n, 0.01) + rng.normal(0.0, 0.002, n)
+    residual[::20] = 0.5  # 5 % of the blocks across a preload step
+    design = basis(speed, temperature)
+    plain = fit_surface(design, residual).at(np.array([10.0]), 295.0)[0]
+    robust = robust_fit(design, residual, 0.01).at(np.array([10.0]), 295.0)[0]
+    assert plain > 0.03  # least squares is pulled by the outliers
+    assert robust == pytest.approx(0.01, abs=1.5e-3)
+
+
+def test_a_surface_of_the_wrong_shape_or_size_is_refused() -> None:
+    with pytest.raises(ConfigError, match="shape"):
+        ResidualSurface(np.zeros((3, 3)), np.zeros((3, 3)))
+    with pytest.raises(ConfigError, match="< 1"):
+        ResidualSurface(np.full(SHAPE, 1.5), np.zeros(SHAPE))
+    with pytest.raises(ConfigError, match="not finite"):
+        ResidualSurface(np.full(SHAPE, np.nan), np.zeros(SHAPE))
+    with pytest.raises(ConfigError, match="scale"):
+        robust_fit(np.zeros((2, SHAPE[0] * SHAPE[1])), np.zeros(2), 0.0)
