@@ -316,6 +316,8 @@ class HealthMonitor:
         self.orders = defect_orders(config)
         self.spectral = OrderSpectralTest(share, 1.0 / s.spectral_period, len(self.orders))
         self.alarm: Alarm | None = None
+        #: (block mid time [s], classification) at each refinement of the alarm's class.
+        self.classifications: list[tuple[float, Classification]] = []
         self.samples: list[HealthSample] = []
         self._start: float | None = None
         self._last_index: int | None = None
@@ -558,6 +560,7 @@ class HealthMonitor:
                 self.tracker.frozen = True
         if self.alarm is not None and not self.alarm.final:
             self.alarm.classification = self._classify()
+            self.classifications.append((block.time, self.alarm.classification))
             if block.stamps[-1] - self.alarm.time >= s.classification_window:
                 self.alarm.final = True
         return self._sample(block, measured, predicted, residual, normalized, e, stats, op)

@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 import pytest
+from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.health.bags import read_bench_bag
@@ -65,7 +66,7 @@ def test_each_sample_bag_gets_the_true_verdict_and_class(
 
 
 def test_detect_command_writes_verdict_plots_and_samples(
-    tmp_path: Path, predictor: TwinPredictor
+    tmp_path: Path, predictor: TwinPredictor, saved_figures: SavedFigures
 ) -> None:
     out = tmp_path / "report"
     code = main(["detect", str(SAMPLE_DIR / "raceway_defect"), "--out", str(out)])
@@ -74,8 +75,13 @@ def test_detect_command_writes_verdict_plots_and_samples(
     assert verdict["verdict"] == "FAULT"
     assert verdict["fault_class"] == "raceway_defect"
     assert verdict["class_correct"] is True
-    for name in ("residuals.png", "statistics.png"):
+    for name in ("residuals.png", "statistics.png", "classification.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # every axis carries its unit; the verdict axis reads UNKNOWN < OK < WARN < FAULT upwards
+    assert saved_figures.missing_units() == []
+    statistics = next(fig for fig, path in saved_figures.saved if path.endswith("statistics.png"))
+    ticks = [label.get_text() for label in statistics.axes[1].get_yticklabels()]
+    assert ticks == ["UNKNOWN", "OK", "WARN", "FAULT"]
     lines = (out / "samples.csv").read_text().splitlines()
     assert len(lines) == verdict["blocks"] + 1
 
