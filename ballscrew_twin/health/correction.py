@@ -41,6 +41,8 @@ SPEED_REFERENCE = 30.0
 #: temperature nodes (-40 to 100 C) [K].
 LOG_SPEED_NODES = tuple(float(v) for v in np.arange(-2.0, 1.2501, 0.25))
 TEMPERATURE_NODES = tuple(float(v) for v in np.arange(233.15, 373.1501, 5.0))
+_X = np.array(LOG_SPEED_NODES)
+_T = np.array(TEMPERATURE_NODES)
 #: Penalty weights of first differences along x and T, and of the values [-] (relative to one
 #: block's squared relative residual).
 SMOOTH_SPEED = 2.0
@@ -67,12 +69,10 @@ def log_speed(speed: FloatArray) -> FloatArray:
 def basis(speed: FloatArray, temperature: FloatArray) -> FloatArray:
     """Bilinear basis functions of every node at each (speed [rad/s], temperature [K]) pair:
     an array (samples, nodes), rows summing to one (node k = i_x * len(T nodes) + i_T)."""
-    x_nodes = np.array(LOG_SPEED_NODES)
-    t_nodes = np.array(TEMPERATURE_NODES)
-    ix, fx = _axis_weights(x_nodes, log_speed(np.asarray(speed, dtype=np.float64)))
-    it, ft = _axis_weights(t_nodes, np.asarray(temperature, dtype=np.float64))
-    count = len(t_nodes)
-    out = np.zeros((len(ix), len(x_nodes) * count))
+    ix, fx = _axis_weights(_X, log_speed(np.asarray(speed, dtype=np.float64)))
+    it, ft = _axis_weights(_T, np.asarray(temperature, dtype=np.float64))
+    count = len(_T)
+    out = np.zeros((len(ix), len(_X) * count))
     rows = np.arange(len(ix))
     for dx, wx in ((0, 1.0 - fx), (1, fx)):
         for dt, wt in ((0, 1.0 - ft), (1, ft)):
@@ -128,14 +128,25 @@ class ResidualSurface:
     __hash__ = None  # type: ignore[assignment]
 
     def at(self, speed: FloatArray, temperature: float) -> FloatArray:
-        """c [-] at each ``speed`` [rad/s] and one ``temperature`` [K]."""
-        speeds = np.asarray(speed, dtype=np.float64)
-        return basis(speeds, np.full(len(speeds), temperature)) @ np.ravel(self.values)
+        """c [-] at each ``speed`` [rad/s] and one ``temperature`` [K] (bilinear, the same as
+        :func:`basis` times the node values, without forming the basis)."""
+        return _bilinear(self.values, np.asarray(speed, dtype=np.float64), temperature)
 
     def support_at(self, speed: float, temperature: float) -> float:
         """Interpolated support [blocks] at one ``speed`` [rad/s] and ``temperature`` [K]."""
-        row = basis(np.array([speed]), np.array([temperature]))[0]
-        return float(row @ np.ravel(self.support))
+        return float(_bilinear(self.support, np.array([speed], dtype=np.float64), temperature)[0])
+
+
+def _bilinear(grid: FloatArray, speed: FloatArray, temperature: float) -> FloatArray:
+    """Bilinear interpolation of node ``grid`` (x nodes, T nodes) at each ``speed`` [rad/s]
+    and one ``temperature`` [K], clamped to the grid."""
+    ix, fx = _axis_weights(_X, log_speed(speed))
+    t = min(max(temperature, _T[0]), _T[-1])
+    j = min(int((t - _T[0]) // (_T[1] - _T[0])), len(_T) - 2)
+    g = (t - _T[j]) / (_T[j + 1] - _T[j])
+    low = grid[ix, j] * (1.0 - g) + grid[ix, j + 1] * g
+    high = grid[ix + 1, j] * (1.0 - g) + grid[ix + 1, j + 1] * g
+    return np.asarray(low * (1.0 - fx) + high * fx)
 
 
 def fit_surface(

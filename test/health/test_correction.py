@@ -39,6 +39,18 @@ def test_basis_rows_sum_to_one_and_interpolate_bilinear_functions_exactly() -> N
     expected = 0.2 + 0.1 * log_speed(speed) - 0.002 * (temperature - 300.0)
     np.testing.assert_allclose(rows @ nodes.ravel(), expected, rtol=0, atol=1e-12)
     assert log_speed(np.array([SPEED_REFERENCE, -SPEED_REFERENCE]))[1] == 0.0
+    # the surface's own interpolation is the same bilinear form as the basis
+    surface = ResidualSurface(0.01 * np.sin(nodes), np.abs(nodes))
+    for t in (240.0, 301.7, 360.0):
+        np.testing.assert_allclose(
+            surface.at(speed, t),
+            basis(speed, np.full(len(speed), t)) @ surface.values.ravel(),
+            rtol=0,
+            atol=1e-15,
+        )
+        assert surface.support_at(7.0, t) == pytest.approx(
+            float(basis(np.array([7.0]), np.array([t]))[0] @ surface.support.ravel()), abs=1e-13
+        )
 
 
 def test_the_fit_recovers_a_smooth_surface_where_it_has_data_and_relaxes_far_from_it() -> None:
