@@ -27,6 +27,7 @@ fitted), the relative residual, and the fitted values with their uncertainties.
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -71,6 +72,9 @@ ERROR_FLOOR = 0.007
 #: UNSEEN_ERROR (the spread of the training units' error there) [-].
 BAND_BLOCKS = 20
 UNSEEN_ERROR = 0.03
+#: Quantile of the parametric fit's |relative residual| taken as the error where the residual
+#: surface has no support [-].
+UNSEEN_QUANTILE = 0.99
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
 #: surface (the inertia's own error would) [-].
 SURFACE_INERTIA = 0.3
@@ -83,12 +87,14 @@ FOLD_CHUNK = 30.0
 #: up to 3.5 % where the fit claimed 0.45 %, the twin's systematic error leaking into it) [-].
 INERTIA_SIGMAS = 3.0
 INERTIA_ERROR_FLOOR = 0.05
-#: The settling angle after reversals (:func:`_settling_angle`): grid step [rad], fewest
-#: blocks beyond a candidate [-], quantile [-] and ratio to the band error [-] it must meet.
+#: The settling angle after reversals (:func:`_settling_angle`): bin width [rad], fewest
+#: blocks in all [-], quantile [-] and ratio to the band error [-] a bin's blocks must meet,
+#: and the largest ratio one of them may reach [-].
 SETTLING_STEP = 0.1
 SETTLING_BLOCKS = 10
-SETTLING_QUANTILE = 0.95
+SETTLING_QUANTILE = 0.9
 SETTLED_RATIO = 2.0
+SETTLED_MAX = 4.0
 #: Growth of the relative error per kelvin outside the commissioned temperatures [1/K].
 TEMPERATURE_ERROR = 0.005
 
@@ -258,7 +264,10 @@ def _settling_angle(
     SETTLING_QUANTILE of |relative residual| / band error over the blocks gated by angle alone
     (at least SETTLING_BLOCKS of them at >= a) stays within SETTLED_RATIO; ``gate_angle`` when
     the recording has too few such blocks. Measured on the data: it makes no assumption about
-    the unit's presliding law."""
+    the unit's presliding law. Per bin of SETTLING_STEP from the gate down: a bin is settled
+    when its SETTLING_QUANTILE ratio is within SETTLED_RATIO and its largest within SETTLED_MAX;
+    the angle is the lower edge of the lowest bin of the settled run that reaches the gate
+    (bins without data are passed over, but the angle does not go below the lowest data)."""
     if not blocks:
         return gate_angle
     fitted = Baseline(
@@ -291,13 +300,25 @@ def _settling_angle(
         travels.append(travel)
         ratios.append(abs(relative) / error)
     travel_arr, ratio_arr = np.array(travels), np.array(ratios)
-    for a in np.arange(SETTLING_STEP, gate_angle, SETTLING_STEP):
-        beyond = ratio_arr[travel_arr >= a]
-        if len(beyond) < SETTLING_BLOCKS:
+    if len(ratio_arr) < SETTLING_BLOCKS:
+        return gate_angle
+    # From the top down: the angle is the upper edge of the highest bin that is not settled
+    # (everything beyond it is), and never below the lowest bin the data reach.
+    edges = np.arange(0.0, gate_angle + 0.5 * SETTLING_STEP, SETTLING_STEP)
+    settled_from = float(edges[-1])
+    lowest = float(edges[-1])
+    for low, high in reversed(list(itertools.pairwise(edges))):
+        inside = ratio_arr[(travel_arr >= low) & (travel_arr < high)]
+        if len(inside) == 0:
+            continue
+        lowest = float(low)
+        if (
+            float(np.quantile(inside, SETTLING_QUANTILE)) > SETTLED_RATIO
+            or float(np.max(inside)) > SETTLED_MAX
+        ):
             break
-        if float(np.quantile(beyond, SETTLING_QUANTILE)) <= SETTLED_RATIO:
-            return float(a)
-    return gate_angle
+        settled_from = float(low)
+    return min(max(settled_from, lowest, SETTLING_STEP), gate_angle)
 
 
 def commission(
@@ -416,6 +437,10 @@ def commission(
                 fold_surface.values
             )
     surface = robust_fit(study.design, study.residual, SURFACE_SCALE)
+    # Where the surface was not learnt, the twin is as wrong as the parametric fit alone was
+    # at its worst on this unit (training unit 9: 23 % at -10 C and 3 rad/s, a corner the
+    # warm-up passed in seconds), at least UNSEEN_ERROR.
+    unseen = max(float(np.quantile(np.abs(study.residual), UNSEEN_QUANTILE)), UNSEEN_ERROR)
     judged = np.isfinite(out_of_fold)
     if np.count_nonzero(judged) < BAND_BLOCKS:  # too short to cross-validate: in sample
         out_of_fold = study.residual - study.design @ np.ravel(surface.values)
@@ -464,6 +489,7 @@ def commission(
         blocks=len(fit_blocks),
         surface=surface,
         settling_angle=angle,
+        unseen_error=unseen,
     )
     uncertainty = {
         "torque_gain": float(sigma[0]),

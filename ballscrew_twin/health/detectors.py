@@ -94,8 +94,16 @@ class CusumStep:
     change_index: int
 
 
+#: Largest share of the threshold one input may add to the CUSUM beyond k [-]: no single
+#: block can raise an alarm from zero (a one-block transient the twin does not model, e.g.
+#: a start from standstill, is not a fault); two in a row at the clip can.
+CUSUM_CLIP_SHARE = 0.6
+
+
 class Cusum:
-    """Two-sided CUSUM on standard-normal inputs.
+    """Two-sided CUSUM on standard-normal inputs, each input clipped to +-(k + 0.6 h)
+    (:data:`CUSUM_CLIP_SHARE`: a Huber-type CUSUM; under normal inputs the clip is reached
+    with probability below 1e-4 per input, so the mean run length stays at its target).
 
     Args:
         shift: mean shift it is tuned for, in sigma [-] (k = shift / 2).
@@ -110,6 +118,7 @@ class Cusum:
         self.threshold = cusum_threshold(
             self.k, 2.0 * arl0_from_rate(false_alarm_rate, sample_rate)
         )
+        self.clip = self.k + CUSUM_CLIP_SHARE * self.threshold
         self.reset()
 
     def reset(self) -> None:
@@ -121,7 +130,8 @@ class Cusum:
         self._lower_zero = 0
 
     def update(self, e: float) -> CusumStep:
-        """Take one normalised input ``e`` [-]."""
+        """Take one normalised input ``e`` [-] (clipped to +-:attr:`clip`)."""
+        e = min(max(e, -self.clip), self.clip)
         self.upper = max(0.0, self.upper + e - self.k)
         self.lower = max(0.0, self.lower - e - self.k)
         if self.upper == 0.0:

@@ -138,3 +138,14 @@ def test_order_test_finds_a_ripple_that_follows_the_speed() -> None:
 def test_bad_detector_settings_are_named(factory: object, match: str) -> None:
     with pytest.raises(ConfigError, match=match):
         factory()  # type: ignore[operator]
+
+
+def test_one_outlying_block_cannot_raise_the_cusum_but_two_can() -> None:
+    cusum = Cusum(5.0, 0.01, 10.0)
+    assert cusum.clip == pytest.approx(cusum.k + 0.6 * cusum.threshold)
+    step = cusum.update(1e6)  # a one-block transient
+    assert not step.alarm
+    assert step.statistic == pytest.approx(cusum.clip - cusum.k)
+    cusum.reset()
+    assert not cusum.update(-50.0).alarm
+    assert cusum.update(-50.0).alarm  # a change that holds
