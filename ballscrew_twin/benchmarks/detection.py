@@ -313,10 +313,15 @@ def report(runs: list[Run], units: range, plan: Plan, settings: MonitorSettings)
     alarms = sum(1 for r in healthy if not math.isnan(r.alarm))
     rate = alarms / hours if hours > 0 else math.nan
     bound = 3.0 / hours if hours > 0 and alarms == 0 else math.nan
+    faulty = [r for r in runs if r.true_class]
+    before = sum(max(r.onset - settings.warmup, 0.0) for r in faulty) / 3600.0
+    early = sum(1 for r in faulty if r.alarm < r.onset)
     lines += [
         "",
         f"Healthy data: {hours:.2f} h in {len(healthy)} recordings, {alarms} false alarm(s): "
         f"{rate:.3g}/h" + (f" (95 % upper bound {bound:.3g}/h)" if alarms == 0 else ""),
+        f"Before the onset of the fault runs: {before:.2f} h, {early} alarm(s) before the onset "
+        f"(also false alarms; with the healthy data: {alarms + early} in {hours + before:.2f} h)",
         f"Time gated (near standstill or within the gate angle of a reversal): "
         f"{gated / max(looked, 1e-9):.1%} of the time after the warm-up.",
         "",
