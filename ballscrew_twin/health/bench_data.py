@@ -700,9 +700,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     unit.add_argument("--preload", type=float, default=1500.0, help="set preload [N]")
     unit.add_argument(
         "--temperature",
-        choices=("ambient", "cold-start", "random"),
+        choices=("ambient", "cold-start", "random", "warm-up"),
         default="random",
-        help="ambient 10-35 C, a cold start from -20..5 C, or 1 in 4 cold (random)",
+        help="ambient 10-35 C, a cold start from -20..5 C, 1 in 4 cold (random), or a "
+        "commissioning warm-up from -20..-10 C to 35..45 C within a few minutes",
     )
     unit.add_argument(
         "--fault",
@@ -766,11 +767,17 @@ def _fault_argument(text: str) -> FaultSpec:
 
 def _unit_bag(args: argparse.Namespace) -> BenchData:
     """``bench-data unit``: a drawn unit through a random duty cycle, written as a bag."""
-    from .duty_cycles import draw_trajectory
+    from .duty_cycles import COMMISSIONING_WARMUP, draw_trajectory
     from .units import draw_unit
 
-    cold = {"ambient": False, "cold-start": True, "random": None}[args.temperature]
-    trajectory = draw_trajectory(args.seed, args.duration, cold_start=cold, preload=args.preload)
+    cold = {"ambient": False, "cold-start": True, "random": None, "warm-up": True}
+    trajectory = draw_trajectory(
+        args.seed,
+        args.duration,
+        cold_start=cold[args.temperature],
+        preload=args.preload,
+        warmup=COMMISSIONING_WARMUP if args.temperature == "warm-up" else None,
+    )
     faults = (_fault_argument(args.fault),) if args.fault else ()
     config = load_config(None)
     data = generate_unit_data(

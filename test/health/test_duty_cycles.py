@@ -10,6 +10,7 @@ import pytest
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.duty_cycles import (
     CELSIUS_ZERO,
+    COMMISSIONING_WARMUP,
     PEAK_SPEED_RPM,
     RPM,
     SINE_FREQUENCY,
@@ -76,3 +77,13 @@ def test_a_bad_request_is_refused() -> None:
         draw_trajectory(0, -1.0)
     with pytest.raises(ConfigError, match="kinds"):
         draw_trajectory(0, 10.0, kinds=("zigzag",))
+
+
+def test_a_commissioning_warm_up_spans_the_working_temperatures() -> None:
+    for seed in range(5):
+        trajectory = draw_trajectory(seed, 600.0, cold_start=True, warmup=COMMISSIONING_WARMUP)
+        celsius = trajectory.temperature - 273.15
+        assert -20.0 <= celsius[0] <= -10.0
+        # within 600 s it passes 30 C (ambient runs: 10-35 C; cold starts end at 30-45 C)
+        assert celsius[-1] >= 30.0
+        assert np.all(np.diff(celsius) >= 0.0)
