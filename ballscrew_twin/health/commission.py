@@ -32,6 +32,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,7 +42,15 @@ from ..errors import BallscrewTwinError, ConfigError
 from ..models.steady_map import config_fingerprint
 from ..params import TwinConfig, load_config
 from .baseline import ERROR_BAND_EDGES, Baseline
-from .correction import MIN_SUPPORT, ResidualSurface, basis, robust_fit
+from .correction import (
+    LOG_SPEED_NODES,
+    MIN_SUPPORT,
+    SPEED_REFERENCE,
+    TEMPERATURE_NODES,
+    ResidualSurface,
+    basis,
+    robust_fit,
+)
 from .residuals import (
     Block,
     BlockAligner,
@@ -526,7 +535,8 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
     axes[0].plot(t, result.fitted * 1e3, ".", ms=2, label="commissioned twin")
     axes[0].set_ylabel("drive torque [mN m]")
     axes[0].legend(fontsize=8, markerscale=4)
-    scale = np.maximum(np.abs(measured), 1e-6)
+    # signed: a twin too low reads positive in both directions of rotation
+    scale = np.where(np.abs(measured) > 1e-6, measured, 1e-6)
     axes[1].plot(t, (measured - result.nominal) / scale * 100, ".", ms=2, label="nominal")
     axes[1].plot(t, (measured - result.fitted) / scale * 100, ".", ms=2, label="commissioned")
     e = result.baseline.error_relative * 100
@@ -560,6 +570,8 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
         ax.grid(alpha=0.3)
     fig.suptitle(f"commissioning on {b.source or 'recording'} ({b.blocks} blocks)")
     fig.tight_layout()
+    if b.surface is not None:
+        _draw_surface(fig, b.surface)
     file = Path(path)
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
@@ -569,6 +581,33 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
     finally:
         plt.close(fig)
     return file
+
+
+def _draw_surface(fig: Any, surface: ResidualSurface) -> None:
+    """A fourth panel: the residual surface c over speed and temperature, hatched where it
+    was not learnt (support below MIN_SUPPORT blocks)."""
+    fig.set_size_inches(9, 12)
+    fig.subplots_adjust(bottom=0.3)
+    ax = fig.add_axes((0.1, 0.04, 0.72, 0.18))
+    speeds = SPEED_REFERENCE * 10.0 ** np.array(LOG_SPEED_NODES) * 60.0 / (2.0 * math.pi)
+    celsius = np.array(TEMPERATURE_NODES) - 273.15
+    image = ax.pcolormesh(
+        speeds, celsius, surface.values.T * 100.0, cmap="coolwarm", vmin=-5.0, vmax=5.0
+    )
+    ax.contourf(
+        speeds,
+        celsius,
+        surface.support.T,
+        levels=[-1.0, MIN_SUPPORT],
+        colors="none",
+        hatches=["////"],
+    )
+    ax.set_xscale("log")
+    ax.set_xlabel("screw speed [rpm]")
+    ax.set_ylabel("temperature [C]")
+    ax.set_title("residual surface c (hatched: not learnt, support < 10 blocks)", fontsize=9)
+    bar = fig.colorbar(image, cax=fig.add_axes((0.85, 0.04, 0.02, 0.18)))
+    bar.set_label("c [%]")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
