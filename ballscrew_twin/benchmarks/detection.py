@@ -421,7 +421,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--commission", type=float, default=600.0, help="commissioning warm-up run [s]"
     )
     parser.add_argument("--healthy", type=float, default=1200.0, help="healthy run per unit [s]")
-    parser.add_argument("--faults", type=int, default=2, help="fault runs per unit [-]")
+    parser.add_argument("--faults", type=int, default=4, help="fault runs per unit [-]")
     parser.add_argument("--fault-length", type=float, default=60.0, help="fault run [s]")
     parser.add_argument("--workers", type=int, default=2, help="processes [-]")
     parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
