@@ -28,6 +28,12 @@ that leans on a filled node says so.
 
 Build the committed table with ``python -m ballscrew_twin.models.steady_map build --out
 ballscrew_twin/data/steady_map.npz`` (progress bar; 2 worker processes by default).
+
+Any other screw: ``ballscrew-twin map build --config YOUR.yaml`` builds the table of
+:func:`grid_for` that screw into the user cache (:func:`cache_dir`, never the package), under
+the parameter set's fingerprint (:func:`cached_map_path`); :func:`find_map` finds the table of
+a parameter set (a given file, the packaged table, the cache) and says why each other one is
+refused. A table is only ever used for the parameter set it was built for (its fingerprint).
 """
 
 from __future__ import annotations
@@ -36,8 +42,10 @@ import argparse
 import hashlib
 import math
 import multiprocessing
+import os
 import sys
-from collections.abc import Iterable, Sequence
+import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -100,6 +108,13 @@ _LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in
 HALF_GROOVES = 4
 NUTS = 2
 NUT_NAMES = ("master", "slave")
+#: Node counts (speed, temperature, preload) of the preview table of a new screw: built in
+#: seconds, it serves while the full table is built (its error is measured by ``bench screw``).
+PREVIEW_NODES = (9, 7, 9)
+#: Niceness of the worker processes of a build (the real-time ticks of a node go first).
+WORKER_NICENESS = 10
+#: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
+CACHE_FOLDER = "ballscrew_twin"
 
 
 class MapError(BallscrewTwinError, ValueError):
@@ -110,6 +125,27 @@ def config_fingerprint(config: TwinConfig) -> str:
     """SHA-256 of every physical parameter of ``config`` (its name and source are ignored)."""
     text = repr(replace(config, name="", source=""))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def map_fingerprint(path: str | Path) -> str:
+    """The fingerprint saved in a map file (read alone, without the tables).
+
+    Raises:
+        MapError: the file is missing or not a map.
+    """
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            return str(data["fingerprint"])
+    except (OSError, KeyError, ValueError, EOFError) as err:
+        raise MapError(f"{path}: not a readable steady map ({err})") from err
+
+
+def cache_dir() -> Path:
+    """The user's cache of built tables: ``$XDG_CACHE_HOME/ballscrew_twin`` (``$XDG_CACHE_HOME``
+    unset or relative: ``~/.cache``), never inside the package."""
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
+    return root / CACHE_FOLDER
 
 
 def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
@@ -215,6 +251,90 @@ class MapGrid:
         return cls(v[0], v[1], int(v[2]), v[3], v[4], int(v[5]), v[6], int(v[7]))
 
 
+def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
+    """The grid of ``config``'s table: the packaged table's nodes, with the speed range ending at
+    the screw's critical speed when that is below 6000 rpm (the validity envelope clamps any
+    faster command there, so nodes beyond it would never be read). ``preview``: the
+    :data:`PREVIEW_NODES` grid over the same ranges."""
+    grid = MapGrid()
+    speed_max = min(grid.speed_max, config.screw.critical_speed)
+    if speed_max <= grid.speed_min * 10.0:
+        raise MapError(
+            f"{config.source or config.name}: screw.critical_speed = "
+            f"{config.screw.critical_speed:g} rad/s leaves no speed range to tabulate"
+        )
+    grid = replace(grid, speed_max=speed_max)
+    if preview:
+        speed, temperature, preload = PREVIEW_NODES
+        grid = replace(
+            grid, speed_nodes=speed, temperature_nodes=temperature, preload_nodes=preload
+        )
+    return grid
+
+
+def cached_map_path(config: TwinConfig, grid: MapGrid) -> Path:
+    """Where the table of ``config`` on ``grid`` is cached: :func:`cache_dir` / a name made of
+    the fingerprint and the node counts."""
+    nodes = f"{grid.speed_nodes}x{grid.temperature_nodes}x{grid.preload_nodes}"
+    rpm = f"{grid.speed_max / RPM:.0f}rpm"
+    return cache_dir() / f"steady_map_{config_fingerprint(config)[:20]}_{nodes}_{rpm}.npz"
+
+
+@dataclass(frozen=True)
+class MapSearch:
+    """What :func:`find_map` found.
+
+    Attributes:
+        table: the table built for the parameter set, or None.
+        path: the file it came from ("" when none).
+        refused: one line per file considered and refused, with the reason.
+    """
+
+    table: SteadyMap | None
+    path: str
+    refused: tuple[str, ...]
+
+
+def find_map(config: TwinConfig, path: str | Path = "") -> MapSearch:
+    """The table built for ``config``: ``path`` if given, else the packaged table, else the
+    cached table of :func:`grid_for` ``config``; a file built for other parameters (another
+    fingerprint), unreadable or missing is refused and the reason kept."""
+    fingerprint = config_fingerprint(config)
+    refused: list[str] = []
+    candidates = [Path(path).expanduser()] if path else []
+    candidates += [DEFAULT_MAP_PATH, cached_map_path(config, grid_for(config))]
+    for index, file in enumerate(candidates):
+        explicit = bool(path) and index == 0
+        if not file.is_file():
+            if explicit:
+                refused.append(f"{file}: no such file")
+            continue
+        try:
+            saved = map_fingerprint(file)
+            if saved != fingerprint:
+                refused.append(
+                    f"{file}: built for other parameters (fingerprint {saved[:12]}, "
+                    f"{config.source or config.name} has {fingerprint[:12]})"
+                )
+                continue
+            return MapSearch(load_map(file), str(file), tuple(refused))
+        except MapError as err:
+            refused.append(str(err))
+    return MapSearch(None, "", tuple(refused))
+
+
+def save_atomic(table: SteadyMap, path: Path) -> None:
+    """Save ``table`` to ``path`` through a temporary file in the same folder (created), so a
+    reader never sees a half-written table."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.stem}.{os.getpid()}.partial.npz")
+    try:
+        table.save(partial)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
 @dataclass(frozen=True)
 class NodeValues:
     """What one steady solve contributes to the table (index 0 master nut, 1 slave nut).
@@ -278,7 +398,9 @@ class _LineResult:
 _WORKER: dict[str, SteadyStateModel | MapGrid] = {}
 
 
-def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
+def _worker_init(config: TwinConfig, grid: MapGrid, niceness: int = 0) -> None:
+    if niceness:
+        os.nice(niceness)
     _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
     _WORKER["grid"] = grid
 
@@ -332,8 +454,17 @@ def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
             raise MapError(f"steady map: the solver failed at every speed of line {sign, *rest}")
 
 
+#: Progress callback of :func:`build_map`: (lines done, lines in all, seconds elapsed).
+Progress = Callable[[int, int, float], None]
+
+
 def build_map(
-    config: TwinConfig, grid: MapGrid | None = None, workers: int = 2, progress: bool = True
+    config: TwinConfig,
+    grid: MapGrid | None = None,
+    workers: int = 2,
+    progress: bool = True,
+    on_progress: Progress | None = None,
+    niceness: int = 0,
 ) -> SteadyMap:
     """Solve every node of ``grid`` with the symmetric steady model.
 
@@ -342,6 +473,8 @@ def build_map(
         grid: nodes (default :class:`MapGrid()`).
         workers: worker processes (1: solve in this process).
         progress: show a tqdm progress bar on stderr.
+        on_progress: called after each line of nodes (see :data:`Progress`).
+        niceness: added to the worker processes' niceness (with ``workers`` > 1).
     """
     from tqdm import tqdm
 
@@ -355,13 +488,17 @@ def build_map(
     static = np.full((*shape[2:], NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
     lines = [_Line(s, t, p) for s in range(2) for t in range(shape[2]) for p in range(shape[3])]
 
+    start = time.monotonic()
+
     def store(results: Iterable[_LineResult]) -> None:
         bar = tqdm(total=len(lines), desc="steady map", unit="line", disable=not progress)
-        for res in results:
+        for done, res in enumerate(results, start=1):
             where = (res.line.sign, slice(None), res.line.temperature, res.line.preload)
             torque[where], contacts[where], failed[where] = res.torque, res.contacts, res.failed
             static[res.line.temperature, res.line.preload] = res.static
             bar.update()
+            if on_progress is not None:
+                on_progress(done, len(lines), time.monotonic() - start)
         bar.close()
 
     if workers <= 1:
@@ -369,7 +506,8 @@ def build_map(
         store(_solve_line(line) for line in lines)
     else:
         context = multiprocessing.get_context("spawn")
-        with context.Pool(workers, initializer=_worker_init, initargs=(config, grid)) as pool:
+        init = (config, grid, niceness)
+        with context.Pool(workers, initializer=_worker_init, initargs=init) as pool:
             store(pool.imap_unordered(_solve_line, lines, chunksize=2))
     if failed.any():
         _fill_failed(torque, failed)
