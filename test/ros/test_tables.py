@@ -1,0 +1,95 @@
+"""The twin node's real-time table of a screw without one: refused tables named, a preview
+served at once, the full table built on a thread and handed over, progress on /diagnostics."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+from ballscrew_twin.models import steady_map as sm
+from ballscrew_twin.models.base import OperatingPoint
+from ballscrew_twin.params import load_config
+from ballscrew_twin.ros import diagnostics, fidelity
+from ballscrew_twin.ros.tables import RealTimeTables
+
+NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
+
+
+@pytest.fixture(autouse=True)
+def small_grids(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A user cache of this test alone and tables of a few nodes (built in about a second)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    original = sm.grid_for
+
+    def small(config: object, preview: bool = False) -> sm.MapGrid:
+        grid = original(config, preview)  # type: ignore[arg-type]
+        nodes = 5 if preview else 7
+        return replace(grid, speed_nodes=nodes, temperature_nodes=5, preload_nodes=nodes)
+
+    monkeypatch.setattr(sm, "grid_for", small)
+
+
+def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
+    config = load_config(NEW_SCREW)
+    lines: list[str] = []
+    tables = RealTimeTables(config, "", workers=1, log=lines.append)
+    assert tables.table is not None and tables.preview  # serves from the start
+    assert tables.table.fingerprint == sm.config_fingerprint(config)
+    assert any("refused" in line and "other parameters" in line for line in lines)
+    first = tables.check()
+    assert first.level == diagnostics.WARN
+    deadline = time.monotonic() + 120.0
+    built = None
+    while built is None and time.monotonic() < deadline:
+        built = tables.take_built()
+        time.sleep(0.05)
+    assert built is not None, lines
+    assert not tables.preview and tables.table is built.table
+    assert built.path == sm.cached_map_path(config, sm.grid_for(config)) and built.path.is_file()
+    assert any("100%" in line for line in lines)  # progress on the console
+    check = tables.check()
+    assert check.level == diagnostics.OK and str(built.path) in check.message
+    assert dict(check.values)["refused 1"].endswith(f"has {sm.config_fingerprint(config)[:12]})")
+    # The real-time model runs on it with per-sphere states; the next start finds it cached.
+    settings = fidelity.ModelSettings(config=config, table=tables.table)
+    choice = fidelity.choose("auto", settings)
+    assert choice.mode == "realtime"
+    op = OperatingPoint(screw_speed=50.0, temperature=300.0, preload=800.0)
+    out = choice.model.step(op, 1e-3)
+    assert out.contacts is not None and len(out.contacts.sphere) == 2 * 36 * 4
+    again = RealTimeTables(config, "", workers=1, log=lines.append)
+    assert not again.building and not again.preview and again.source == str(built.path)
+
+
+def test_without_workers_nothing_is_built_and_auto_says_why() -> None:
+    config = load_config(NEW_SCREW)
+    tables = RealTimeTables(config, "", workers=0, log=lambda _line: None)
+    assert tables.table is None and not tables.building
+    check = tables.check()
+    assert check.level == diagnostics.WARN and "map build --config" in check.message
+    choice = fidelity.choose("auto", fidelity.ModelSettings(config=config))
+    assert choice.mode == "catalog"
+    assert "built for other parameters" in choice.reason and "map build" in choice.reason
+
+
+def test_a_table_of_other_parameters_is_never_used(tmp_path: Path) -> None:
+    """The paper screw's packaged table given as realtime_map for the new screw: refused
+    (named on /diagnostics); the explicit realtime fidelity cannot be built with it."""
+    config = load_config(NEW_SCREW)
+    tables = RealTimeTables(config, str(sm.DEFAULT_MAP_PATH), 0, lambda _line: None)
+    assert tables.table is None
+    assert str(sm.DEFAULT_MAP_PATH) in dict(tables.check().values)["refused 1"]
+    settings = fidelity.ModelSettings(config=config, realtime_map=str(sm.DEFAULT_MAP_PATH))
+    with pytest.raises(ValueError, match="built for other parameters"):
+        fidelity.choose("realtime", settings)
+
+
+def test_stop_cancels_a_running_build() -> None:
+    config = load_config(NEW_SCREW)
+    tables = RealTimeTables(config, "", workers=1, log=lambda _line: None)
+    tables.stop(timeout=60.0)
+    assert not tables.building
+    assert tables.take_built() is None or tables.table is not None
