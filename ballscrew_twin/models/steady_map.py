@@ -257,13 +257,8 @@ def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
     faster command there, so nodes beyond it would never be read). ``preview``: the
     :data:`PREVIEW_NODES` grid over the same ranges."""
     grid = MapGrid()
-    speed_max = min(grid.speed_max, config.screw.critical_speed)
-    if speed_max <= grid.speed_min * 10.0:
-        raise MapError(
-            f"{config.source or config.name}: screw.critical_speed = "
-            f"{config.screw.critical_speed:g} rad/s leaves no speed range to tabulate"
-        )
-    grid = replace(grid, speed_max=speed_max)
+    # params.py keeps the critical speed >= 1 rad/s, far above the lowest node (0.05 rpm).
+    grid = replace(grid, speed_max=min(grid.speed_max, config.screw.critical_speed))
     if preview:
         speed, temperature, preload = PREVIEW_NODES
         grid = replace(

@@ -8,12 +8,16 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from rclpy.executors import SingleThreadedExecutor
 
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.params import load_config
 from ballscrew_twin.ros import diagnostics, fidelity
 from ballscrew_twin.ros.tables import RealTimeTables
+
+from .conftest import SpinUntil
+from .test_twin_node import _twin
 
 NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
 
@@ -93,3 +97,40 @@ def test_stop_cancels_a_running_build() -> None:
     tables.stop(timeout=60.0)
     assert not tables.building
     assert tables.take_built() is None or tables.table is not None
+
+
+def test_the_node_on_a_new_screw_switches_to_its_built_table(
+    executor: SingleThreadedExecutor, spin_until: SpinUntil
+) -> None:
+    """twin_node with the new screw's YAML: per-sphere states from the preview at once, the
+    built table taken into use, the real-time table check on /diagnostics at each stage."""
+    twin = _twin(executor, config_file=str(NEW_SCREW), table_workers=1)
+    assert twin.choice.mode == "realtime" and twin.tables.preview
+    names = {c.name: c for c in twin.diagnostic_checks()}
+    assert names["real-time table"].level == diagnostics.WARN
+    assert spin_until(executor, lambda: not twin.tables.preview, timeout=120.0)
+    assert twin.choice.mode == "realtime" and "table of this screw built" in twin.choice.reason
+    assert twin.model_switches == 1
+    check = {c.name: c for c in twin.diagnostic_checks()}["real-time table"]
+    assert check.level == diagnostics.OK and "built for this screw" in check.message
+    count = twin.contact_count
+    assert spin_until(executor, lambda: twin.contact_count > count)
+    assert twin.last_output is not None and twin.last_output.fidelity == "realtime-map"
+
+
+def test_the_node_names_a_refused_table_and_never_uses_it(
+    executor: SingleThreadedExecutor,
+) -> None:
+    """The paper screw's table given for the new screw, no build: the catalogue serves (the
+    only model left) and /diagnostics names the file refused and why."""
+    twin = _twin(
+        executor,
+        config_file=str(NEW_SCREW),
+        realtime_map=str(sm.DEFAULT_MAP_PATH),
+        table_workers=0,
+    )
+    assert twin.choice.mode == "catalog"
+    check = {c.name: c for c in twin.diagnostic_checks()}["real-time table"]
+    assert check.level == diagnostics.WARN
+    refused = dict(check.values)["refused 1"]
+    assert str(sm.DEFAULT_MAP_PATH) in refused and "built for other parameters" in refused
