@@ -8,7 +8,8 @@ Two parts, printed (never asserted):
    ``--workers`` niced processes and switches to it (``ros/tables.py``). Printed: the time from
    before the YAML is read to the node's first tick (preview table), to the full table in use
    and to the first contact states published from it; then the share of ticks on time (within
-   1 ms) during the build and over ``--settle`` seconds on the full table.
+   1 ms) during the build and over ``--settle`` seconds on the full table; then the same
+   ``--settle`` seconds of the paper screw's node on its packaged table, for comparison.
 2. **Accuracy of the tables** at ``--points`` random operating points off the nodes (seeded;
    speed log-uniform in [0.1 rpm, the table's highest speed], temperature uniform in the
    table's range, preload uniform in sqrt(preload) over [0, 4000] N as the nodes, so 7 % lie below
@@ -40,7 +41,7 @@ from ..errors import SolverError
 from ..models.base import OperatingPoint, TwinOutput
 from ..models.realtime import RealTimeModel
 from ..models.steady import SteadyStateModel
-from ..models.steady_map import RPM, SteadyMap, cached_map_path, grid_for, load_map
+from ..models.steady_map import RPM, SteadyMap, cached_map_path, find_map, grid_for, load_map
 from ..params import TwinConfig, load_config
 from .accuracy import errors
 
@@ -74,6 +75,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--points", type=int, default=300, help="accuracy points (0: skip)")
     parser.add_argument("--seed", type=int, default=14, help="seed of the accuracy points")
     parser.add_argument("--no-node", action="store_true", help="accuracy only (cache given)")
+    parser.add_argument(
+        "--no-paper",
+        action="store_true",
+        help="skip the paper screw's node run (its packaged table) after the new screw's",
+    )
 
 
 def _on_time(latencies: list[int]) -> str:
@@ -110,7 +116,8 @@ def run_node(config_file: str, workers: int, settle: float) -> dict[str, Any]:
         now = time.monotonic() - start
         if "first tick" not in marks and node.published_count:
             marks["first tick"] = now
-        if "full table" not in marks and node.model_switches and not node.tables.preview:
+        ready = not (node.tables.preview or node.tables.building)
+        if "full table" not in marks and node.published_count and ready:
             marks["full table"] = now
             contacts = node.contact_count
             during.extend(node.latency_log or [])
@@ -235,13 +242,18 @@ def run(args: argparse.Namespace) -> int:
         print(f"  ticks during the build: {result['during']}")
         print(f"  ticks on the full table over {args.settle:g} s: {result['after']}")
         print(f"  model: {result['model']} ({result['reason']}); table {result['table']}")
+        if not args.no_paper:
+            paper = run_node("", args.workers, args.settle)
+            print(f"  paper screw, same run: {paper['after']} over {args.settle:g} s")
     if args.points <= 0:
         return 0
     tables = {}
-    for name, preview in (("full", False), ("preview", True)):
-        path = cached_map_path(config, grid_for(config, preview=preview))
-        if path.is_file():
-            tables[name] = load_map(path)
+    found = find_map(config)  # the packaged table of the paper screw, else the cache
+    if found.table is not None:
+        tables["full"] = found.table
+    preview = cached_map_path(config, grid_for(config, preview=True))
+    if preview.is_file():
+        tables["preview"] = load_map(preview)
     if not tables:
         print(f"no table of {args.config} in {cache}: nothing to measure")
         return 1
