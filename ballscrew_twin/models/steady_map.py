@@ -23,8 +23,9 @@ torque does not depend on, are kept on every other node of each axis (a quarter 
 file). Below ``speed_min`` the torque goes linearly to zero and the contact states are blended
 linearly towards the standstill solution; outside the grid the inputs are clamped;
 :meth:`SteadyMap.sample` says which. Nodes where the steady solver fails, even cold with its
-continuation, are filled from their nearest solved neighbour in speed and flagged; a sample
-that leans on a filled node says so.
+continuation, are filled from their nearest solved neighbour in speed (a line solved at no
+speed: the nearest such line in preload) and flagged; a sample that leans on a filled node
+says so.
 
 Build the committed table with ``python -m ballscrew_twin.models.steady_map build --out
 ballscrew_twin/data/steady_map.npz`` (progress bar; 2 worker processes by default).
@@ -434,19 +435,31 @@ def _solve_line(line: _Line) -> _LineResult:
 
 
 def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
-    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place.
+    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place;
+    a speed line that failed at every speed takes the whole nearest line along the last axis
+    (the preload) that has a solved node.
 
     Raises:
-        MapError: a whole speed line failed.
+        MapError: every line along the last axis failed at every speed.
     """
     count = failed.shape[1]
+    whole = failed.all(axis=1)  # (sign, *rest): lines without a solved speed
     for sign, i, *rest in zip(*np.nonzero(failed), strict=True):
+        if whole[(sign, *rest)]:
+            continue
         for j in sorted(range(count), key=lambda k: abs(k - i)):
             if not failed[(sign, j, *rest)]:
                 table[(sign, i, *rest)] = table[(sign, j, *rest)]
                 break
+    last = whole.shape[-1]
+    for sign, *rest in zip(*np.nonzero(whole), strict=True):
+        *other, k = rest
+        for m in sorted(range(last), key=lambda q: abs(q - k)):
+            if not whole[(sign, *other, m)]:
+                table[(sign, slice(None), *other, k)] = table[(sign, slice(None), *other, m)]
+                break
         else:
-            raise MapError(f"steady map: the solver failed at every speed of line {sign, *rest}")
+            raise MapError(f"steady map: the solver failed at every speed of lines {sign, *other}")
 
 
 #: Progress callback of :func:`build_map`: (lines done, lines in all, seconds elapsed).
@@ -810,7 +823,7 @@ class SteadyMap:
                 if self._filled_near(sign, (fine.speed[0], fine.temperature[0], preload_cell)):
                     notes.append(
                         f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady "
-                        "solver failed (filled from the nearest solved speed)"
+                        "solver failed (filled from the nearest solved speed or preload)"
                     )
         return MapSample(torque, states, tuple(notes))
 
