@@ -443,7 +443,7 @@ def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
         MapError: every line along the last axis failed at every speed.
     """
     count = failed.shape[1]
-    whole = failed.all(axis=1)  # (sign, *rest): lines without a solved speed
+    whole = np.asarray(failed.all(axis=1))  # (sign, *rest): lines without a solved speed
     for sign, i, *rest in zip(*np.nonzero(failed), strict=True):
         if whole[(sign, *rest)]:
             continue
