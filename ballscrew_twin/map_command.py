@@ -11,6 +11,7 @@ one is refused.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
@@ -64,7 +65,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"{out}: already built for {config.source} (--force builds it again)")
         return 0
     start = time.monotonic()
-    table = steady_map.build_map(config, grid, workers=args.workers, progress=not args.no_progress)
+    try:
+        table = steady_map.build_map(
+            config, grid, workers=args.workers, progress=not args.no_progress
+        )
+    except KeyboardInterrupt:
+        print(f"interrupted: nothing written to {out}", file=sys.stderr)
+        return 130
     steady_map.save_atomic(table, out)
     filled = int(table.filled.sum())
     print(

@@ -44,7 +44,9 @@ import hashlib
 import math
 import multiprocessing
 import os
+import signal
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
@@ -394,9 +396,17 @@ class _LineResult:
 _WORKER: dict[str, SteadyStateModel | MapGrid] = {}
 
 
-def _worker_init(config: TwinConfig, grid: MapGrid, niceness: int = 0) -> None:
+def _pool_worker_init(config: TwinConfig, grid: MapGrid, niceness: int) -> None:
+    """Initialiser of a worker process (never of the calling process: its handler stays)."""
+    # Ctrl-C reaches the whole process group: the parent alone stops the build (it terminates
+    # the pool), so a worker does not print a KeyboardInterrupt traceback of its own.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if niceness:
         os.nice(niceness)
+    _worker_init(config, grid)
+
+
+def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
     _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
     _WORKER["grid"] = grid
 
@@ -482,7 +492,10 @@ def build_map(
         workers: worker processes (1: solve in this process).
         progress: show a tqdm progress bar on stderr.
         on_progress: called after each line of nodes (see :data:`Progress`).
-        niceness: added to the worker processes' niceness (with ``workers`` > 1).
+        niceness: added to the worker processes' niceness (with ``workers`` > 1). On Linux it
+            is added to the calling thread's niceness before the workers start, so that they
+            start niced (their imports included; a dedicated build thread stays niced);
+            elsewhere each worker lowers its own priority once started.
     """
     from tqdm import tqdm
 
@@ -514,8 +527,14 @@ def build_map(
         store(_solve_line(line) for line in lines)
     else:
         context = multiprocessing.get_context("spawn")
-        init = (config, grid, niceness)
-        with context.Pool(workers, initializer=_worker_init, initargs=init) as pool:
+        inherited = niceness > 0 and sys.platform == "linux"
+        if inherited:  # Linux: a thread's niceness is its own, and a process it starts inherits it
+            thread = threading.get_native_id()
+            os.setpriority(
+                os.PRIO_PROCESS, thread, os.getpriority(os.PRIO_PROCESS, thread) + niceness
+            )
+        init = (config, grid, 0 if inherited else niceness)
+        with context.Pool(workers, initializer=_pool_worker_init, initargs=init) as pool:
             store(pool.imap_unordered(_solve_line, lines, chunksize=2))
     if failed.any():
         _fill_failed(torque, failed)
