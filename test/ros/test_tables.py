@@ -3,6 +3,7 @@ served at once, the full table built on a thread and handed over, progress on /d
 
 from __future__ import annotations
 
+import signal
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -39,8 +40,11 @@ def small_grids(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
 def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
     config = load_config(NEW_SCREW)
     lines: list[str] = []
+    handler = signal.getsignal(signal.SIGINT)
     tables = RealTimeTables(config, "", workers=1, log=lines.append)
     assert tables.table is not None and tables.preview  # serves from the start
+    # The preview is built in this process: its Ctrl-C handler (the node's) must stay.
+    assert signal.getsignal(signal.SIGINT) is handler
     assert tables.table.fingerprint == sm.config_fingerprint(config)
     assert any("refused" in line and "other parameters" in line for line in lines)
     first = tables.check()
