@@ -22,7 +22,7 @@ built for other parameters is never used.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal, cast
 
 from ..errors import BallscrewTwinError
@@ -68,7 +68,7 @@ class ModelSettings:
     tolerance: float = 1e-10
     steady_mode: SteadyMode = "auto"
     realtime_map: str = ""
-    table: SteadyMap | None = None
+    table: SteadyMap | None = field(default=None, compare=False)  # arrays: no eq or hash
 
 
 @dataclass(frozen=True)
