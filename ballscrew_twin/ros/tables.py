@@ -55,16 +55,23 @@ class RealTimeTables:
         path: the node's ``realtime_map`` parameter ("" : packaged table or cache).
         workers: processes that build a missing table (0: never build).
         log: one line of progress (the node's logger), called from the build thread too.
+        wanted: whether the node's model needs a table (False: nothing is searched, loaded
+            or built; e.g. ``fidelity: catalog``).
     """
 
     def __init__(
-        self, config: TwinConfig, path: str, workers: int, log: Callable[[str], None]
+        self,
+        config: TwinConfig,
+        path: str,
+        workers: int,
+        log: Callable[[str], None],
+        wanted: bool = True,
     ) -> None:
         self.config = config
         self.workers = workers
         self._log = log
         self._lock = threading.Lock()
-        self.search: MapSearch = steady_map.find_map(config, path)
+        self.search = steady_map.find_map(config, path) if wanted else MapSearch(None, "", ())
         self._table: SteadyMap | None = self.search.table
         self.source = self.search.path
         self.preview = False
@@ -75,7 +82,7 @@ class RealTimeTables:
         self._thread: threading.Thread | None = None
         for line in self.search.refused:
             log(f"real-time table refused: {line}")
-        if self._table is None and workers > 0:
+        if self._table is None and workers > 0 and wanted:
             self._start_preview()
             self._thread = threading.Thread(target=self._build, name="table-build", daemon=True)
             self._thread.start()

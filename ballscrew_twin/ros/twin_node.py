@@ -294,12 +294,12 @@ class TwinNode(Node):
         self.operating_point = self._current_op()
         self.operating_point.validate()
 
-        workers = int(self.get_parameter("table_workers").value)
         self.tables = RealTimeTables(
             self.config,
             self._str("realtime_map"),
-            workers if self._str("fidelity") in TABLE_FIDELITIES else 0,
+            int(self.get_parameter("table_workers").value),
             self.get_logger().info,
+            wanted=self._str("fidelity") in TABLE_FIDELITIES,
         )
         settings = self._model_settings({})
         self.choice = fidelity.choose(self._str("fidelity"), settings)
