@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
     "scene": ("ballscrew_twin.run_scene", "run a scene with the cheapest model within tolerance"),
     "sweep": ("ballscrew_twin.sweep", "evaluate a grid or sample of operating points"),
+    "map": ("ballscrew_twin.map_command", "build or find the real-time table of a screw"),
     "node": ("ballscrew_twin.ros.node_command", "run the twin node (accepts --ros-args)"),
     "launch": ("ballscrew_twin.ros.launcher", "start several nodes from a launch file"),
     "replay": ("ballscrew_twin.ros.replay", "publish a recorded bag on its topics"),

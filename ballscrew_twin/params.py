@@ -33,6 +33,13 @@ _SHOWN.maxlevel, _SHOWN.maxstring, _SHOWN.maxother = 3, 40, 40
 #: 44.97 deg (0.16 deg); the loaded angle of the steady model moves by up to +4.5 deg at 5000 N
 #: preload, but that is the loaded, not the nominal, angle (docs/model.md section 1).
 NOMINAL_ANGLE_TOLERANCE = math.radians(2.0)
+#: Room the design containment window (Eq. 22) must leave on each side of the free contact
+#: angle [rad] (15 deg). The steady model's loaded contacts sit within -10.4/+8.8 deg of the
+#: free angle over the envelope on the paper screw (its real-time table: centrifugal load at
+#: 6000 rpm moves them apart, preload up to +4.5 deg), and a window that clips them leaves a
+#: sphere with no equilibrium: windows of 44-46, 46-80, 10-44 and 42-48 deg failed to converge
+#: (docs/model.md, "A table for any screw").
+CONTAINMENT_MARGIN = math.radians(15.0)
 
 ViscosityLaw = Literal["roelands", "exponential", "walther"]
 Orientation = Literal["vertical", "horizontal"]
@@ -97,6 +104,24 @@ class ScrewGeometry:
         """Contact angle at first touch of a radially centred sphere, acos(H/(r_s - r_b)) [rad]."""
         return math.acos(self.centre_offset / (self.groove_radius - self.ball_radius))
 
+    def _validate_containment(self, where: str) -> None:
+        """The containment window must hold the loaded contacts: free angle +- the margin."""
+        free = self.free_contact_angle
+        limits = (
+            ("inner_containment_angle", self.inner_containment_angle, free - CONTAINMENT_MARGIN),
+            ("outer_containment_angle", self.outer_containment_angle, free + CONTAINMENT_MARGIN),
+        )
+        for index, (name, value, bound) in enumerate(limits):
+            if (value > bound) if index == 0 else (value < bound):
+                relation = "<=" if index == 0 else ">="
+                raise ConfigError(
+                    f"{where}.{name} = {value:.6g} rad ({math.degrees(value):.4g} deg) must be "
+                    f"{relation} {bound:.6g} rad ({math.degrees(bound):.4g} deg): the loaded "
+                    f"contacts sit up to {math.degrees(CONTAINMENT_MARGIN):g} deg from the free "
+                    f"contact angle {math.degrees(free):.4g} deg, and a containment window that "
+                    "clips them leaves the steady state without a solution"
+                )
+
     def validate(self, where: str) -> None:
         """Cross-field checks; raise ConfigError naming ``where``."""
         if self.conformity <= 0.5:
@@ -127,6 +152,7 @@ class ScrewGeometry:
             raise ConfigError(f"{where}: balls_per_nut exceeds balls_total_per_nut")
         if self.inner_containment_angle >= self.outer_containment_angle:
             raise ConfigError(f"{where}: inner_containment_angle must be < outer_containment_angle")
+        self._validate_containment(where)
         # Spheres must fit side by side along the loaded helix.
         helix_length = (
             2.0 * math.pi * self.pitch_radius * self.loaded_turns / math.cos(self.helix_angle)

@@ -13,7 +13,9 @@ from typing import Any
 import pytest
 import yaml
 
-from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.errors import ConfigError, SolverError
+from ballscrew_twin.models.base import OperatingPoint
+from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.params import default_config_path, load_config
 
 PAPER = Path(__file__).resolve().parent.parent / "config" / "paper_screw.yaml"
@@ -281,3 +283,36 @@ def test_unparseable_files_give_one_line_naming_the_file(tmp_path: Path, content
         load_config(path)
     msg = str(info.value)
     assert "\n" not in msg and str(path) in msg and len(msg) < 400
+
+
+@pytest.mark.parametrize(
+    ("field", "degrees"),
+    [
+        ("outer_containment_angle", 46.0),
+        ("outer_containment_angle", 55.0),
+        ("inner_containment_angle", 44.0),
+        ("inner_containment_angle", 35.0),
+    ],
+)
+def test_a_containment_window_that_clips_the_loaded_contacts_is_refused(
+    tmp_path: Path, field: str, degrees: float
+) -> None:
+    """Within 15 deg of the free contact angle (45 deg) the window would clip the loaded
+    contacts: refused naming the parameter and the bound, not left to the solver."""
+    msg = rejected(tmp_path, lambda d: d["screw"].update({field: math.radians(degrees)}))
+    assert f"screw.{field}" in msg and "free contact angle 44.97 deg" in msg
+    assert ("<= 0.52299" if field.startswith("inner") else ">= 1.04659") in msg
+
+
+def test_the_refused_containment_window_is_one_the_steady_solver_cannot_solve() -> None:
+    """The oracle behind the rule: with the window of 46-80 deg (what the check refuses) the
+    steady model finds no equilibrium at a point of the envelope; with 10-80 deg it does."""
+    config = load_config(None)
+    op = OperatingPoint(screw_speed=1.0, temperature=233.15, preload=500.0)
+    clipped = replace(
+        config,
+        screw=replace(config.screw, inner_containment_angle=math.radians(46.0)),
+    )
+    with pytest.raises(SolverError):
+        SteadyStateModel(clipped, mode="symmetric").solve(op)
+    assert SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque > 0.0

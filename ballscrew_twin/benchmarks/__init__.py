@@ -20,6 +20,7 @@ BENCHMARKS: dict[str, str] = {
     "skips": "skips",
     "node": "node",
     "detection": "detection",
+    "screw": "screw",
 }
 
 

@@ -23,11 +23,18 @@ torque does not depend on, are kept on every other node of each axis (a quarter 
 file). Below ``speed_min`` the torque goes linearly to zero and the contact states are blended
 linearly towards the standstill solution; outside the grid the inputs are clamped;
 :meth:`SteadyMap.sample` says which. Nodes where the steady solver fails, even cold with its
-continuation, are filled from their nearest solved neighbour in speed and flagged; a sample
-that leans on a filled node says so.
+continuation, are filled from their nearest solved neighbour in speed (a line solved at no
+speed: the nearest such line in preload) and flagged; a sample that leans on a filled node
+says so.
 
 Build the committed table with ``python -m ballscrew_twin.models.steady_map build --out
 ballscrew_twin/data/steady_map.npz`` (progress bar; 2 worker processes by default).
+
+Any other screw: ``ballscrew-twin map build --config YOUR.yaml`` builds the table of
+:func:`grid_for` that screw into the user cache (:func:`cache_dir`, never the package), under
+the parameter set's fingerprint (:func:`cached_map_path`); :func:`find_map` finds the table of
+a parameter set (a given file, the packaged table, the cache) and says why each other one is
+refused. A table is only ever used for the parameter set it was built for (its fingerprint).
 """
 
 from __future__ import annotations
@@ -36,8 +43,12 @@ import argparse
 import hashlib
 import math
 import multiprocessing
+import os
+import signal
 import sys
-from collections.abc import Iterable, Sequence
+import threading
+import time
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -100,6 +111,13 @@ _LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in
 HALF_GROOVES = 4
 NUTS = 2
 NUT_NAMES = ("master", "slave")
+#: Node counts (speed, temperature, preload) of the preview table of a new screw: built in
+#: seconds, it serves while the full table is built (its error is measured by ``bench screw``).
+PREVIEW_NODES = (9, 7, 9)
+#: Niceness of the worker processes of a build (the real-time ticks of a node go first).
+WORKER_NICENESS = 10
+#: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
+CACHE_FOLDER = "ballscrew_twin"
 
 
 class MapError(BallscrewTwinError, ValueError):
@@ -110,6 +128,27 @@ def config_fingerprint(config: TwinConfig) -> str:
     """SHA-256 of every physical parameter of ``config`` (its name and source are ignored)."""
     text = repr(replace(config, name="", source=""))
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def map_fingerprint(path: str | Path) -> str:
+    """The fingerprint saved in a map file (read alone, without the tables).
+
+    Raises:
+        MapError: the file is missing or not a map.
+    """
+    try:
+        with np.load(Path(path), allow_pickle=False) as data:
+            return str(data["fingerprint"])
+    except (OSError, KeyError, ValueError, EOFError) as err:
+        raise MapError(f"{path}: not a readable steady map ({err})") from err
+
+
+def cache_dir() -> Path:
+    """The user's cache of built tables: ``$XDG_CACHE_HOME/ballscrew_twin`` (``$XDG_CACHE_HOME``
+    unset or relative: ``~/.cache``), never inside the package."""
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
+    return root / CACHE_FOLDER
 
 
 def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
@@ -215,6 +254,85 @@ class MapGrid:
         return cls(v[0], v[1], int(v[2]), v[3], v[4], int(v[5]), v[6], int(v[7]))
 
 
+def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
+    """The grid of ``config``'s table: the packaged table's nodes, with the speed range ending at
+    the screw's critical speed when that is below 6000 rpm (the validity envelope clamps any
+    faster command there, so nodes beyond it would never be read). ``preview``: the
+    :data:`PREVIEW_NODES` grid over the same ranges."""
+    grid = MapGrid()
+    # params.py keeps the critical speed >= 1 rad/s, far above the lowest node (0.05 rpm).
+    grid = replace(grid, speed_max=min(grid.speed_max, config.screw.critical_speed))
+    if preview:
+        speed, temperature, preload = PREVIEW_NODES
+        grid = replace(
+            grid, speed_nodes=speed, temperature_nodes=temperature, preload_nodes=preload
+        )
+    return grid
+
+
+def cached_map_path(config: TwinConfig, grid: MapGrid) -> Path:
+    """Where the table of ``config`` on ``grid`` is cached: :func:`cache_dir` / a name made of
+    the fingerprint and the node counts."""
+    nodes = f"{grid.speed_nodes}x{grid.temperature_nodes}x{grid.preload_nodes}"
+    rpm = f"{grid.speed_max / RPM:.0f}rpm"
+    return cache_dir() / f"steady_map_{config_fingerprint(config)[:20]}_{nodes}_{rpm}.npz"
+
+
+@dataclass(frozen=True)
+class MapSearch:
+    """What :func:`find_map` found.
+
+    Attributes:
+        table: the table built for the parameter set, or None.
+        path: the file it came from ("" when none).
+        refused: one line per file considered and refused, with the reason.
+    """
+
+    table: SteadyMap | None
+    path: str
+    refused: tuple[str, ...]
+
+
+def find_map(config: TwinConfig, path: str | Path = "") -> MapSearch:
+    """The table built for ``config``: ``path`` if given, else the packaged table, else the
+    cached table of :func:`grid_for` ``config``; a file built for other parameters (another
+    fingerprint), unreadable or missing is refused and the reason kept."""
+    fingerprint = config_fingerprint(config)
+    refused: list[str] = []
+    candidates = [Path(path).expanduser()] if path else []
+    candidates += [DEFAULT_MAP_PATH, cached_map_path(config, grid_for(config))]
+    for index, file in enumerate(candidates):
+        explicit = bool(path) and index == 0
+        if not file.is_file():
+            if explicit:
+                refused.append(f"{file}: no such file")
+            continue
+        try:
+            saved = map_fingerprint(file)
+            if saved != fingerprint:
+                refused.append(
+                    f"{file}: built for other parameters (fingerprint {saved[:12]}, "
+                    f"{config.source or config.name} has {fingerprint[:12]})"
+                )
+                continue
+            return MapSearch(load_map(file), str(file), tuple(refused))
+        except MapError as err:
+            refused.append(str(err))
+    return MapSearch(None, "", tuple(refused))
+
+
+def save_atomic(table: SteadyMap, path: Path) -> None:
+    """Save ``table`` to ``path`` through a temporary file in the same folder (created), so a
+    reader never sees a half-written table."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(f".{path.stem}.{os.getpid()}.partial.npz")
+    try:
+        table.save(partial)
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
+
+
 @dataclass(frozen=True)
 class NodeValues:
     """What one steady solve contributes to the table (index 0 master nut, 1 slave nut).
@@ -278,6 +396,16 @@ class _LineResult:
 _WORKER: dict[str, SteadyStateModel | MapGrid] = {}
 
 
+def _pool_worker_init(config: TwinConfig, grid: MapGrid, niceness: int) -> None:
+    """Initialiser of a worker process (never of the calling process: its handler stays)."""
+    # Ctrl-C reaches the whole process group: the parent alone stops the build (it terminates
+    # the pool), so a worker does not print a KeyboardInterrupt traceback of its own.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if niceness:
+        os.nice(niceness)
+    _worker_init(config, grid)
+
+
 def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
     _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
     _WORKER["grid"] = grid
@@ -317,23 +445,44 @@ def _solve_line(line: _Line) -> _LineResult:
 
 
 def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
-    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place.
+    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place;
+    a speed line that failed at every speed takes the whole nearest line along the last axis
+    (the preload) that has a solved node.
 
     Raises:
-        MapError: a whole speed line failed.
+        MapError: every line along the last axis failed at every speed.
     """
     count = failed.shape[1]
+    whole = np.asarray(failed.all(axis=1))  # (sign, *rest): lines without a solved speed
     for sign, i, *rest in zip(*np.nonzero(failed), strict=True):
+        if whole[(sign, *rest)]:
+            continue
         for j in sorted(range(count), key=lambda k: abs(k - i)):
             if not failed[(sign, j, *rest)]:
                 table[(sign, i, *rest)] = table[(sign, j, *rest)]
                 break
+    last = whole.shape[-1]
+    for sign, *rest in zip(*np.nonzero(whole), strict=True):
+        *other, k = rest
+        for m in sorted(range(last), key=lambda q: abs(q - k)):
+            if not whole[(sign, *other, m)]:
+                table[(sign, slice(None), *other, k)] = table[(sign, slice(None), *other, m)]
+                break
         else:
-            raise MapError(f"steady map: the solver failed at every speed of line {sign, *rest}")
+            raise MapError(f"steady map: the solver failed at every speed of lines {sign, *other}")
+
+
+#: Progress callback of :func:`build_map`: (lines done, lines in all, seconds elapsed).
+Progress = Callable[[int, int, float], None]
 
 
 def build_map(
-    config: TwinConfig, grid: MapGrid | None = None, workers: int = 2, progress: bool = True
+    config: TwinConfig,
+    grid: MapGrid | None = None,
+    workers: int = 2,
+    progress: bool = True,
+    on_progress: Progress | None = None,
+    niceness: int = 0,
 ) -> SteadyMap:
     """Solve every node of ``grid`` with the symmetric steady model.
 
@@ -342,6 +491,11 @@ def build_map(
         grid: nodes (default :class:`MapGrid()`).
         workers: worker processes (1: solve in this process).
         progress: show a tqdm progress bar on stderr.
+        on_progress: called after each line of nodes (see :data:`Progress`).
+        niceness: added to the worker processes' niceness (with ``workers`` > 1). On Linux it
+            is added to the calling thread's niceness before the workers start, so that they
+            start niced (their imports included; a dedicated build thread stays niced);
+            elsewhere each worker lowers its own priority once started.
     """
     from tqdm import tqdm
 
@@ -355,13 +509,17 @@ def build_map(
     static = np.full((*shape[2:], NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
     lines = [_Line(s, t, p) for s in range(2) for t in range(shape[2]) for p in range(shape[3])]
 
+    start = time.monotonic()
+
     def store(results: Iterable[_LineResult]) -> None:
         bar = tqdm(total=len(lines), desc="steady map", unit="line", disable=not progress)
-        for res in results:
+        for done, res in enumerate(results, start=1):
             where = (res.line.sign, slice(None), res.line.temperature, res.line.preload)
             torque[where], contacts[where], failed[where] = res.torque, res.contacts, res.failed
             static[res.line.temperature, res.line.preload] = res.static
             bar.update()
+            if on_progress is not None:
+                on_progress(done, len(lines), time.monotonic() - start)
         bar.close()
 
     if workers <= 1:
@@ -369,7 +527,14 @@ def build_map(
         store(_solve_line(line) for line in lines)
     else:
         context = multiprocessing.get_context("spawn")
-        with context.Pool(workers, initializer=_worker_init, initargs=(config, grid)) as pool:
+        inherited = niceness > 0 and sys.platform == "linux"
+        if inherited:  # Linux: a thread's niceness is its own, and a process it starts inherits it
+            thread = threading.get_native_id()
+            os.setpriority(
+                os.PRIO_PROCESS, thread, os.getpriority(os.PRIO_PROCESS, thread) + niceness
+            )
+        init = (config, grid, 0 if inherited else niceness)
+        with context.Pool(workers, initializer=_pool_worker_init, initargs=init) as pool:
             store(pool.imap_unordered(_solve_line, lines, chunksize=2))
     if failed.any():
         _fill_failed(torque, failed)
@@ -677,7 +842,7 @@ class SteadyMap:
                 if self._filled_near(sign, (fine.speed[0], fine.temperature[0], preload_cell)):
                     notes.append(
                         f"{NUT_NAMES[nut]} nut: interpolated near map nodes where the steady "
-                        "solver failed (filled from the nearest solved speed)"
+                        "solver failed (filled from the nearest solved speed or preload)"
                     )
         return MapSample(torque, states, tuple(notes))
 

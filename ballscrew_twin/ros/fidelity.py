@@ -12,12 +12,17 @@ Modes, from the most to the least detailed:
   for this screw), else the catalogue; the node steps down to the catalogue when the model
   does not fit into the step budget or fails (see ``TwinNode``). ``auto`` never takes
   ``quasi_static``: its millisecond solves do not fit a 1 kHz step.
+
+The real-time model's table is the one in hand (``ModelSettings.table``: the node's table of
+its screw, see ``ros/tables.py``) or the one :func:`~ballscrew_twin.models.steady_map.find_map`
+finds for the screw (the ``realtime_map`` file, the packaged table, the user cache); a table
+built for other parameters is never used.
 """
 
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Literal, cast
 
 from ..errors import BallscrewTwinError
@@ -29,6 +34,7 @@ from ..models.base import (
     TwinOutput,
 )
 from ..models.catalog import CatalogModel
+from ..models.steady_map import MapError, SteadyMap, find_map
 from ..models.validity import ValidatedModel, ValidityEnvelope
 from ..params import TwinConfig
 
@@ -52,7 +58,9 @@ class ModelSettings:
         mu_lit: friction coefficient of the catalogue formula [-].
         tolerance: convergence limit of the steady solve (scaled residual) [-].
         steady_mode: spheres the steady model solves: ``auto``, ``symmetric`` or ``full``.
-        realtime_map: steady-state map file of the real-time model; "" = the packaged one.
+        realtime_map: steady-state map file of the real-time model; "" = the packaged one or
+            the user cache's for this screw.
+        table: a table of this screw already in hand (used instead of searching), or None.
     """
 
     config: TwinConfig
@@ -60,6 +68,7 @@ class ModelSettings:
     tolerance: float = 1e-10
     steady_mode: SteadyMode = "auto"
     realtime_map: str = ""
+    table: SteadyMap | None = field(default=None, compare=False)  # arrays: no eq or hash
 
 
 @dataclass(frozen=True)
@@ -126,14 +135,17 @@ def _build_raw(mode: str, settings: ModelSettings) -> TimeSteppingModel:
         )
     if mode == "realtime":
         model_class = getattr(importlib.import_module(REALTIME_MODULE), REALTIME_CLASS)
-        if settings.realtime_map:
-            from ..models.steady_map import load_map
-
-            return cast(
-                TimeSteppingModel,
-                model_class(settings.config, steady_map=load_map(settings.realtime_map)),
-            )
-        return cast(TimeSteppingModel, model_class(settings.config))
+        table = settings.table
+        if table is None:
+            search = find_map(settings.config, settings.realtime_map)
+            if search.table is None:
+                refused = "; ".join(search.refused) or "no table found"
+                raise MapError(
+                    f"no real-time table for {settings.config.source or settings.config.name} "
+                    f"({refused}): build it with `ballscrew-twin map build --config FILE`"
+                )
+            table = search.table
+        return cast(TimeSteppingModel, model_class(settings.config, steady_map=table))
     raise ValueError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
 
 

@@ -17,7 +17,14 @@ Publishes:
                          100 Hz), every sphere the model resolves
     ``/diagnostics``     diagnostic_msgs/DiagnosticArray at ``diagnostics_rate_hz`` (1 Hz): model
                          in use and why, real time (late/skipped ticks, latency), each input
-                         (stale, rejected), validity notes of the model
+                         (stale, rejected), validity notes of the model, the real-time table
+                         (which one serves, build progress, tables refused and why)
+
+The real-time model needs a table of the screw's steady state (``ros/tables.py``). For a screw
+without one (a user's ``config_file``), the node serves a small preview table built in seconds
+and builds the full table in ``table_workers`` niced processes meanwhile (progress on the
+console and on /diagnostics), caches it in the user cache under the parameter set's
+fingerprint and switches to it when it is ready; the next start finds it there.
 
 The simulation keeps a fixed step locked to the node's clock (wall time, or ``/clock`` with
 ``use_sim_time``): it catches up after a short stall, skips ticks (and counts them) when far
@@ -79,6 +86,7 @@ from .inputs import (
     check_temperature,
 )
 from .scheduler import TickScheduler
+from .tables import RealTimeTables
 from .tick_thread import TickThread, prepare_process
 
 NODE_NAME = "ballscrew_twin"
@@ -103,6 +111,8 @@ OVER_BUDGET_WINDOWS = 2
 #: first tick on time and within this time are start-up (loading and warming the model up),
 #: counted apart and not a warning.
 STARTUP_GRACE_NS = 10 * NS_PER_S
+#: Interval at which the node looks whether the table being built is ready [s].
+TABLE_POLL = 0.5
 #: Substrings of model notes that are validity warnings (outside the validated envelope).
 VALIDITY_WORDS = ("validity:", "outside", "clamped", "blended", "failed", "not converged")
 
@@ -185,6 +195,8 @@ CHOICES: dict[str, tuple[str, ...]] = {
 }
 #: Parameters whose change rebuilds the model.
 MODEL_PARAMETERS = ("fidelity", "tolerance", "steady_mode", "mu_lit", "realtime_map")
+#: Fidelity parameter values for which a missing real-time table is built.
+TABLE_FIDELITIES = ("auto", "realtime")
 #: Parameters whose change restarts the tick schedule.
 RATE_PARAMETERS = ("sim_rate_hz", "contact_rate_hz", "max_catch_up_ticks")
 
@@ -282,6 +294,13 @@ class TwinNode(Node):
         self.operating_point = self._current_op()
         self.operating_point.validate()
 
+        self.tables = RealTimeTables(
+            self.config,
+            self._str("realtime_map"),
+            int(self.get_parameter("table_workers").value),
+            self.get_logger().info,
+            wanted=self._str("fidelity") in TABLE_FIDELITIES,
+        )
         settings = self._model_settings({})
         self.choice = fidelity.choose(self._str("fidelity"), settings)
         self.fallback = fidelity.build("catalog", settings)
@@ -359,6 +378,11 @@ class TwinNode(Node):
             self._publish_diagnostics,
             clock=Clock(clock_type=ClockType.STEADY_TIME),
         )
+        self._table_timer: Timer | None = None
+        if self.tables.building:
+            self._table_timer = self.create_timer(
+                TABLE_POLL, self._take_table, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
 
         # Registered after the declarations: they validate and apply run-time changes only.
         self.add_on_set_parameters_callback(self._validate_parameters)
@@ -463,6 +487,17 @@ class TwinNode(Node):
                 ),
             ),
             ("config_file", "", sd("Screw parameter file (YAML); empty: shipped paper screw")),
+            (
+                "table_workers",
+                2,
+                ParameterDescriptor(
+                    type=ParameterType.PARAMETER_INTEGER,
+                    description="Processes that build the real-time table of a screw without "
+                    "one (niced; a preview table serves meanwhile); 0: never build",
+                    read_only=True,
+                    integer_range=[IntegerRange(from_value=0, to_value=64, step=1)],
+                ),
+            ),
             (
                 "executor",
                 "single_threaded",
@@ -629,6 +664,8 @@ class TwinNode(Node):
             tolerance=float(self._value("tolerance", changes)),
             steady_mode=self._value("steady_mode", changes),
             realtime_map=str(self._value("realtime_map", changes)),
+            # A new realtime_map is looked at (and refused if built for other parameters).
+            table=None if "realtime_map" in changes else self.tables.table,
         )
 
     def _validate_parameters(self, params: list[Parameter]) -> SetParametersResult:
@@ -690,6 +727,32 @@ class TwinNode(Node):
         self._auto_window = TickWindow()
         self._over_budget = 0
         self.get_logger().warning(f"model {previous} -> {choice.model.name}: {choice.reason}")
+
+    def _take_table(self) -> None:
+        """Table timer: once the full table is built, run the real-time model on it (the
+        model is built and warmed up here, outside the tick lock; the switch is under it)."""
+        built = self.tables.take_built()
+        if built is None:
+            if not self.tables.building and self._table_timer is not None:
+                self.destroy_timer(self._table_timer)  # the build failed (on /diagnostics)
+                self._table_timer = None
+            return
+        if self._table_timer is not None:
+            self.destroy_timer(self._table_timer)
+            self._table_timer = None
+        requested = self._str("fidelity")
+        if requested not in TABLE_FIDELITIES:
+            return
+        if requested == "auto" and self.choice.mode not in ("realtime", "catalog"):
+            return
+        try:
+            choice = fidelity.choose(requested, self._model_settings({}))
+        except (ValueError, BallscrewTwinError) as err:
+            self.get_logger().error(f"the table built cannot serve: {err}")
+            return
+        reason = f"{choice.reason}; table of this screw built in {built.seconds:.0f} s"
+        with self.tick_lock:
+            self._switch_model(fidelity.ModelChoice(choice.model, choice.mode, reason))
 
     def _start_schedule(self) -> None:
         """(Re)start the tick schedule at the current rates, driven by the tick thread on wall
@@ -864,9 +927,10 @@ class TwinNode(Node):
         self._log_throttled("tick", f"tick failed ({self.tick_errors} so far): {err!r}")
 
     def destroy_node(self) -> None:
-        """Stop the tick thread, then destroy the node."""
+        """Stop the tick thread and a table build, then destroy the node."""
         if self._tick_thread is not None:
             self._tick_thread.stop()
+        self.tables.stop()
         super().destroy_node()
 
     def _run_due_ticks(self) -> None:
@@ -1094,6 +1158,8 @@ class TwinNode(Node):
         stale_after = self._float("stale_after")
         checks += [self._input_check(c, now, stale_after, elapsed) for c in self.channels]
         checks.append(self._validity_check())
+        if self._str("fidelity") in TABLE_FIDELITIES:
+            checks.append(self.tables.check())
         return checks
 
     def _model_check(self, w: TickWindow) -> diagnostics.Check:

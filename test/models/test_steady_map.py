@@ -164,7 +164,7 @@ def test_grid_validation() -> None:
     assert sm.MapGrid.from_array(GRID.as_array()) == GRID
 
 
-def test_failed_nodes_take_the_nearest_solved_speed() -> None:
+def test_failed_nodes_take_the_nearest_solved_speed_or_line() -> None:
     table = np.arange(2 * 5 * 2, dtype=float).reshape(2, 5, 2)
     failed = np.zeros_like(table, dtype=bool)
     failed[0, 0, 1] = failed[0, 1, 1] = failed[1, 3, 0] = True
@@ -172,7 +172,12 @@ def test_failed_nodes_take_the_nearest_solved_speed() -> None:
     sm._fill_failed(filled, failed)
     assert filled[0, 0, 1] == table[0, 2, 1] and filled[0, 1, 1] == table[0, 2, 1]
     assert filled[1, 3, 0] == table[1, 2, 0]  # nearer below than above: ties go down
-    failed[1, :, 1] = True
+    failed[1, :, 1] = True  # a whole speed line: the nearest line in the last axis
+    filled = table.copy()
+    sm._fill_failed(filled, failed)
+    assert np.array_equal(filled[1, :3, 1], table[1, :3, 0])
+    assert filled[1, 3, 1] == table[1, 2, 0]  # that line's own failed node, filled first
+    failed[1, :, 0] = True
     with pytest.raises(sm.MapError, match="every speed"):
         sm._fill_failed(table.copy(), failed)
 
