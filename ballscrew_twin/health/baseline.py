@@ -191,8 +191,8 @@ class Baseline:
         body["error_bands"] = list(self.error_bands)
         if self.surface is not None:
             body["surface"] = {
-                "values": np.round(self.surface.values, 7).tolist(),
-                "support": np.round(self.surface.support, 3).tolist(),
+                "values": self.surface.values.tolist(),
+                "support": self.surface.support.tolist(),
             }
         return (
             "\n".join(lines) + "\n" + yaml.safe_dump(body, sort_keys=False, default_flow_style=None)

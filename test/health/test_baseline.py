@@ -103,7 +103,9 @@ def _with_surface() -> Baseline:
     values = np.zeros(shape)
     support = np.zeros(shape)
     values[6, 12] = -0.02  # x = -0.5 (9.5 rad/s), 293.15 K
+    values[6, 13] = -0.0123456789012345  # written to the last digit
     support[5:8, 11:14] = 50.0
+    support[5, 11] = 1.0 / 3.0
     return replace(_fitted(), surface=ResidualSurface(values, support))
 
 
