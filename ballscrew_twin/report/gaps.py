@@ -81,6 +81,21 @@ def _mer_unscaled() -> list[Patch]:
     return [(rolling, "hysteresis_moment", law)]
 
 
+def _mer_scaled(factor: float) -> list[Patch]:
+    """MER (Eq. 43) times ``factor``."""
+    shipped = rolling.hysteresis_moment
+
+    def law(*args: Any) -> FloatArray:
+        return np.asarray(factor * shipped(*args))
+
+    return [(rolling, "hysteresis_moment", law)]
+
+
+#: MER in N m when Eq. 43 is read with r_b in mm and MER in N mm (D9): 1000^(0.33 - 1) times
+#: the SI reading.
+MER_MM_READING = 1000.0 ** (rolling.MER_RADIUS_EXPONENT - 1.0)
+
+
 def _zero(module: Any, name: str) -> list[Patch]:
     """Law ``module.name`` returning zeros shaped like its first argument."""
 
@@ -138,6 +153,10 @@ def load_share_121(tallian: ArrayLike) -> FloatArray:
 VARIANTS: dict[str, tuple[str, Callable[[TwinConfig], list[Patch]]]] = {
     "shipped": ("the shipped laws", lambda _: []),
     "mer_unscaled": ("MER without mu_s/mu_dry (Eq. 43)", lambda _: _mer_unscaled()),
+    "mer_mm": (
+        "MER with r_b in mm giving N mm (Eq. 43, D9): 0.0098 times the SI reading",
+        lambda _: _mer_scaled(MER_MM_READING),
+    ),
     "film_alpha_initial": (
         "film alpha_pv = d ln eta/dp at p = 0 of the viscosity law",
         lambda c: _film_alpha(c, "initial"),
@@ -163,6 +182,7 @@ VARIANTS: dict[str, tuple[str, Callable[[TwinConfig], list[Patch]]]] = {
 CANDIDATES = (
     "shipped",
     "mer_unscaled",
+    "mer_mm",
     "film_alpha_initial",
     "film_alpha_asymptotic",
     "load_share_printed",
@@ -172,12 +192,16 @@ CANDIDATES = (
 
 @contextlib.contextmanager
 def variant_laws(name: str, config: TwinConfig) -> Iterator[None]:
-    """Within the block the reference backend uses the laws of variant ``name``."""
-    if name not in VARIANTS:
-        raise ValueError(f"unknown variant {name!r}; choose from {sorted(VARIANTS)}")
+    """Within the block the reference backend uses the laws of variant ``name`` (variants
+    joined by ``+`` combine)."""
+    parts = name.split("+")
+    unknown = [part for part in parts if part not in VARIANTS]
+    if unknown:
+        raise ValueError(f"unknown variant {unknown[0]!r}; choose from {sorted(VARIANTS)}")
     with contextlib.ExitStack() as stack:
-        for module, attribute, law in VARIANTS[name][1](config):
-            stack.enter_context(mock.patch.object(module, attribute, law))
+        for part in parts:
+            for module, attribute, law in VARIANTS[part][1](config):
+                stack.enter_context(mock.patch.object(module, attribute, law))
         yield
 
 
@@ -316,6 +340,22 @@ def breakdown_exponents(
         exponent = math.log(high / low) / math.log(6.0) if low > 0.0 and high > 0.0 else math.nan
         result[name] = (low, high, exponent)
     return result
+
+
+def friction_moment_bound(parts: dict[str, tuple[float, float, float]]) -> tuple[float, float]:
+    """Shape (T/F at 3000 N over T/F at 500 N) of the drag if every mechanism but MC and MP
+    grew exactly as the preload, and the smallest largest relative error against any line
+    through the origin that this shape allows, (shape - 1) / (shape + 1) [-].
+
+    MC and MP are proportional to mu_s: the friction level (tau_e, mu_dry) scales them as it
+    scales the sliding friction, so their share can only be changed by the contact geometry.
+    """
+    low = parts["curvature"][0] + parts["spin"][0]
+    high = parts["curvature"][1] + parts["spin"][1]
+    share = low / parts["total"][0]
+    growth = high / low / (EQ52_PRELOADS[-1] / EQ52_PRELOADS[0])
+    shape = 1.0 - share + share * growth
+    return shape, (shape - 1.0) / (shape + 1.0)
 
 
 # ------------------------------------------------------------------------------ film study
@@ -511,8 +551,11 @@ def _print_eq52(fit: Eq52Fit, label: str) -> None:
     )
 
 
-def run_eq52(config: TwinConfig, quick: bool) -> dict[str, Any]:
-    """Eq. 52 study: breakdown, every candidate variant as shipped and refitted."""
+def run_eq52(
+    config: TwinConfig, quick: bool, variants: Sequence[str] | None = None
+) -> dict[str, Any]:
+    """Eq. 52 study: breakdown, each variant (default: :data:`CANDIDATES`) as shipped,
+    refitted freely and refitted within the literature ranges."""
     report: dict[str, Any] = {"breakdown": {}, "variants": {}}
     print(
         "Eq. 52 at 100 rpm (drag N mm, error), preloads",
@@ -525,8 +568,14 @@ def run_eq52(config: TwinConfig, quick: bool) -> dict[str, Any]:
         print(f"breakdown at {celsius:g} C: mechanism: N mm at 500 N -> 3000 N, exponent")
         for name, (low, high, exponent) in parts.items():
             print(f"  {name:20s} {low * 1e3:7.3f} -> {high * 1e3:7.3f}  {exponent:.2f}")
-    variants = CANDIDATES[:2] if quick else CANDIDATES
-    for variant in variants:
+        shape, floor = friction_moment_bound(parts)
+        report["breakdown"][f"{celsius:g}_moment_bound"] = (shape, floor)
+        print(
+            f"  MC + MP alone, all else linear: shape {shape:.3f}, max |error| >= {floor:.1%} "
+            "against any line through the origin"
+        )
+    chosen = list(variants or (CANDIDATES[:2] if quick else CANDIDATES))
+    for variant in chosen:
         shipped = eq52_fit(config, variant)
         _print_eq52(shipped, "as shipped")
         entry: dict[str, Any] = {"shipped": shipped.__dict__ | {"max_error": shipped.max_error}}
@@ -534,6 +583,9 @@ def run_eq52(config: TwinConfig, quick: bool) -> dict[str, Any]:
             fitted = refit(config, variant)
             _print_eq52(fitted, "refitted")
             entry["refitted"] = fitted.__dict__ | {"max_error": fitted.max_error}
+            bounded = refit(config, variant, bounds=LITERATURE)
+            _print_eq52(bounded, "refitted within the literature ranges")
+            entry["literature"] = bounded.__dict__ | {"max_error": bounded.max_error}
         report["variants"][variant] = entry
     return report
 
@@ -593,6 +645,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--study", action="append", choices=STUDIES, help="gaps: study to run (default: all)"
     )
+    parser.add_argument(
+        "--variant",
+        action="append",
+        help="gaps, eq52: variant of the laws (default: all candidates; '+' combines): "
+        + ", ".join(VARIANTS),
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -602,7 +660,7 @@ def run(args: argparse.Namespace) -> int:
     studies = args.study or list(STUDIES)
     report: dict[str, Any] = {}
     if "eq52" in studies:
-        report["eq52"] = run_eq52(config, args.quick)
+        report["eq52"] = run_eq52(config, args.quick, args.variant)
     if "film" in studies:
         report["film"] = run_film(config)
     if "angles" in studies:
