@@ -182,15 +182,15 @@ def test_friction_moment_bound_of_synthetic_breakdowns() -> None:
 
 
 def test_report_gaps_film_study_writes_json(tmp_path: Path) -> None:
-    """``report gaps --study film``: alpha_pv of each variant at -20/20/60 C, the shipped one
-    the parameter file's, the derived ones falling with temperature."""
+    """``report gaps --study film``: alpha_pv of each variant at -20/20/60 C (100 and 1000 rpm),
+    the shipped one the parameter file's, the derived ones falling with temperature."""
     import json
 
     printed = io.StringIO()
     with contextlib.redirect_stdout(printed):
         assert main(["report", "gaps", "--study", "film", "--out", str(tmp_path)]) == 0
     rows = json.loads((tmp_path / "gaps.json").read_text(encoding="utf-8"))["film"]
-    assert len(rows) == 9 and "wall time" in printed.getvalue()
+    assert len(rows) == 18 and "wall time" in printed.getvalue()
     alpha = {(r["temperature_C"], r["variant"]): r["alpha_pv_per_GPa"] for r in rows}
     for celsius in (-20.0, 20.0, 60.0):
         assert alpha[(celsius, "shipped")] == pytest.approx(23.805)

@@ -91,6 +91,24 @@ def _mer_scaled(factor: float) -> list[Patch]:
     return [(rolling, "hysteresis_moment", law)]
 
 
+def _mc_printed(config: TwinConfig) -> list[Patch]:
+    """MC (Eq. 44) with the printed 2 R_y instead of R_c (D10); R_y = r_b r_s / (r_s - r_b) is
+    the same on screw and nut (transverse curvatures 1/r_b and -1/r_s)."""
+    shipped = rolling.curvature_moment
+    r_b, r_s = config.screw.ball_radius, config.screw.groove_radius
+    printed = 2.0 * r_b * r_s / (r_s - r_b)
+
+    def law(
+        normal_force: ArrayLike,
+        semi_axis_y: ArrayLike,
+        surface_radius: float,
+        sliding_coefficient: ArrayLike,
+    ) -> FloatArray:
+        return shipped(normal_force, semi_axis_y, printed, sliding_coefficient)
+
+    return [(rolling, "curvature_moment", law)]
+
+
 #: MER in N m when Eq. 43 is read with r_b in mm and MER in N mm (D9): 1000^(0.33 - 1) times
 #: the SI reading.
 MER_MM_READING = 1000.0 ** (rolling.MER_RADIUS_EXPONENT - 1.0)
@@ -157,6 +175,7 @@ VARIANTS: dict[str, tuple[str, Callable[[TwinConfig], list[Patch]]]] = {
         "MER with r_b in mm giving N mm (Eq. 43, D9): 0.0098 times the SI reading",
         lambda _: _mer_scaled(MER_MM_READING),
     ),
+    "mc_printed": ("MC with the printed 2 R_y (Eq. 44, D10): 0.027 times", _mc_printed),
     "film_alpha_initial": (
         "film alpha_pv = d ln eta/dp at p = 0 of the viscosity law",
         lambda c: _film_alpha(c, "initial"),
@@ -183,6 +202,7 @@ CANDIDATES = (
     "shipped",
     "mer_unscaled",
     "mer_mm",
+    "mc_printed",
     "film_alpha_initial",
     "film_alpha_asymptotic",
     "load_share_printed",
@@ -342,16 +362,18 @@ def breakdown_exponents(
     return result
 
 
-def friction_moment_bound(parts: dict[str, tuple[float, float, float]]) -> tuple[float, float]:
-    """Shape (T/F at 3000 N over T/F at 500 N) of the drag if every mechanism but MC and MP
-    grew exactly as the preload, and the smallest largest relative error against any line
-    through the origin that this shape allows, (shape - 1) / (shape + 1) [-].
+def friction_moment_bound(
+    parts: dict[str, tuple[float, float, float]], mechanisms: Sequence[str] = ("curvature", "spin")
+) -> tuple[float, float]:
+    """Shape (T/F at 3000 N over T/F at 500 N) of the drag if every mechanism but
+    ``mechanisms`` grew exactly as the preload, and the smallest largest relative error against
+    any line through the origin that this shape allows, (shape - 1) / (shape + 1) [-].
 
     MC and MP are proportional to mu_s: the friction level (tau_e, mu_dry) scales them as it
     scales the sliding friction, so their share can only be changed by the contact geometry.
     """
-    low = parts["curvature"][0] + parts["spin"][0]
-    high = parts["curvature"][1] + parts["spin"][1]
+    low = sum(parts[m][0] for m in mechanisms)
+    high = sum(parts[m][1] for m in mechanisms)
     share = low / parts["total"][0]
     growth = high / low / (EQ52_PRELOADS[-1] / EQ52_PRELOADS[0])
     shape = 1.0 - share + share * growth
@@ -361,10 +383,13 @@ def friction_moment_bound(parts: dict[str, tuple[float, float, float]]) -> tuple
 # ------------------------------------------------------------------------------ film study
 
 
-def film_study(config: TwinConfig, preload: float = 1500.0) -> list[dict[str, float | str]]:
-    """alpha_pv, screw-side film and Lambda, and drag at 100 rpm for each film variant."""
+def film_study(
+    config: TwinConfig, preload: float = 1500.0, speeds: Sequence[float] = (100.0, 1000.0)
+) -> list[dict[str, float | str]]:
+    """alpha_pv, screw-side film and Lambda, and drag at ``speeds`` [rpm] and ``preload`` [N]
+    for each film variant at -20, 20 and 60 C."""
     rows: list[dict[str, float | str]] = []
-    for celsius in (-20.0, 20.0, 60.0):
+    for celsius, rpm in ((t, r) for t in (-20.0, 20.0, 60.0) for r in speeds):
         eta = float(lubricant.viscosity_atmospheric(config.lubricant, celsius + CELSIUS_ZERO))
         for variant in ("shipped", "film_alpha_initial", "film_alpha_asymptotic"):
             alpha = config.lubricant.pressure_viscosity_coefficient
@@ -374,7 +399,7 @@ def film_study(config: TwinConfig, preload: float = 1500.0) -> list[dict[str, fl
                         config.lubricant, eta, variant.removeprefix("film_alpha_")
                     )
                 )
-            (solution,) = solve_curve(config, variant, celsius, REFERENCE_RPM, (preload,))
+            (solution,) = solve_curve(config, variant, celsius, rpm, (preload,))
             if isinstance(solution, SolverError):
                 continue
             contacts = solution.output.contacts
@@ -383,6 +408,7 @@ def film_study(config: TwinConfig, preload: float = 1500.0) -> list[dict[str, fl
             rows.append(
                 {
                     "temperature_C": celsius,
+                    "speed_rpm": rpm,
                     "variant": variant,
                     "alpha_pv_per_GPa": alpha * 1e9,
                     "screw_film_nm": _film_nm(solution),
@@ -568,12 +594,13 @@ def run_eq52(
         print(f"breakdown at {celsius:g} C: mechanism: N mm at 500 N -> 3000 N, exponent")
         for name, (low, high, exponent) in parts.items():
             print(f"  {name:20s} {low * 1e3:7.3f} -> {high * 1e3:7.3f}  {exponent:.2f}")
-        shape, floor = friction_moment_bound(parts)
-        report["breakdown"][f"{celsius:g}_moment_bound"] = (shape, floor)
-        print(
-            f"  MC + MP alone, all else linear: shape {shape:.3f}, max |error| >= {floor:.1%} "
-            "against any line through the origin"
-        )
+        for group in (("curvature", "spin"), ("spin",)):
+            shape, floor = friction_moment_bound(parts, group)
+            report["breakdown"][f"{celsius:g}_bound_{'+'.join(group)}"] = (shape, floor)
+            print(
+                f"  {' + '.join(group)} as they are, all else linear: shape {shape:.3f}, "
+                f"max |error| >= {floor:.1%} against any line through the origin"
+            )
     chosen = list(variants or (CANDIDATES[:2] if quick else CANDIDATES))
     for variant in chosen:
         shipped = eq52_fit(config, variant)
@@ -592,10 +619,10 @@ def run_eq52(
 
 def run_film(config: TwinConfig) -> list[dict[str, float | str]]:
     rows = film_study(config)
-    print("film at 100 rpm, 1500 N, master nut screw side")
+    print("film at 1500 N, master nut screw side")
     for row in rows:
         print(
-            f"  {row['temperature_C']:5.0f} C {row['variant']:22s} "
+            f"  {row['temperature_C']:5.0f} C {row['speed_rpm']:5.0f} rpm {row['variant']:22s} "
             f"alpha {row['alpha_pv_per_GPa']:6.2f}/GPa "
             f"film {row['screw_film_nm']:7.2f} nm Lambda {row['screw_tallian']:6.3f} "
             f"drag {row['drag_Nmm']:7.3f} N mm"
