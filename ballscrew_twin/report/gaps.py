@@ -11,14 +11,17 @@ Studies (each prints a table; ``--out`` also gets them as JSON):
 
 - ``eq52``: the drag at 100 rpm, 20 and 60 C, 500-3000 N against Eq. 52 (mu_lit = 0.002) for
   every variant, with the shipped parameters and with tau_e and mu_dry refitted (minimax of the
-  relative error); the breakdown of the shipped drag by mechanism with each one's growth
-  exponent d ln T / d ln F_pr.
+  relative error, freely and within the literature ranges); the breakdown of the shipped drag
+  by mechanism with each one's growth exponent d ln T / d ln F_pr and the error floor the
+  friction moments MC and MP set.
 - ``film``: the film's pressure-viscosity coefficient derived from the viscosity law
   (:func:`ballscrew_twin.physics.lubricant.film_pressure_viscosity`) against the constant one,
   with its effect on film, Tallian parameter and drag at -20, 20 and 60 C.
-- ``angles``: the screw/nut contact-angle split at 3000 N with each moment or force of the
-  contact removed in turn; the screw/nut friction order over 144 points; the 60 C speed trend
-  by mechanism.
+- ``angles``: the screw/nut contact-angle split at 500 and 3000 N against 2 atan(F_t/F_n),
+  the transverse share of the contact's tangential force and the split with MER, MC or FR/FP
+  removed; the 20 and 60 C speed trends by mechanism and the 60 C one against mu_dry; without
+  ``--quick`` the screw/nut friction order over 144 points, with and without the spheres'
+  inertial terms.
 """
 
 from __future__ import annotations
@@ -39,11 +42,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from ..calibration import with_parameters
-from ..cli import CELSIUS_ZERO, RPM
+from ..cli import RPM
 from ..errors import SolverError
 from ..models.base import MECHANISMS, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyStateModel
+from ..models.validity import celsius_to_kelvin
 from ..params import TwinConfig, load_config
 from ..physics import film, geometry, lubricant, rolling, traction
 from .paper import MASTER_NUT, MU_LIT, contact_side
@@ -160,7 +164,8 @@ def load_share_printed(
 
 
 def load_share_121(tallian: ArrayLike) -> FloatArray:
-    """Eq. 37 with the coefficient 1.21 (Castro & Seabra), g frozen beyond its peak [-]."""
+    """Eq. 37 with the coefficient 1.21 (possibly the sources' value, docs D7), g frozen beyond
+    its peak [-]."""
     lam = np.minimum(
         np.maximum(np.asarray(tallian, dtype=np.float64), 0.0), traction.LOAD_SHARE_PEAK
     )
@@ -194,7 +199,6 @@ VARIANTS: dict[str, tuple[str, Callable[[TwinConfig], list[Patch]]]] = {
     ),
     "no_mer": ("MER removed", lambda _: _zero(rolling, "hysteresis_moment")),
     "no_mc": ("MC removed", lambda _: _zero(rolling, "curvature_moment")),
-    "no_mp": ("MP removed", lambda _: _zero(rolling, "spin_moment")),
     "no_fr": ("FR and FP removed", lambda _: _zero(rolling, "rolling_resistance_force")),
 }
 #: Variants that are candidate corrections (the others remove a mechanism to attribute an effect).
@@ -228,7 +232,7 @@ def variant_laws(name: str, config: TwinConfig) -> Iterator[None]:
 def operating_point(celsius: float, rpm: float, preload: float) -> OperatingPoint:
     """Operating point from deg C, rpm and N."""
     return OperatingPoint(
-        screw_speed=rpm * RPM, temperature=celsius + CELSIUS_ZERO, preload=preload
+        screw_speed=rpm * RPM, temperature=celsius_to_kelvin(celsius), preload=preload
     )
 
 
@@ -399,7 +403,7 @@ def film_study(
     for each film variant at -20, 20 and 60 C."""
     rows: list[dict[str, float | str]] = []
     for celsius, rpm in ((t, r) for t in (-20.0, 20.0, 60.0) for r in speeds):
-        eta = float(lubricant.viscosity_atmospheric(config.lubricant, celsius + CELSIUS_ZERO))
+        eta = float(lubricant.viscosity_atmospheric(config.lubricant, celsius_to_kelvin(celsius)))
         for variant in ("shipped", "film_alpha_initial", "film_alpha_asymptotic"):
             alpha = config.lubricant.pressure_viscosity_coefficient
             if variant != "shipped":
@@ -479,7 +483,7 @@ def tangential_forces(
     part across the rolling direction (t x d), the part along t (friction, FR, FP) and the
     normal part along d."""
     model = SteadyStateModel(config, mode="symmetric", backend="reference")
-    geom = model.scene(celsius + CELSIUS_ZERO, 0.0).geometry
+    geom = model.scene(celsius_to_kelvin(celsius), 0.0).geometry
     state, balls = solution.state, solution.balls
     centres = geometry.half_groove_centres(geom, state.nut_offset[balls.nut])
     _, normal_nb, _ = geometry.contact_geometry(
