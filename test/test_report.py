@@ -113,3 +113,88 @@ def test_every_figure_carries_units(report: tuple[Path, str], saved_figures: Sav
     fig10 = saved_figures.saved[1][0]
     labels = {ax.get_title()[:3]: ax.get_ylabel() for ax in fig10.axes}
     assert labels["(c)"].endswith("[N]") and labels["(d)"].endswith("[N]")
+
+
+# ------------------------------------------------------------------ report gaps (issue 15)
+
+
+def test_gap_variants_replace_laws_only_inside_their_block() -> None:
+    """A variant changes the law the reference backend calls, inside the block only; the
+    compiled backend (the shipped model) is not affected."""
+    import numpy as np
+
+    from ballscrew_twin.models.steady import SteadyStateModel
+    from ballscrew_twin.params import load_config
+    from ballscrew_twin.physics import rolling
+    from ballscrew_twin.report import gaps
+
+    config = load_config()
+    shipped_law = rolling.hysteresis_moment
+    args = (np.array([10.0, 170.0]), 1.5875e-3, np.array([30.0, 30.0]), 0.01, 0.0175)
+    op = gaps.operating_point(20.0, 100.0, 1500.0)
+    compiled = SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque
+    with gaps.variant_laws("mer_mm+no_fr", config):
+        assert rolling.hysteresis_moment is not shipped_law
+        np.testing.assert_allclose(
+            rolling.hysteresis_moment(*args), gaps.MER_MM_READING * shipped_law(*args), rtol=1e-12
+        )
+        assert not np.any(rolling.rolling_resistance_force(np.ones(3), 1, 1, 1, 1, 1.0))
+        inside = SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque
+    assert rolling.hysteresis_moment is shipped_law
+    assert inside == compiled
+    with (
+        pytest.raises(ValueError, match="unknown variant 'nope'"),
+        gaps.variant_laws("shipped+nope", config),
+    ):
+        pass
+
+
+def test_gap_shipped_variant_is_the_shipped_model() -> None:
+    """The studies' baseline (reference backend, no variant) is the compiled model's drag."""
+    from ballscrew_twin.models.steady import SteadyStateModel
+    from ballscrew_twin.params import load_config
+    from ballscrew_twin.report import gaps
+
+    config = load_config()
+    (solution,) = gaps.solve_curve(config, "shipped", 60.0, 100.0, (3000.0,))
+    assert not isinstance(solution, Exception)
+    op = gaps.operating_point(60.0, 100.0, 3000.0)
+    compiled = SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque
+    assert solution.output.drag_torque == pytest.approx(compiled, rel=1e-8)
+
+
+def test_friction_moment_bound_of_synthetic_breakdowns() -> None:
+    """Shape and error floor: MC + MP growing as the preload give a straight line (floor 0);
+    MC + MP making half the drag at 500 N and growing as F^(4/3) give shape 1 + (6^(1/3)-1)/2."""
+    from ballscrew_twin.report.gaps import friction_moment_bound
+
+    def parts(moments_high: float) -> dict[str, tuple[float, float, float]]:
+        return {
+            "curvature": (0.0, 0.0, math.nan),
+            "spin": (1.0, moments_high, math.nan),
+            "total": (2.0, 6.0 + moments_high, math.nan),
+        }
+
+    assert friction_moment_bound(parts(6.0)) == pytest.approx((1.0, 0.0))
+    shape, floor = friction_moment_bound(parts(6.0 ** (4.0 / 3.0)))
+    assert shape == pytest.approx(1.0 + (6.0 ** (1.0 / 3.0) - 1.0) / 2.0)
+    assert floor == pytest.approx((shape - 1.0) / (shape + 1.0))
+
+
+def test_report_gaps_film_study_writes_json(tmp_path: Path) -> None:
+    """``report gaps --study film``: alpha_pv of each variant at -20/20/60 C (100 and 1000 rpm),
+    the shipped one the parameter file's, the derived ones falling with temperature."""
+    import json
+
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        assert main(["report", "gaps", "--study", "film", "--out", str(tmp_path)]) == 0
+    rows = json.loads((tmp_path / "gaps.json").read_text(encoding="utf-8"))["film"]
+    assert len(rows) == 18 and "wall time" in printed.getvalue()
+    alpha = {(r["temperature_C"], r["variant"]): r["alpha_pv_per_GPa"] for r in rows}
+    for celsius in (-20.0, 20.0, 60.0):
+        assert alpha[(celsius, "shipped")] == pytest.approx(23.805)
+    for variant in ("film_alpha_initial", "film_alpha_asymptotic"):
+        assert alpha[(-20.0, variant)] > alpha[(20.0, variant)] > alpha[(60.0, variant)]
+    for row in rows:
+        assert all(math.isfinite(row[k]) for k in ("screw_film_nm", "screw_tallian", "drag_Nmm"))

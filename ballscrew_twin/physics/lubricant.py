@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.special import gamma, gammaincc
 
 from ..params import Lubricant
 
@@ -93,6 +94,37 @@ def viscosity(lub: Lubricant, pressure: ArrayLike, temperature: ArrayLike) -> Fl
         (1.0 + ROELANDS_PRESSURE_SCALE * p) ** z - 1.0
     )
     return np.asarray(eta_t * np.exp(exponent))
+
+
+def film_pressure_viscosity(
+    lub: Lubricant, viscosity_atm: ArrayLike, definition: str = "initial"
+) -> FloatArray:
+    """Pressure-viscosity coefficient implied by the Roelands pressure law at eta_T [1/Pa].
+
+    Not used by the shipped model, whose film takes the constant ``alpha_pv`` of the parameter
+    file (docs/model.md, "Against the paper: open gaps, measured"); this is the opt-in
+    alternative the gap study measures. With A = ln eta_T + 9.67 and c = 5.1e-9 1/Pa:
+
+    - ``initial``: the slope d ln eta / dp at p = 0, alpha = c Z A.
+    - ``asymptotic``: the reciprocal asymptotic isoviscous pressure (Blok), alpha* =
+      [integral_0^inf eta(0)/eta(p) dp]^-1 = c Z A^(1/Z) e^(-A) / Gamma(1/Z, A), the closed
+      form of the integral with x = 1 + c p and s = A x^Z (upper incomplete gamma function).
+
+    Both reproduce ``alpha_pv`` only where eta_T = eta_0 (``initial``), since Z is defined from it.
+
+    Args:
+        lub: lubricant parameters (Z from alpha_pv and eta_0).
+        viscosity_atm: eta_T, viscosity at atmospheric pressure and the oil temperature [Pa s].
+        definition: ``initial`` or ``asymptotic``.
+    """
+    z = roelands_pressure_index(lub)
+    a = np.log(np.asarray(viscosity_atm, dtype=np.float64)) + ROELANDS_LN_ETA_INF
+    if definition == "initial":
+        return np.asarray(ROELANDS_PRESSURE_SCALE * z * a)
+    if definition == "asymptotic":
+        upper_gamma = gammaincc(1.0 / z, a) * gamma(1.0 / z)
+        return np.asarray(ROELANDS_PRESSURE_SCALE * z * a ** (1.0 / z) * np.exp(-a) / upper_gamma)
+    raise ValueError(f"definition = {definition!r} must be initial or asymptotic")
 
 
 def density(lub: Lubricant, pressure: ArrayLike, temperature: ArrayLike) -> FloatArray:

@@ -546,14 +546,26 @@ def plot_paper(rows: Sequence[Row], out_dir: Path) -> list[Path]:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``report``."""
-    parser.add_argument("what", choices=("paper",), help="which report")
+    parser.add_argument(
+        "what",
+        choices=("paper", "gaps"),
+        help="paper: the paper's figures; gaps: the open gaps against it, measured",
+    )
     parser.add_argument("--out", required=True, type=Path, help="output directory")
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--quick", action="store_true", help="coarse grid (seconds, for tests)")
+    from . import gaps  # imports this module
+
+    gaps.add_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    """``report paper``: sweep, write CSV and PNGs, print the convergence count and wall time."""
+    """``report paper``: sweep, write CSV and PNGs, print the convergence count and wall time;
+    ``report gaps``: :func:`ballscrew_twin.report.gaps.run`."""
+    if args.what == "gaps":
+        from . import gaps  # imports this module
+
+        return gaps.run(args)
     start = time.perf_counter()
     config = load_config(args.config)
     rows = paper_sweep(config, args.quick)

@@ -169,3 +169,51 @@ def test_density_thermal_term_is_additive_and_decreasing() -> None:
         ref = float(lub_mod.density(LUB, p, t0))
         assert hot - ref == pytest.approx(-0.59 * 40.0, rel=1e-9)
         assert hot < ref
+
+
+# ------------------------------------------------------- film pressure-viscosity (opt-in, issue 15)
+
+
+def test_film_pressure_viscosity_initial_is_table_value_at_reference_viscosity() -> None:
+    """At eta_T = eta_0 the initial slope is alpha_pv itself (Z is defined from it)."""
+    alpha = lub_mod.film_pressure_viscosity(LUB, LUB.viscosity_reference, "initial")
+    assert float(alpha) == pytest.approx(LUB.pressure_viscosity_coefficient, rel=1e-12)
+
+
+@pytest.mark.parametrize("celsius", [-40.0, -20.0, 20.0, 60.0, 100.0])
+def test_film_pressure_viscosity_initial_is_the_laws_slope(celsius: float) -> None:
+    """Oracle: central finite difference of ln eta(p, T) at p = 0 (one-sided: eta(p<0) = eta(0))."""
+    temp = celsius + C_TO_K
+    eta_t = float(lub_mod.viscosity_atmospheric(LUB, temp))
+    step = 1e3  # Pa
+    slope = (
+        math.log(float(lub_mod.viscosity(LUB, 2 * step, temp)))
+        - math.log(float(lub_mod.viscosity(LUB, step, temp)))
+    ) / step
+    # the slope at p = 1.5 kPa differs from the one at 0 by ~alpha' p: relative 1e-4
+    assert float(lub_mod.film_pressure_viscosity(LUB, eta_t, "initial")) == pytest.approx(
+        slope, rel=1e-3
+    )
+
+
+@pytest.mark.parametrize("celsius", [-20.0, 20.0, 60.0])
+def test_film_pressure_viscosity_asymptotic_is_blok_integral(celsius: float) -> None:
+    """Oracle: 1 / integral_0^inf eta(0, T) / eta(p, T) dp by adaptive quadrature."""
+    from scipy.integrate import quad
+
+    temp = celsius + C_TO_K
+    eta_t = float(lub_mod.viscosity_atmospheric(LUB, temp))
+
+    def ratio(p: float) -> float:
+        return float(lub_mod.viscosity(LUB, 0.0, temp) / lub_mod.viscosity(LUB, p, temp))
+
+    integral = sum(quad(ratio, a, b, limit=200)[0] for a, b in ((0, 1e8), (1e8, 1e9), (1e9, 1e10)))
+    alpha = float(lub_mod.film_pressure_viscosity(LUB, eta_t, "asymptotic"))
+    assert alpha == pytest.approx(1.0 / integral, rel=1e-8)
+    # the asymptotic coefficient is below the initial slope for a law whose slope falls with p
+    assert alpha < float(lub_mod.film_pressure_viscosity(LUB, eta_t, "initial"))
+
+
+def test_film_pressure_viscosity_rejects_unknown_definition() -> None:
+    with pytest.raises(ValueError, match="initial or asymptotic"):
+        lub_mod.film_pressure_viscosity(LUB, 0.07, "secant")
