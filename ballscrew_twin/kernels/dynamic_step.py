@@ -43,6 +43,7 @@ from numba import njit
 from ..models.dynamic import (
     HELIX_NEWTON_STEPS,
     JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
     STEP_BACKTRACKS,
     STEP_NEWTON_MAX,
     STEP_TOLERANCE,
@@ -63,6 +64,7 @@ from .contacts import (
 SOLVER_CONSTANTS = (
     HELIX_NEWTON_STEPS,
     JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
     STEP_BACKTRACKS,
     STEP_NEWTON_MAX,
     STEP_TOLERANCE,
@@ -145,6 +147,7 @@ def frozen_constants():
     return (
         HELIX_NEWTON_STEPS,
         JACOBIAN_REFRESH_RATIO,
+        PREDICTOR_ORDER,
         STEP_BACKTRACKS,
         STEP_NEWTON_MAX,
         STEP_TOLERANCE,
@@ -486,6 +489,86 @@ def _correction(own, shared_jac, r_ball, r_shared, ball_nut, jammed, c, du, d_sh
     return ok
 
 
+#: Extrapolation of the velocities from the starts of the last steps, u_n, u_{n-1}, ...: the
+#: coefficients of the polynomial predictor of each order (0: u_n; 3: cubic).
+PREDICTOR_COEFFICIENTS = ((1.0, 0.0, 0.0, 0.0), (2.0, -1.0, 0.0, 0.0), (3.0, -3.0, 1.0, 0.0),
+                          (4.0, -6.0, 4.0, -1.0))  # fmt: skip
+# Predictor bookkeeping (3,) float64: the time the next step starts at if it continues the last
+# one [s] (NaN: none), the number of earlier starts kept [-], the order to use [-].
+H_NEXT_TIME, H_COUNT, H_ORDER = 0, 1, 2
+
+
+@njit(cache=True)
+def _extrapolate(order, row, column, now, history):
+    """Velocity component extrapolated at ``order`` from ``now`` (u_n) and history[0..order-1]
+    (u_{n-1}, ...) at (row, column)."""
+    coefficients = PREDICTOR_COEFFICIENTS[order]
+    value = coefficients[0] * now
+    for j in range(order):
+        value += coefficients[j + 1] * history[j, row, column]
+    return value
+
+
+@njit(cache=True)
+def _predict(u0, shared0, time, jammed, history, meta, u, shared):
+    """Newton's first guess (DynamicModel._predict): u_n extrapolated at the order meta[H_ORDER]
+    from the starts of the last steps when the step continues the last one (``time`` [s] is
+    meta[H_NEXT_TIME]); else ``u``, ``shared`` are left as given (u_n). A jammed sphere's
+    rotation stays zero.
+
+    history (PREDICTOR_ORDER, B + 1, 6): u_{n-1}, u_{n-2}, ... (sphere rows; row B holds the
+    screw speed and nut velocities in columns 0-2); meta (3,): layout H_*.
+    """
+    count = u0.shape[0]
+    order = int(meta[H_ORDER])
+    if meta[H_NEXT_TIME] != time or order == 0:
+        return
+    for i in range(count):
+        for k in range(6):
+            u[i, k] = _extrapolate(order, i, k, u0[i, k], history)
+            if jammed[i] and k >= 3:
+                u[i, k] = 0.0
+    for k in range(3):
+        shared[k] = _extrapolate(order, count, k, shared0[k], history)
+
+
+@njit(cache=True)
+def _remember(u0, shared0, u, shared, time, c, history, meta):
+    """After a step from ``time`` [s]: the order for the next step is the one whose prediction
+    came closest to the converged velocities ``u``, ``shared`` (largest difference over all
+    components, angular velocities times the ball radius, screw speed times the pitch radius,
+    in m/s; ties to the lower order); u0, shared0 join the history (DynamicModel._remember)."""
+    count = u0.shape[0]
+    depth = history.shape[0]
+    kept = int(meta[H_COUNT]) if meta[H_NEXT_TIME] == time else 0
+    best = 0
+    best_error = math.inf
+    for order in range(min(kept, depth) + 1):
+        error = 0.0
+        for i in range(count):
+            for k in range(6):
+                weight = 1.0 if k < 3 else c[K_BALL_RADIUS]
+                guess = _extrapolate(order, i, k, u0[i, k], history)
+                error = max(error, weight * abs(guess - u[i, k]))
+        for k in range(3):
+            weight = c[K_PITCH_RADIUS] if k == 0 else 1.0
+            guess = _extrapolate(order, count, k, shared0[k], history)
+            error = max(error, weight * abs(guess - shared[k]))
+        if error < best_error:
+            best = order
+            best_error = error
+    for j in range(depth - 1, 0, -1):
+        history[j, :, :] = history[j - 1]
+    for i in range(count):
+        for k in range(6):
+            history[0, i, k] = u0[i, k]
+    for k in range(3):
+        history[0, count, k] = shared0[k]
+    meta[H_NEXT_TIME] = time + c[K_DT]
+    meta[H_COUNT] = min(kept + 1, depth)
+    meta[H_ORDER] = best
+
+
 # ----------------------------------------------------------------------------- the step
 @njit(cache=True, error_model="numpy")
 def step_kernel(
@@ -505,6 +588,8 @@ def step_kernel(
     jac_shared,
     jac_active,
     jac_meta,
+    history,
+    history_meta,
     out_pos,
     out_vel,
     out_omega,
@@ -524,6 +609,8 @@ def step_kernel(
         sphere_offset: (B, 4) [m] and spalls (S, 4): defects (see ``_approach_offsets``).
         jammed: (B,) bool, spheres whose rotation is blocked (held at zero).
         jac_own, jac_shared, jac_active, jac_meta: the Jacobian kept between steps (updated).
+        history, history_meta: the velocities at the starts of the last steps and the
+            predictor's bookkeeping (see ``_predict``), kept between steps (updated).
         out_pos, out_vel, out_omega, out_theta, out_body: the new state (written).
         stats: (S_COUNT,) step statistics (layout S_*, written).
 
@@ -549,30 +636,27 @@ def step_kernel(
     shared0[2] = body[B_NUT_VEL + 1]
     u = u0.copy()
     sv = shared0.copy()
+    _predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
+    v_start = np.empty((count, 3))
+    w_start = np.empty((count, 3))
+    for i in range(count):
+        for k in range(3):
+            v_start[i, k] = u[i, k]
+            w_start[i, k] = u[i, 3 + k]
     stacked = np.empty((count, N_STACK))
     evals = 0
     jacobians = 0
     iterations = 0
     active, out = _actions(
-        vel, omega, shared0[1:], shared0[0], pos, body, frames, nb, offsets, ball_nut, c, p,
+        v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, offsets, ball_nut, c, p,
         stacked,
     )  # fmt: skip
     evals += 1
-    changed = False
+    stale = jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
     for i in range(count):
         for j in range(4):
             if active[i, j] != jac_active[i, j]:
-                changed = True
-    if jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL] or changed:
-        _jacobians(
-            vel, omega, shared0[1:], shared0[0], stacked, pos, body, frames, nb, offsets,
-            ball_nut, c, p, jac_own, jac_shared,
-        )  # fmt: skip
-        evals += 8
-        jacobians += 1
-        jac_active[:, :] = active
-        jac_meta[J_VALID] = 1
-        jac_meta[J_AGE] = 0
+                stale = True
     jac_meta[J_AGE] += 1
 
     r_ball = np.empty((count, 6))
@@ -592,9 +676,19 @@ def step_kernel(
     converged_loop = False
     previous = worst
     for iteration in range(STEP_NEWTON_MAX):
-        if iteration > 0 and worst < STEP_TOLERANCE:
+        if worst < STEP_TOLERANCE:
             converged_loop = True
             break
+        if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
+            _jacobians(
+                v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets,
+                ball_nut, c, p, jac_own, jac_shared,
+            )  # fmt: skip
+            evals += 8
+            jacobians += 1
+            jac_active[:, :] = active
+            jac_meta[J_VALID] = 1
+            jac_meta[J_AGE] = 1
         if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
             for i in range(count):
                 for k in range(3):
@@ -643,6 +737,7 @@ def step_kernel(
         r_shared[:] = rs
         worst = w
     unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+    _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]
     ki = c[K_KI]
@@ -760,6 +855,8 @@ def run_steps(
     jac_shared,
     jac_active,
     jac_meta,
+    history,
+    history_meta,
     acc,
     first_stats,
 ):
@@ -793,8 +890,8 @@ def run_steps(
             jammed[i] = body[B_TIME] >= jam_start[i]
         active, out = step_kernel(
             pos, vel, omega, theta, body, commands[n], ball_nut, c, p, sphere_offset, spalls,
-            jammed, jac_own, jac_shared, jac_active, jac_meta, new_pos, new_vel, new_omega,
-            new_theta, new_body, stats,
+            jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta, new_pos,
+            new_vel, new_omega, new_theta, new_body, stats,
         )  # fmt: skip
         sum_vel = 0.0
         sum_omega = 0.0
@@ -881,6 +978,9 @@ def ensure_fresh_cache() -> bool:
             _jacobians,
             _residual,
             _correction,
+            _extrapolate,
+            _predict,
+            _remember,
             step_kernel,
             run_steps,
             frozen_constants,
