@@ -42,6 +42,7 @@ from numba import njit
 
 from ..models.dynamic import (
     HELIX_NEWTON_STEPS,
+    JACOBIAN_KEEP_RATIO,
     JACOBIAN_REFRESH_RATIO,
     PREDICTOR_ORDER,
     STEP_BACKTRACKS,
@@ -63,6 +64,7 @@ from .contacts import (
 
 SOLVER_CONSTANTS = (
     HELIX_NEWTON_STEPS,
+    JACOBIAN_KEEP_RATIO,
     JACOBIAN_REFRESH_RATIO,
     PREDICTOR_ORDER,
     STEP_BACKTRACKS,
@@ -102,8 +104,9 @@ N_BODY = 8
     K_NUT_OFFSET0,
 ) = range(18)
 N_CONST = 19
-# Jacobian bookkeeping (3,) int64: valid (0/1), age [steps], refresh interval [steps].
-J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
+# Jacobian bookkeeping (4,) int64: valid (0/1), age [steps], refresh interval [steps], 1 when
+# the last step needed more than one Newton correction.
+J_VALID, J_AGE, J_INTERVAL, J_SLOW = 0, 1, 2, 3
 # Step statistics (S_COUNT,): motor torque at the end of the step [N m], moment of the spheres
 # on the screw [N m], axial force on each nut (2) [N], total dissipation [W], final scaled
 # residual [-], 1 when not converged, contact evaluations made [-], Jacobian evaluations made
@@ -146,6 +149,7 @@ def frozen_constants():
     """The solver constants as the cached machine code sees them (tested against dynamic.py)."""
     return (
         HELIX_NEWTON_STEPS,
+        JACOBIAN_KEEP_RATIO,
         JACOBIAN_REFRESH_RATIO,
         PREDICTOR_ORDER,
         STEP_BACKTRACKS,
@@ -652,7 +656,9 @@ def step_kernel(
         stacked,
     )  # fmt: skip
     evals += 1
-    stale = jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
+    stale = jac_meta[J_VALID] == 0 or (
+        jac_meta[J_AGE] >= jac_meta[J_INTERVAL] and jac_meta[J_SLOW] == 1
+    )
     for i in range(count):
         for j in range(4):
             if active[i, j] != jac_active[i, j]:
@@ -675,6 +681,7 @@ def step_kernel(
     rs = np.empty(3)
     converged_loop = False
     previous = worst
+    first_ratio = 0.0
     for iteration in range(STEP_NEWTON_MAX):
         if worst < STEP_TOLERANCE:
             converged_loop = True
@@ -727,6 +734,8 @@ def step_kernel(
             if w < worst or iteration == 0:
                 break
             step *= 0.5
+        if iteration == 0:
+            first_ratio = w / worst
         previous = worst
         u[:, :] = u_try
         sv[:] = sv_try
@@ -737,6 +746,9 @@ def step_kernel(
         r_shared[:] = rs
         worst = w
     unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+    # The kept Jacobian proved itself when a single correction contracted the residual by
+    # JACOBIAN_KEEP_RATIO (or none was needed): then it is kept beyond the interval.
+    jac_meta[J_SLOW] = 1 if iterations > 1 or (iterations == 1 and first_ratio > JACOBIAN_KEEP_RATIO) else 0
     _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]
