@@ -50,6 +50,15 @@ NMM_PER_NM = 1e3
 RPM = math.pi / 30.0  # rad/s per rpm
 CELSIUS_ZERO = 273.15  # K
 
+#: Figures of earlier runs (docs/benchmarks.md), printed beside a run of the same scenario,
+#: step and duration: (scenario name, time step [s], duration [s]) -> (date, CPU time [s],
+#: contact-law evaluations per step, unconverged steps, drag torque [N m], power-balance
+#: error [-], load average).
+PREVIOUS = {
+    ("paper_protocol", 2e-6, 0.6): ("2026-11-24", 173.6, 3.91, 3, 18.5251e-3, -0.0027, 2.3),
+    ("protocol_short", 2e-6, 0.012): ("2026-11-24", 11.8, 12.69, 438, 18.5762e-3, -0.023, 5.5),
+}
+
 #: The envelope of issue 4: preloads [N], speeds [rpm], temperatures [deg C] (CLI units).
 CORNER_PRELOADS = (0.0, 1500.0, 3000.0)
 CORNER_SPEEDS_RPM = (100.0, 4000.0)
@@ -106,6 +115,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--out", default=None, help="folder for corners.csv and corners.md (with --corners)"
+    )
+    parser.add_argument(
+        "--scaling",
+        default=None,
+        help="comma-separated spheres per nut (e.g. 5,10,25): CPU time per simulated second "
+        "of the scenario at each, against the number of spheres",
     )
 
 
@@ -213,6 +228,45 @@ def _run_once(scenario: Scenario) -> None:
         f"(std {s['drag_torque_std_Nm'] * NMM_PER_NM:.3g}), power-balance error "
         f"{s['power_balance_error_relative']:.2g} of the input"
     )
+    previous = PREVIOUS.get((scenario.name, scenario.time_step, scenario.duration))
+    if previous is not None:
+        date, cpu_then, evals, unconverged, drag, balance, load = previous
+        print(
+            f"  previous ({date}, docs/benchmarks.md, load average {load:g}): CPU time "
+            f"{cpu_then:.1f} s ({cpu_then / max(cpu, 1e-300):.2f} x this run), {evals:.2f} "
+            f"contact-law evaluations per step, {unconverged} steps not converged, drag torque "
+            f"{drag * NMM_PER_NM:.4f} N mm ({100 * (s['drag_torque_Nm'] / drag - 1):+.3f} % "
+            f"now), power-balance error {balance:.2g}"
+        )
+
+
+def _scaling(scenario: Scenario, counts: list[int]) -> None:
+    """CPU time per simulated second (all, and the hold after the speed ramp) at each number
+    of spheres per nut, per sphere, and its growth against linear growth from the first."""
+    print(
+        f"cost against the number of spheres, scenario {scenario.name}, dt = "
+        f"{scenario.time_step:g} s, {scenario.duration:g} s simulated; one core (load average "
+        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+    )
+    ramp_end = min(scenario.speed_ramp_end, scenario.duration)
+    hold = scenario.duration - ramp_end
+    first: tuple[int, float] | None = None
+    for per_nut in counts:
+        result, _, _, transient_cpu, hold_cpu = _timed_run(replace(scenario, balls_per_nut=per_nut))
+        cpu = (transient_cpu + hold_cpu) / scenario.duration
+        hold_rate = hold_cpu / hold if hold > 0 else math.nan
+        work = result.summary.get("work_per_step", {})
+        spheres = 2 * per_nut
+        if first is None:
+            first = (spheres, hold_rate)
+        growth = (hold_rate / first[1]) / (spheres / first[0])
+        print(
+            f"  {per_nut:3d} per nut ({spheres:3d} spheres): CPU {cpu:.1f} s/s, hold "
+            f"{hold_rate:.1f} s/s = {hold_rate / spheres:.2f} s/s per sphere (hold cost / "
+            f"linear growth from {first[0]} spheres: {growth:.2f}); "
+            f"{work.get('contact_evaluations', math.nan):.2f} contact-law evaluations per step",
+            flush=True,
+        )
 
 
 def _convergence(scenario: Scenario, steps: list[float]) -> None:
@@ -456,6 +510,9 @@ def run(args: argparse.Namespace) -> int:
         return _corners(
             scenario, args.time_step or CORNER_TIME_STEP, Path(args.out) if args.out else None
         )
+    if args.scaling:
+        _scaling(scenario, [int(x) for x in args.scaling.split(",") if x.strip()])
+        return 0
     if args.convergence:
         steps = [float(x) for x in args.convergence.split(",") if x.strip()]
         _convergence(scenario, steps)

@@ -10,10 +10,14 @@ operation for operation, with the contact laws evaluated by
 - contact actions at given velocities (``_actions``): velocities relative to the screw in each
   sphere's Frenet frame, one call of the contact kernel, forces and moments back to the world
   frame, each sphere's moment on the screw and axial force on its nut;
+- Newton's first guess (``_predict``, ``_remember``): the velocities extrapolated from the
+  starts of the last steps (kept in caller-owned arrays) at the order, 0 to PREDICTOR_ORDER,
+  that predicted the last step best; a guess that meets the tolerance ends the step;
 - the velocity Jacobian by forward differences (``_jacobians``: 6 + 1 + 1 evaluations), kept
-  between steps in caller-owned arrays and refreshed as the reference does (every
-  ``jacobian_interval`` steps, on a change of the contact set, and at every Newton iterate after
-  the first);
+  between steps in caller-owned arrays and refreshed as the reference does (when a correction
+  is needed and the kept one is older than ``jacobian_interval`` steps without having proved
+  itself on the last step, on a change of the contact set, and at a Newton iterate that
+  contracted the residual too little);
 - the backward-Euler residuals and their scaled maximum (``_residual``), the Newton correction
   by elimination of the 6 x 6 sphere blocks and a 3 x 3 Schur complement (``_correction``; small
   LU with partial pivoting instead of LAPACK), the Newton loop with backtracking, and the
@@ -22,7 +26,7 @@ operation for operation, with the contact laws evaluated by
 Results agree with the reference to rounding (different summation order in a few sums and a
 different LU): test/kernels/test_dynamic_step.py runs both side by side.
 
-:func:`advance_kernel` loops :func:`step_kernel` over many steps (commands from the scenario's
+:func:`run_steps` loops :func:`step_kernel` over many steps (commands from the scenario's
 smooth steps) and accumulates what the simulation runner records per step (energy integrals,
 window sums), so that a whole output interval is one call from Python.
 
@@ -748,7 +752,8 @@ def step_kernel(
     unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
     # The kept Jacobian proved itself when a single correction contracted the residual by
     # JACOBIAN_KEEP_RATIO (or none was needed): then it is kept beyond the interval.
-    jac_meta[J_SLOW] = 1 if iterations > 1 or (iterations == 1 and first_ratio > JACOBIAN_KEEP_RATIO) else 0
+    proved = iterations == 0 or (iterations == 1 and first_ratio <= JACOBIAN_KEEP_RATIO)
+    jac_meta[J_SLOW] = 0 if proved else 1
     _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]

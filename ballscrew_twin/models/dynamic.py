@@ -19,13 +19,15 @@ Omega p / (2 pi).
 
 Integration (docs/model.md, section 10): the regularised friction makes the sphere velocities
 stiff (time constant m / (dF/dv) ~ 1 ns), the contact springs less so (~100 kHz). Velocities
-of spheres, nuts and screw are advanced by backward Euler, solved by Newton iterations with the
-Jacobian of the contact actions with respect to those velocities (finite differences, kept
-between steps and refreshed every ``jacobian_interval`` steps, on a change of the contact set,
-and within a step whenever an iteration contracts the residual by less than
-JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler). The step
-is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs the same
-algorithm compiled (kernels/dynamic_step.py, tested equal).
+of spheres, nuts and screw are advanced by backward Euler, solved by Newton iterations from a
+polynomial extrapolation of the last steps' velocities (PREDICTOR_ORDER) with the Jacobian of
+the contact actions with respect to those velocities (finite differences, kept between steps;
+refreshed when a correction is needed and it is older than ``jacobian_interval`` steps, unless
+it converged the last step in one correction contracting the residual by JACOBIAN_KEEP_RATIO,
+on a change of the contact set, and within a step whenever an iteration contracts the residual
+by less than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit
+Euler). The step is the user's. :meth:`DynamicModel._step` is the readable reference; the
+default runs the same algorithm compiled (kernels/dynamic_step.py, tested equal).
 
 Optional: contacts between neighbouring spheres of a nut (sphere_contact.py) in the implicit
 step, and a jammed sphere (rotation held at zero, faults.py).
@@ -127,8 +129,10 @@ class DynamicModel:
         config: parameter set.
         temperature: bulk temperature [K] (constant during a run, as in the paper).
         time_step: integration step [s].
-        jacobian_interval: steps between refreshes of the velocity Jacobian (it is refreshed at
-            once when a contact opens or closes). 1, the default, is needed through impacts and
+        jacobian_interval: steps after which the velocity Jacobian is refreshed when a Newton
+            correction needs it, unless it converged the last step in one correction that
+            contracted the residual by JACOBIAN_KEEP_RATIO (it is refreshed at once when a
+            contact opens or closes). 1, the default, is needed through impacts and
             the preload transient: saturated damping and friction are not smooth enough for a
             stale linearisation (measured, docs/model.md section 10).
         controller: PI gains of the screw speed controller.
@@ -553,14 +557,15 @@ class DynamicModel:
 
         The equations M (u - u_n) = dt f(x_n, u) for every sphere and S (U - U_n) = dt g for
         screw (PI controller implicit) and nuts are solved by Newton iterations until the
-        scaled residual is below STEP_TOLERANCE (at most STEP_NEWTON_MAX). The Jacobian of the
-        contact actions is the one kept from earlier steps (refreshed at the step's start every
-        ``jacobian_interval`` steps or when the contact set changed); it is re-evaluated at the
-        iterate only when the last iteration reduced the residual by less than
-        JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer Jacobians;
-        measured on 50 spheres through preload and speed ramps: 7.2 evaluations of the contact
-        laws per step instead of 20.2).
-        Positions then move with the new velocities. The
+        scaled residual is below STEP_TOLERANCE (at most STEP_NEWTON_MAX), starting from the
+        predictor's guess (:meth:`_predict`; a guess already below the tolerance ends the step
+        without a correction). The Jacobian of the contact actions is the one kept from earlier
+        steps; before the first correction it is refreshed at the guess when the contact set
+        changed or it is older than ``jacobian_interval`` steps and did not prove itself on the
+        last step (one correction contracting the residual by JACOBIAN_KEEP_RATIO); it is
+        re-evaluated at the iterate only when the last iteration reduced the residual by less
+        than JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer
+        Jacobians). Positions then move with the new velocities. The
         reported contact actions and dissipation are those at the converged velocities, i.e.
         the forces the step applied.
         """

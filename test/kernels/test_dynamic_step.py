@@ -35,6 +35,7 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 def test_frozen_constants_are_those_of_the_reference() -> None:
     assert dynamic_step.frozen_constants() == (
         dynamic.HELIX_NEWTON_STEPS,
+        dynamic.JACOBIAN_KEEP_RATIO,
         dynamic.JACOBIAN_REFRESH_RATIO,
         dynamic.PREDICTOR_ORDER,
         dynamic.STEP_BACKTRACKS,
@@ -85,7 +86,6 @@ def test_compiled_step_follows_the_reference_trajectory(faults: Faults, interval
         assert np.all(np.abs(ref.ball_omega[0]) > 0.0)
 
 
-
 def test_predictor_coefficients_are_those_of_the_reference() -> None:
     for compiled, reference in zip(
         dynamic_step.PREDICTOR_COEFFICIENTS, dynamic.PREDICTOR_COEFFICIENTS, strict=True
@@ -94,7 +94,9 @@ def test_predictor_coefficients_are_those_of_the_reference() -> None:
     assert len(dynamic_step.PREDICTOR_COEFFICIENTS) == dynamic.PREDICTOR_ORDER + 1
 
 
-def _polynomial_velocities(order: int, count: int, steps: int) -> list[tuple[np.ndarray, np.ndarray]]:
+def _polynomial_velocities(
+    order: int, count: int, steps: int
+) -> list[tuple[np.ndarray, np.ndarray]]:
     """Sphere and shared velocities sampled on a polynomial of ``order`` in the step index."""
     rng = np.random.default_rng(order)
     a, b = rng.normal(size=(order + 1, count, 6)), rng.normal(size=(order + 1, 3))
