@@ -214,6 +214,11 @@ def _run_once(scenario: Scenario) -> None:
             s.get("unconverged_steps", 0),
         )
     )
+    listed = s.get("unconverged", {}).get("listed", [])
+    if listed:
+        in_hold = sum(entry["time_s"] >= ramp_end for entry in listed)
+        times = ", ".join(f"{entry['time_s']:.6g}" for entry in listed[:10])
+        print(f"    not converged at t = {times} s ({in_hold} of these after {ramp_end:g} s)")
     stats = pstats.Stats(profile)
     raw = stats.stats  # type: ignore[attr-defined]
     kernel = sum(v[2] for k, v in raw.items() if k[2] in ("step_kernel", "run_steps"))
