@@ -15,9 +15,8 @@ operation for operation, with the contact laws evaluated by
   that predicted the last step best; a guess that meets the tolerance ends the step;
 - the velocity Jacobian by forward differences (``_jacobians``: 6 + 1 + 1 evaluations), kept
   between steps in caller-owned arrays and refreshed as the reference does (when a correction
-  is needed and the kept one is older than ``jacobian_interval`` steps without having proved
-  itself on the last step, on a change of the contact set, and at a Newton iterate that
-  contracted the residual too little);
+  is needed and the kept one is older than ``jacobian_interval`` steps or the contact set
+  changed, and at a Newton iterate that contracted the residual too little);
 - the backward-Euler residuals and their scaled maximum (``_residual``), the Newton correction
   by elimination of the 6 x 6 sphere blocks and a 3 x 3 Schur complement (``_correction``; small
   LU with partial pivoting instead of LAPACK), the Newton loop with backtracking, and the
@@ -46,7 +45,6 @@ from numba import njit
 
 from ..models.dynamic import (
     HELIX_NEWTON_STEPS,
-    JACOBIAN_KEEP_RATIO,
     JACOBIAN_REFRESH_RATIO,
     PREDICTOR_ORDER,
     STEP_BACKTRACKS,
@@ -68,7 +66,6 @@ from .contacts import (
 
 SOLVER_CONSTANTS = (
     HELIX_NEWTON_STEPS,
-    JACOBIAN_KEEP_RATIO,
     JACOBIAN_REFRESH_RATIO,
     PREDICTOR_ORDER,
     STEP_BACKTRACKS,
@@ -108,9 +105,8 @@ N_BODY = 8
     K_NUT_OFFSET0,
 ) = range(18)
 N_CONST = 19
-# Jacobian bookkeeping (4,) int64: valid (0/1), age [steps], refresh interval [steps], 1 when
-# the last step needed more than one Newton correction.
-J_VALID, J_AGE, J_INTERVAL, J_SLOW = 0, 1, 2, 3
+# Jacobian bookkeeping (3,) int64: valid (0/1), age [steps], refresh interval [steps].
+J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
 # Step statistics (S_COUNT,): motor torque at the end of the step [N m], moment of the spheres
 # on the screw [N m], axial force on each nut (2) [N], total dissipation [W], final scaled
 # residual [-], 1 when not converged, contact evaluations made [-], Jacobian evaluations made
@@ -153,7 +149,6 @@ def frozen_constants():
     """The solver constants as the cached machine code sees them (tested against dynamic.py)."""
     return (
         HELIX_NEWTON_STEPS,
-        JACOBIAN_KEEP_RATIO,
         JACOBIAN_REFRESH_RATIO,
         PREDICTOR_ORDER,
         STEP_BACKTRACKS,
@@ -660,9 +655,7 @@ def step_kernel(
         stacked,
     )  # fmt: skip
     evals += 1
-    stale = jac_meta[J_VALID] == 0 or (
-        jac_meta[J_AGE] >= jac_meta[J_INTERVAL] and jac_meta[J_SLOW] == 1
-    )
+    stale = jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
     for i in range(count):
         for j in range(4):
             if active[i, j] != jac_active[i, j]:
@@ -685,7 +678,6 @@ def step_kernel(
     rs = np.empty(3)
     converged_loop = False
     previous = worst
-    first_ratio = 0.0
     for iteration in range(STEP_NEWTON_MAX):
         if worst < STEP_TOLERANCE:
             converged_loop = True
@@ -738,8 +730,6 @@ def step_kernel(
             if w < worst or iteration == 0:
                 break
             step *= 0.5
-        if iteration == 0:
-            first_ratio = w / worst
         previous = worst
         u[:, :] = u_try
         sv[:] = sv_try
@@ -750,10 +740,6 @@ def step_kernel(
         r_shared[:] = rs
         worst = w
     unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
-    # The kept Jacobian proved itself when a single correction contracted the residual by
-    # JACOBIAN_KEEP_RATIO (or none was needed): then it is kept beyond the interval.
-    proved = iterations == 0 or (iterations == 1 and first_ratio <= JACOBIAN_KEEP_RATIO)
-    jac_meta[J_SLOW] = 0 if proved else 1
     _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]

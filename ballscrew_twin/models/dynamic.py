@@ -22,12 +22,11 @@ stiff (time constant m / (dF/dv) ~ 1 ns), the contact springs less so (~100 kHz)
 of spheres, nuts and screw are advanced by backward Euler, solved by Newton iterations from a
 polynomial extrapolation of the last steps' velocities (PREDICTOR_ORDER) with the Jacobian of
 the contact actions with respect to those velocities (finite differences, kept between steps;
-refreshed when a correction is needed and it is older than ``jacobian_interval`` steps, unless
-it converged the last step in one correction contracting the residual by JACOBIAN_KEEP_RATIO,
-on a change of the contact set, and within a step whenever an iteration contracts the residual
-by less than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit
-Euler). The step is the user's. :meth:`DynamicModel._step` is the readable reference; the
-default runs the same algorithm compiled (kernels/dynamic_step.py, tested equal).
+refreshed when a correction is needed and it is older than ``jacobian_interval`` steps or the
+contact set changed, and within a step whenever an iteration contracts the residual by less
+than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler).
+The step is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs
+the same algorithm compiled (kernels/dynamic_step.py, tested equal).
 
 Optional: contacts between neighbouring spheres of a nut (sphere_contact.py) in the implicit
 step, and a jammed sphere (rotation held at zero, faults.py).
@@ -62,9 +61,6 @@ STEP_BACKTRACKS = 4  # halvings of a Newton correction that would raise the resi
 #: Within a step the Jacobian is re-evaluated at the iterate only when the last iteration
 #: reduced the scaled residual by less than this factor (0: at every iterate, plain Newton).
 JACOBIAN_REFRESH_RATIO = 0.1
-#: A Jacobian is kept beyond ``jacobian_interval`` steps while the last step needed no
-#: correction or one that reduced the scaled residual by this factor at least.
-JACOBIAN_KEEP_RATIO = 1e-3
 #: Newton's first guess: the velocities extrapolated from the starts of the last steps by a
 #: polynomial of order up to this (0: the last velocities), the order that predicted the last
 #: step best; a guess that already meets STEP_TOLERANCE ends the step without a correction.
@@ -130,11 +126,10 @@ class DynamicModel:
         temperature: bulk temperature [K] (constant during a run, as in the paper).
         time_step: integration step [s].
         jacobian_interval: steps after which the velocity Jacobian is refreshed when a Newton
-            correction needs it, unless it converged the last step in one correction that
-            contracted the residual by JACOBIAN_KEEP_RATIO (it is refreshed at once when a
-            contact opens or closes). 1, the default, is needed through impacts and
-            the preload transient: saturated damping and friction are not smooth enough for a
-            stale linearisation (measured, docs/model.md section 10).
+            correction needs it (at once when a contact opens or closes). 1, the default, is
+            needed through impacts and the preload transient: saturated damping and friction
+            are not smooth enough for a stale linearisation (measured, docs/model.md section
+            10).
         controller: PI gains of the screw speed controller.
         backend: ``"compiled"`` (numba kernel) or ``"reference"`` (numpy) contact laws.
         faults: defective spheres and raceway spalls (models/faults.py).
@@ -197,7 +192,6 @@ class DynamicModel:
         # evaluations of all spheres, Jacobian evaluations, Newton iterations, since creation.
         self.work = {"contact_evaluations": 0, "jacobians": 0, "newton_iterations": 0}
         self._jacobian_age = 0
-        self._jacobian_slow = False  # the last step needed more than one Newton correction
         # Neighbours along the helix: spheres k and k + 1 of the same nut (no recirculation).
         pairs = [
             (i, i + 1) for i in range(2 * count - 1) if self.ball_nut[i] == self.ball_nut[i + 1]
@@ -561,11 +555,10 @@ class DynamicModel:
         predictor's guess (:meth:`_predict`; a guess already below the tolerance ends the step
         without a correction). The Jacobian of the contact actions is the one kept from earlier
         steps; before the first correction it is refreshed at the guess when the contact set
-        changed or it is older than ``jacobian_interval`` steps and did not prove itself on the
-        last step (one correction contracting the residual by JACOBIAN_KEEP_RATIO); it is
-        re-evaluated at the iterate only when the last iteration reduced the residual by less
-        than JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer
-        Jacobians). Positions then move with the new velocities. The
+        changed or it is older than ``jacobian_interval`` steps; it is re-evaluated at the
+        iterate only when the last iteration reduced the residual by less than
+        JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer Jacobians).
+        Positions then move with the new velocities. The
         reported contact actions and dissipation are those at the converged velocities, i.e.
         the forces the step applied.
         """
@@ -593,7 +586,7 @@ class DynamicModel:
         contact_set = actions.contacts.active
         stale = (
             self._jacobian is None
-            or (self._jacobian_age >= self.jacobian_interval and self._jacobian_slow)
+            or self._jacobian_age >= self.jacobian_interval
             or not np.array_equal(contact_set, self._jacobian_contacts)
         )
         self._jacobian_age += 1
@@ -624,8 +617,6 @@ class DynamicModel:
 
         r_ball, r_shared, worst = residual(actions, u, shared)
         previous = worst
-        corrections = 0
-        first_ratio = 0.0  # scaled residual after the first correction over that before it
         for iteration in range(STEP_NEWTON_MAX):
             if worst < STEP_TOLERANCE:
                 break
@@ -640,7 +631,6 @@ class DynamicModel:
                 self._jacobian_age = 0
             assert self._jacobian is not None  # refreshed above when there was none
             du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route, jammed)
-            corrections += 1
             step = 1.0
             for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
                 u_try, shared_try = u + step * du, shared + step * d_shared
@@ -649,17 +639,12 @@ class DynamicModel:
                 if w < worst or iteration == 0:
                     break
                 step *= 0.5
-            if iteration == 0:
-                first_ratio = w / worst
             previous = worst
             u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
         else:
             if worst >= STEP_TOLERANCE:
                 self.unconverged_steps += 1
         self.last_step_residual = worst
-        self._jacobian_slow = corrections > 1 or (
-            corrections == 1 and first_ratio > JACOBIAN_KEEP_RATIO
-        )
         self._remember(state.time, u0, shared0, u, shared)
         screw_speed = float(shared[0])
         nut_velocity = shared[1:].copy()
@@ -774,7 +759,7 @@ class _CompiledStep:
         self.jac_own = np.zeros((count, 8, 6))
         self.jac_shared = np.zeros((count, 8, 3))
         self.jac_active = np.zeros((count, 4), dtype=np.bool_)
-        self.jac_meta = np.array([0, 0, model.jacobian_interval, 0], dtype=np.int64)
+        self.jac_meta = np.array([0, 0, model.jacobian_interval], dtype=np.int64)
         self.history = np.zeros((PREDICTOR_ORDER, count + 1, 6))
         self.history_meta = np.array([math.nan, 0.0, 0.0])
         self.stats = np.zeros(ks.S_COUNT)

@@ -35,7 +35,6 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 def test_frozen_constants_are_those_of_the_reference() -> None:
     assert dynamic_step.frozen_constants() == (
         dynamic.HELIX_NEWTON_STEPS,
-        dynamic.JACOBIAN_KEEP_RATIO,
         dynamic.JACOBIAN_REFRESH_RATIO,
         dynamic.PREDICTOR_ORDER,
         dynamic.STEP_BACKTRACKS,
