@@ -517,7 +517,7 @@ def _predict(u0, shared0, time, jammed, history, meta, u, shared):
     """Newton's first guess (DynamicModel._predict): u_n extrapolated at the order meta[H_ORDER]
     from the starts of the last steps when the step continues the last one (``time`` [s] is
     meta[H_NEXT_TIME]); else ``u``, ``shared`` are left as given (u_n). A jammed sphere's
-    rotation stays zero.
+    rotation stays zero. Returns True when it extrapolated.
 
     history (PREDICTOR_ORDER, B + 1, 6): u_{n-1}, u_{n-2}, ... (sphere rows; row B holds the
     screw speed and nut velocities in columns 0-2); meta (3,): layout H_*.
@@ -525,7 +525,7 @@ def _predict(u0, shared0, time, jammed, history, meta, u, shared):
     count = u0.shape[0]
     order = int(meta[H_ORDER])
     if meta[H_NEXT_TIME] != time or order == 0:
-        return
+        return False
     for i in range(count):
         for k in range(6):
             u[i, k] = _extrapolate(order, i, k, u0[i, k], history)
@@ -533,6 +533,7 @@ def _predict(u0, shared0, time, jammed, history, meta, u, shared):
                 u[i, k] = 0.0
     for k in range(3):
         shared[k] = _extrapolate(order, count, k, shared0[k], history)
+    return True
 
 
 @njit(cache=True)
@@ -637,36 +638,13 @@ def step_kernel(
     shared0[0] = body[B_SPEED]
     shared0[1] = body[B_NUT_VEL]
     shared0[2] = body[B_NUT_VEL + 1]
-    u = u0.copy()
-    sv = shared0.copy()
-    _predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
+    u = np.empty((count, 6))
+    sv = np.empty(3)
     v_start = np.empty((count, 3))
     w_start = np.empty((count, 3))
-    for i in range(count):
-        for k in range(3):
-            v_start[i, k] = u[i, k]
-            w_start[i, k] = u[i, 3 + k]
     stacked = np.empty((count, N_STACK))
-    evals = 0
-    jacobians = 0
-    iterations = 0
-    active, out = _actions(
-        v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, offsets, ball_nut, c, p,
-        stacked,
-    )  # fmt: skip
-    evals += 1
-    stale = jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
-    for i in range(count):
-        for j in range(4):
-            if active[i, j] != jac_active[i, j]:
-                stale = True
-    jac_meta[J_AGE] += 1
-
     r_ball = np.empty((count, 6))
     r_shared = np.empty(3)
-    worst = _residual(
-        stacked, u, u0, sv, shared0, ball_nut, jammed, body, commands, c, r_ball, r_shared
-    )
     du = np.empty((count, 6))
     d_shared = np.empty(3)
     u_try = np.empty((count, 6))
@@ -676,70 +654,104 @@ def step_kernel(
     stacked_try = np.empty((count, N_STACK))
     rb = np.empty((count, 6))
     rs = np.empty(3)
-    converged_loop = False
-    previous = worst
-    for iteration in range(STEP_NEWTON_MAX):
-        if worst < STEP_TOLERANCE:
-            converged_loop = True
-            break
-        if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
-            _jacobians(
-                v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets,
-                ball_nut, c, p, jac_own, jac_shared,
-            )  # fmt: skip
-            evals += 8
-            jacobians += 1
-            jac_active[:, :] = active
-            jac_meta[J_VALID] = 1
-            jac_meta[J_AGE] = 1
-        if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
-            for i in range(count):
-                for k in range(3):
-                    v_try[i, k] = u[i, k]
-                    w_try[i, k] = u[i, 3 + k]
-            _jacobians(
-                v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets, ball_nut,
-                c, p, jac_own, jac_shared,
-            )  # fmt: skip
-            evals += 8
-            jacobians += 1
-            jac_active[:, :] = active
-            jac_meta[J_AGE] = 0
-        _correction(jac_own, jac_shared, r_ball, r_shared, ball_nut, jammed, c, du, d_shared)
-        iterations += 1
-        step = 1.0
-        w = 0.0
-        for _ in range(STEP_BACKTRACKS + 1):
-            for i in range(count):
-                for k in range(6):
-                    u_try[i, k] = u[i, k] + step * du[i, k]
-                for k in range(3):
-                    v_try[i, k] = u_try[i, k]
-                    w_try[i, k] = u_try[i, 3 + k]
+    evals = 0
+    jacobians = 0
+    iterations = 0
+    worst = 0.0
+    unconverged = False
+    # A step that does not converge from the predicted guess is solved again from u_n with a
+    # fresh Jacobian (the guess must not cost convergence).
+    for attempt in range(2):
+        u[:, :] = u0
+        sv[:] = shared0
+        predicted = False
+        if attempt == 0:
+            predicted = _predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
+        for i in range(count):
             for k in range(3):
-                sv_try[k] = sv[k] + step * d_shared[k]
-            active_try, out_try = _actions(
-                v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, offsets, ball_nut,
-                c, p, stacked_try,
-            )  # fmt: skip
-            evals += 1
-            w = _residual(
-                stacked_try, u_try, u0, sv_try, shared0, ball_nut, jammed, body, commands, c, rb,
-                rs,
-            )  # fmt: skip
-            if w < worst or iteration == 0:
-                break
-            step *= 0.5
+                v_start[i, k] = u[i, k]
+                w_start[i, k] = u[i, 3 + k]
+        active, out = _actions(
+            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, offsets, ball_nut, c, p,
+            stacked,
+        )  # fmt: skip
+        evals += 1
+        stale = attempt == 1 or jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
+        for i in range(count):
+            for j in range(4):
+                if active[i, j] != jac_active[i, j]:
+                    stale = True
+        if attempt == 0:
+            jac_meta[J_AGE] += 1
+        worst = _residual(
+            stacked, u, u0, sv, shared0, ball_nut, jammed, body, commands, c, r_ball, r_shared
+        )
+        converged_loop = False
         previous = worst
-        u[:, :] = u_try
-        sv[:] = sv_try
-        active = active_try
-        out = out_try
-        stacked[:, :] = stacked_try
-        r_ball[:, :] = rb
-        r_shared[:] = rs
-        worst = w
-    unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+        for iteration in range(STEP_NEWTON_MAX):
+            if worst < STEP_TOLERANCE:
+                converged_loop = True
+                break
+            if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
+                _jacobians(
+                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets,
+                    ball_nut, c, p, jac_own, jac_shared,
+                )  # fmt: skip
+                evals += 8
+                jacobians += 1
+                jac_active[:, :] = active
+                jac_meta[J_VALID] = 1
+                jac_meta[J_AGE] = 1
+            if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
+                for i in range(count):
+                    for k in range(3):
+                        v_try[i, k] = u[i, k]
+                        w_try[i, k] = u[i, 3 + k]
+                _jacobians(
+                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets, ball_nut,
+                    c, p, jac_own, jac_shared,
+                )  # fmt: skip
+                evals += 8
+                jacobians += 1
+                jac_active[:, :] = active
+                jac_meta[J_AGE] = 0
+            _correction(jac_own, jac_shared, r_ball, r_shared, ball_nut, jammed, c, du, d_shared)
+            iterations += 1
+            step = 1.0
+            w = 0.0
+            for _ in range(STEP_BACKTRACKS + 1):
+                for i in range(count):
+                    for k in range(6):
+                        u_try[i, k] = u[i, k] + step * du[i, k]
+                    for k in range(3):
+                        v_try[i, k] = u_try[i, k]
+                        w_try[i, k] = u_try[i, 3 + k]
+                for k in range(3):
+                    sv_try[k] = sv[k] + step * d_shared[k]
+                active_try, out_try = _actions(
+                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, offsets, ball_nut,
+                    c, p, stacked_try,
+                )  # fmt: skip
+                evals += 1
+                w = _residual(
+                    stacked_try, u_try, u0, sv_try, shared0, ball_nut, jammed, body, commands, c,
+                    rb, rs,
+                )  # fmt: skip
+                if w < worst or iteration == 0:
+                    break
+                step *= 0.5
+            previous = worst
+            u[:, :] = u_try
+            sv[:] = sv_try
+            active = active_try
+            out = out_try
+            stacked[:, :] = stacked_try
+            r_ball[:, :] = rb
+            r_shared[:] = rs
+            worst = w
+        unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+        if not unconverged or not predicted:
+            break
     _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]

@@ -497,17 +497,19 @@ class DynamicModel:
 
     def _predict(
         self, time: float, u0: FloatArray, shared0: FloatArray, jammed: NDArray[np.bool_]
-    ) -> tuple[FloatArray, FloatArray]:
+    ) -> tuple[FloatArray, FloatArray, bool]:
         """Newton's first guess for the step starting at ``time`` [s] from sphere velocities
         ``u0`` (B, 6) and screw / nut velocities ``shared0`` (3,): extrapolated from the starts
         of the last steps at the order chosen by :meth:`_remember` when this step continues the
-        last one, else u_n. A jammed sphere's rotation stays zero."""
+        last one, else u_n. A jammed sphere's rotation stays zero. Also returns whether it
+        extrapolated."""
         if self._history_time != time:
             self._history = []
-        u, shared = self._extrapolations(u0, shared0)[self._history_order if self._history else 0]
+        order = self._history_order if self._history else 0
+        u, shared = self._extrapolations(u0, shared0)[order]
         u = u.copy()
         u[jammed, 3:] = 0.0
-        return u, shared.copy()
+        return u, shared.copy(), order > 0
 
     def _remember(
         self,
@@ -580,16 +582,6 @@ class DynamicModel:
         u0 = np.concatenate([state.ball_velocity, state.ball_omega], axis=1)
         u0[jammed, 3:] = 0.0  # a jam blocks the rotation (faults.py)
         shared0 = np.concatenate([[state.screw_speed], state.nut_velocity])
-        u, shared = self._predict(state.time, u0, shared0, jammed)
-        start = self._with_velocities(state, u, shared)
-        actions = self.contact_actions(start)
-        contact_set = actions.contacts.active
-        stale = (
-            self._jacobian is None
-            or self._jacobian_age >= self.jacobian_interval
-            or not np.array_equal(contact_set, self._jacobian_contacts)
-        )
-        self._jacobian_age += 1
 
         def residual(
             acts: Actions, u: FloatArray, shared: FloatArray
@@ -615,35 +607,57 @@ class DynamicModel:
             )
             return r_ball, r_shared, worst
 
-        r_ball, r_shared, worst = residual(actions, u, shared)
-        previous = worst
-        for iteration in range(STEP_NEWTON_MAX):
-            if worst < STEP_TOLERANCE:
-                break
-            if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
-                self._jacobian = self._jacobians(start, actions)
-                self._jacobian_contacts = contact_set.copy()
-                self._jacobian_age = 1
-            if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
-                trial = self._with_velocities(state, u, shared)
-                self._jacobian = self._jacobians(trial, actions)  # at the iterate
-                self._jacobian_contacts = actions.contacts.active.copy()
-                self._jacobian_age = 0
-            assert self._jacobian is not None  # refreshed above when there was none
-            du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route, jammed)
-            step = 1.0
-            for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
-                u_try, shared_try = u + step * du, shared + step * d_shared
-                acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
-                rb, rs, w = residual(acts, u_try, shared_try)
-                if w < worst or iteration == 0:
-                    break
-                step *= 0.5
+        # A step that does not converge from the predicted guess is solved again from u_n with
+        # a fresh Jacobian (the guess must not cost convergence).
+        for attempt in range(2):
+            if attempt == 0:
+                u, shared, predicted = self._predict(state.time, u0, shared0, jammed)
+            else:
+                u, shared, predicted = u0.copy(), shared0.copy(), False
+            start = self._with_velocities(state, u, shared)
+            actions = self.contact_actions(start)
+            contact_set = actions.contacts.active
+            stale = (
+                attempt == 1
+                or self._jacobian is None
+                or self._jacobian_age >= self.jacobian_interval
+                or not np.array_equal(contact_set, self._jacobian_contacts)
+            )
+            if attempt == 0:
+                self._jacobian_age += 1
+            r_ball, r_shared, worst = residual(actions, u, shared)
             previous = worst
-            u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
-        else:
-            if worst >= STEP_TOLERANCE:
-                self.unconverged_steps += 1
+            converged = False
+            for iteration in range(STEP_NEWTON_MAX):
+                if worst < STEP_TOLERANCE:
+                    converged = True
+                    break
+                if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
+                    self._jacobian = self._jacobians(start, actions)
+                    self._jacobian_contacts = contact_set.copy()
+                    self._jacobian_age = 1
+                if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
+                    trial = self._with_velocities(state, u, shared)
+                    self._jacobian = self._jacobians(trial, actions)  # at the iterate
+                    self._jacobian_contacts = actions.contacts.active.copy()
+                    self._jacobian_age = 0
+                assert self._jacobian is not None  # refreshed above when there was none
+                du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route, jammed)
+                step = 1.0
+                for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
+                    u_try, shared_try = u + step * du, shared + step * d_shared
+                    acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
+                    rb, rs, w = residual(acts, u_try, shared_try)
+                    if w < worst or iteration == 0:
+                        break
+                    step *= 0.5
+                previous = worst
+                u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
+            unconverged = not converged and worst >= STEP_TOLERANCE
+            if not unconverged or not predicted:
+                break
+        if unconverged:
+            self.unconverged_steps += 1
         self.last_step_residual = worst
         self._remember(state.time, u0, shared0, u, shared)
         screw_speed = float(shared[0])

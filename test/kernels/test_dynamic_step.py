@@ -132,8 +132,9 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
         time = t0 + k * dt
         (u0, s0), (u1, s1) = samples[k], samples[k + 1]
         u, s = u0.copy(), s0.copy()
-        dynamic_step._predict(u0, s0, time, jammed, history, meta, u, s)
-        ref_u, ref_s = model._predict(time, u0, s0, jammed)
+        extrapolated = dynamic_step._predict(u0, s0, time, jammed, history, meta, u, s)
+        ref_u, ref_s, ref_extrapolated = model._predict(time, u0, s0, jammed)
+        assert extrapolated == ref_extrapolated == (k >= 2 and model._history_order > 0)
         if k >= order + 1:  # the order has been found on the step before
             expected = u1
             for got_u, got_s in ((u, s), (ref_u, ref_s)):
@@ -146,7 +147,7 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
     assert meta[dynamic_step.H_ORDER] == order
     (u0, s0) = samples[0]
     u, s = u0.copy(), s0.copy()
-    dynamic_step._predict(u0, s0, t0 + 1.0, jammed, history, meta, u, s)  # a jump in time
+    assert not dynamic_step._predict(u0, s0, t0 + 1.0, jammed, history, meta, u, s)  # a jump
     np.testing.assert_array_equal(u, u0)
     np.testing.assert_array_equal(model._predict(t0 + 1.0, u0, s0, jammed)[0][0], u0[0])
 
