@@ -38,7 +38,7 @@ import numpy as np
 
 from ..errors import BallscrewTwinError
 from ..models.scenario import Scenario, load_scenario
-from ..models.simulation import SimulationResult, build_config, simulate
+from ..models.simulation import SimulationResult, simulate
 
 #: One-line help of this benchmark.
 DESCRIPTION = "cost of the paper protocol on the dynamic model (and its time-step convergence)"
@@ -49,6 +49,15 @@ PAPER_DURATION = 0.6  # s, the paper's protocol
 NMM_PER_NM = 1e3
 RPM = math.pi / 30.0  # rad/s per rpm
 CELSIUS_ZERO = 273.15  # K
+
+#: Figures of earlier runs (docs/benchmarks.md), printed beside a run of the same scenario,
+#: step and duration: (scenario name, time step [s], duration [s]) -> (date, CPU time [s],
+#: contact-law evaluations per step, unconverged steps, drag torque [N m], power-balance
+#: error [-], load average).
+PREVIOUS = {
+    ("paper_protocol", 2e-6, 0.6): ("2026-11-24", 173.6, 3.91, 3, 18.5251e-3, -0.0027, 2.3),
+    ("protocol_short", 2e-6, 0.012): ("2026-11-24", 11.8, 12.69, 438, 18.5762e-3, -0.023, 5.5),
+}
 
 #: The envelope of issue 4: preloads [N], speeds [rpm], temperatures [deg C] (CLI units).
 CORNER_PRELOADS = (0.0, 1500.0, 3000.0)
@@ -106,6 +115,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--out", default=None, help="folder for corners.csv and corners.md (with --corners)"
+    )
+    parser.add_argument(
+        "--scaling",
+        default=None,
+        help="comma-separated spheres per nut (e.g. 5,10,25): CPU time per simulated second "
+        "of the scenario at each, against the number of spheres",
     )
 
 
@@ -199,6 +214,11 @@ def _run_once(scenario: Scenario) -> None:
             s.get("unconverged_steps", 0),
         )
     )
+    listed = s.get("unconverged", {}).get("listed", [])
+    if listed:
+        in_hold = sum(entry["time_s"] >= ramp_end for entry in listed)
+        times = ", ".join(f"{entry['time_s']:.6g}" for entry in listed[:10])
+        print(f"    not converged at t = {times} s ({in_hold} of these after {ramp_end:g} s)")
     stats = pstats.Stats(profile)
     raw = stats.stats  # type: ignore[attr-defined]
     kernel = sum(v[2] for k, v in raw.items() if k[2] in ("step_kernel", "run_steps"))
@@ -213,6 +233,45 @@ def _run_once(scenario: Scenario) -> None:
         f"(std {s['drag_torque_std_Nm'] * NMM_PER_NM:.3g}), power-balance error "
         f"{s['power_balance_error_relative']:.2g} of the input"
     )
+    previous = PREVIOUS.get((scenario.name, scenario.time_step, scenario.duration))
+    if previous is not None:
+        date, cpu_then, evals, unconverged, drag, balance, load = previous
+        print(
+            f"  previous ({date}, docs/benchmarks.md, load average {load:g}): CPU time "
+            f"{cpu_then:.1f} s ({cpu_then / max(cpu, 1e-300):.2f} x this run), {evals:.2f} "
+            f"contact-law evaluations per step, {unconverged} steps not converged, drag torque "
+            f"{drag * NMM_PER_NM:.4f} N mm ({100 * (s['drag_torque_Nm'] / drag - 1):+.3f} % "
+            f"now), power-balance error {balance:.2g}"
+        )
+
+
+def _scaling(scenario: Scenario, counts: list[int]) -> None:
+    """CPU time per simulated second (all, and the hold after the speed ramp) at each number
+    of spheres per nut, per sphere, and its growth against linear growth from the first."""
+    print(
+        f"cost against the number of spheres, scenario {scenario.name}, dt = "
+        f"{scenario.time_step:g} s, {scenario.duration:g} s simulated; one core (load average "
+        f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+    )
+    ramp_end = min(scenario.speed_ramp_end, scenario.duration)
+    hold = scenario.duration - ramp_end
+    first: tuple[int, float] | None = None
+    for per_nut in counts:
+        result, _, _, transient_cpu, hold_cpu = _timed_run(replace(scenario, balls_per_nut=per_nut))
+        cpu = (transient_cpu + hold_cpu) / scenario.duration
+        hold_rate = hold_cpu / hold if hold > 0 else math.nan
+        work = result.summary.get("work_per_step", {})
+        spheres = 2 * per_nut
+        if first is None:
+            first = (spheres, hold_rate)
+        growth = (hold_rate / first[1]) / (spheres / first[0])
+        print(
+            f"  {per_nut:3d} per nut ({spheres:3d} spheres): CPU {cpu:.1f} s/s, hold "
+            f"{hold_rate:.1f} s/s = {hold_rate / spheres:.2f} s/s per sphere (hold cost / "
+            f"linear growth from {first[0]} spheres: {growth:.2f}); "
+            f"{work.get('contact_evaluations', math.nan):.2f} contact-law evaluations per step",
+            flush=True,
+        )
 
 
 def _convergence(scenario: Scenario, steps: list[float]) -> None:
@@ -300,13 +359,9 @@ def corner_health(result: SimulationResult) -> dict[str, Any]:
     window = result.contact_time >= sc.duration - sc.average_window - 0.5 * sc.time_step
     films = result.film_thickness[active]
     # Screw inertia torque J dOmega/dt over the window: the PI controller's overshoot still
-    # settling in a short protocol (it is in the mean motor torque, so in the drag torque).
-    in_window = result.time >= sc.duration - sc.average_window - 0.5 * sc.time_step
-    times, speeds = result.time[in_window], result.screw_speed[in_window]
-    inertia_torque = 0.0
-    if len(times) > 1:
-        inertia = build_config(sc).screw.screw_inertia
-        inertia_torque = inertia * (speeds[-1] - speeds[0]) / (times[-1] - times[0])
+    # settling in a short protocol. The summary's drag torque has it removed already; the
+    # "drag torque" column keeps it (mean motor torque less the gravity torque).
+    inertia_torque = float(s["inertia_torque_Nm"])
     window_films = result.film_thickness[window][active[window]]
     return {
         "finite": finite,
@@ -321,10 +376,10 @@ def corner_health(result: SimulationResult) -> dict[str, Any]:
         "contacts_open_in_window": int(np.sum(~active[window])),
         "unconverged_steps": int(s["unconverged_steps"]),
         "balance_error": float(s["power_balance_error_relative"]),
-        "drag_torque_Nm": float(s["drag_torque_Nm"]),
+        "drag_torque_Nm": float(s["drag_torque_Nm"]) + inertia_torque,
         "drag_torque_std_Nm": float(s["drag_torque_std_Nm"]),
-        "inertia_torque_Nm": float(inertia_torque),
-        "drag_less_inertia_Nm": float(s["drag_torque_Nm"]) - float(inertia_torque),
+        "inertia_torque_Nm": inertia_torque,
+        "drag_less_inertia_Nm": float(s["drag_torque_Nm"]),
     }
 
 
@@ -456,6 +511,9 @@ def run(args: argparse.Namespace) -> int:
         return _corners(
             scenario, args.time_step or CORNER_TIME_STEP, Path(args.out) if args.out else None
         )
+    if args.scaling:
+        _scaling(scenario, [int(x) for x in args.scaling.split(",") if x.strip()])
+        return 0
     if args.convergence:
         steps = [float(x) for x in args.convergence.split(",") if x.strip()]
         _convergence(scenario, steps)

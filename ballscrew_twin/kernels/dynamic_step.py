@@ -10,10 +10,13 @@ operation for operation, with the contact laws evaluated by
 - contact actions at given velocities (``_actions``): velocities relative to the screw in each
   sphere's Frenet frame, one call of the contact kernel, forces and moments back to the world
   frame, each sphere's moment on the screw and axial force on its nut;
+- Newton's first guess (``_predict``, ``_remember``): the velocities extrapolated from the
+  starts of the last steps (kept in caller-owned arrays) at the order, 0 to PREDICTOR_ORDER,
+  that predicted the last step best; a guess that meets the tolerance ends the step;
 - the velocity Jacobian by forward differences (``_jacobians``: 6 + 1 + 1 evaluations), kept
-  between steps in caller-owned arrays and refreshed as the reference does (every
-  ``jacobian_interval`` steps, on a change of the contact set, and at every Newton iterate after
-  the first);
+  between steps in caller-owned arrays and refreshed as the reference does (when a correction
+  is needed and the kept one is older than ``jacobian_interval`` steps or the contact set
+  changed, and at a Newton iterate that contracted the residual too little);
 - the backward-Euler residuals and their scaled maximum (``_residual``), the Newton correction
   by elimination of the 6 x 6 sphere blocks and a 3 x 3 Schur complement (``_correction``; small
   LU with partial pivoting instead of LAPACK), the Newton loop with backtracking, and the
@@ -22,7 +25,7 @@ operation for operation, with the contact laws evaluated by
 Results agree with the reference to rounding (different summation order in a few sums and a
 different LU): test/kernels/test_dynamic_step.py runs both side by side.
 
-:func:`advance_kernel` loops :func:`step_kernel` over many steps (commands from the scenario's
+:func:`run_steps` loops :func:`step_kernel` over many steps (commands from the scenario's
 smooth steps) and accumulates what the simulation runner records per step (energy integrals,
 window sums), so that a whole output interval is one call from Python.
 
@@ -43,6 +46,7 @@ from numba import njit
 from ..models.dynamic import (
     HELIX_NEWTON_STEPS,
     JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
     STEP_BACKTRACKS,
     STEP_NEWTON_MAX,
     STEP_TOLERANCE,
@@ -63,6 +67,7 @@ from .contacts import (
 SOLVER_CONSTANTS = (
     HELIX_NEWTON_STEPS,
     JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
     STEP_BACKTRACKS,
     STEP_NEWTON_MAX,
     STEP_TOLERANCE,
@@ -145,6 +150,7 @@ def frozen_constants():
     return (
         HELIX_NEWTON_STEPS,
         JACOBIAN_REFRESH_RATIO,
+        PREDICTOR_ORDER,
         STEP_BACKTRACKS,
         STEP_NEWTON_MAX,
         STEP_TOLERANCE,
@@ -486,6 +492,87 @@ def _correction(own, shared_jac, r_ball, r_shared, ball_nut, jammed, c, du, d_sh
     return ok
 
 
+#: Extrapolation of the velocities from the starts of the last steps, u_n, u_{n-1}, ...: the
+#: coefficients of the polynomial predictor of each order (0: u_n; 3: cubic).
+PREDICTOR_COEFFICIENTS = ((1.0, 0.0, 0.0, 0.0), (2.0, -1.0, 0.0, 0.0), (3.0, -3.0, 1.0, 0.0),
+                          (4.0, -6.0, 4.0, -1.0))  # fmt: skip
+# Predictor bookkeeping (3,) float64: the time the next step starts at if it continues the last
+# one [s] (NaN: none), the number of earlier starts kept [-], the order to use [-].
+H_NEXT_TIME, H_COUNT, H_ORDER = 0, 1, 2
+
+
+@njit(cache=True)
+def _extrapolate(order, row, column, now, history):
+    """Velocity component extrapolated at ``order`` from ``now`` (u_n) and history[0..order-1]
+    (u_{n-1}, ...) at (row, column)."""
+    coefficients = PREDICTOR_COEFFICIENTS[order]
+    value = coefficients[0] * now
+    for j in range(order):
+        value += coefficients[j + 1] * history[j, row, column]
+    return value
+
+
+@njit(cache=True)
+def _predict(u0, shared0, time, jammed, history, meta, u, shared):
+    """Newton's first guess (DynamicModel._predict): u_n extrapolated at the order meta[H_ORDER]
+    from the starts of the last steps when the step continues the last one (``time`` [s] is
+    meta[H_NEXT_TIME]); else ``u``, ``shared`` are left as given (u_n). A jammed sphere's
+    rotation stays zero. Returns True when it extrapolated.
+
+    history (PREDICTOR_ORDER, B + 1, 6): u_{n-1}, u_{n-2}, ... (sphere rows; row B holds the
+    screw speed and nut velocities in columns 0-2); meta (3,): layout H_*.
+    """
+    count = u0.shape[0]
+    order = int(meta[H_ORDER])
+    if meta[H_NEXT_TIME] != time or order == 0:
+        return False
+    for i in range(count):
+        for k in range(6):
+            u[i, k] = _extrapolate(order, i, k, u0[i, k], history)
+            if jammed[i] and k >= 3:
+                u[i, k] = 0.0
+    for k in range(3):
+        shared[k] = _extrapolate(order, count, k, shared0[k], history)
+    return True
+
+
+@njit(cache=True)
+def _remember(u0, shared0, u, shared, time, c, history, meta):
+    """After a step from ``time`` [s]: the order for the next step is the one whose prediction
+    came closest to the converged velocities ``u``, ``shared`` (largest difference over all
+    components, angular velocities times the ball radius, screw speed times the pitch radius,
+    in m/s; ties to the lower order); u0, shared0 join the history (DynamicModel._remember)."""
+    count = u0.shape[0]
+    depth = history.shape[0]
+    kept = int(meta[H_COUNT]) if meta[H_NEXT_TIME] == time else 0
+    best = 0
+    best_error = math.inf
+    for order in range(min(kept, depth) + 1):
+        error = 0.0
+        for i in range(count):
+            for k in range(6):
+                weight = 1.0 if k < 3 else c[K_BALL_RADIUS]
+                guess = _extrapolate(order, i, k, u0[i, k], history)
+                error = max(error, weight * abs(guess - u[i, k]))
+        for k in range(3):
+            weight = c[K_PITCH_RADIUS] if k == 0 else 1.0
+            guess = _extrapolate(order, count, k, shared0[k], history)
+            error = max(error, weight * abs(guess - shared[k]))
+        if error < best_error:
+            best = order
+            best_error = error
+    for j in range(depth - 1, 0, -1):
+        history[j, :, :] = history[j - 1]
+    for i in range(count):
+        for k in range(6):
+            history[0, i, k] = u0[i, k]
+    for k in range(3):
+        history[0, count, k] = shared0[k]
+    meta[H_NEXT_TIME] = time + c[K_DT]
+    meta[H_COUNT] = min(kept + 1, depth)
+    meta[H_ORDER] = best
+
+
 # ----------------------------------------------------------------------------- the step
 @njit(cache=True, error_model="numpy")
 def step_kernel(
@@ -505,6 +592,8 @@ def step_kernel(
     jac_shared,
     jac_active,
     jac_meta,
+    history,
+    history_meta,
     out_pos,
     out_vel,
     out_omega,
@@ -524,6 +613,8 @@ def step_kernel(
         sphere_offset: (B, 4) [m] and spalls (S, 4): defects (see ``_approach_offsets``).
         jammed: (B,) bool, spheres whose rotation is blocked (held at zero).
         jac_own, jac_shared, jac_active, jac_meta: the Jacobian kept between steps (updated).
+        history, history_meta: the velocities at the starts of the last steps and the
+            predictor's bookkeeping (see ``_predict``), kept between steps (updated).
         out_pos, out_vel, out_omega, out_theta, out_body: the new state (written).
         stats: (S_COUNT,) step statistics (layout S_*, written).
 
@@ -547,39 +638,13 @@ def step_kernel(
     shared0[0] = body[B_SPEED]
     shared0[1] = body[B_NUT_VEL]
     shared0[2] = body[B_NUT_VEL + 1]
-    u = u0.copy()
-    sv = shared0.copy()
+    u = np.empty((count, 6))
+    sv = np.empty(3)
+    v_start = np.empty((count, 3))
+    w_start = np.empty((count, 3))
     stacked = np.empty((count, N_STACK))
-    evals = 0
-    jacobians = 0
-    iterations = 0
-    active, out = _actions(
-        vel, omega, shared0[1:], shared0[0], pos, body, frames, nb, offsets, ball_nut, c, p,
-        stacked,
-    )  # fmt: skip
-    evals += 1
-    changed = False
-    for i in range(count):
-        for j in range(4):
-            if active[i, j] != jac_active[i, j]:
-                changed = True
-    if jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL] or changed:
-        _jacobians(
-            vel, omega, shared0[1:], shared0[0], stacked, pos, body, frames, nb, offsets,
-            ball_nut, c, p, jac_own, jac_shared,
-        )  # fmt: skip
-        evals += 8
-        jacobians += 1
-        jac_active[:, :] = active
-        jac_meta[J_VALID] = 1
-        jac_meta[J_AGE] = 0
-    jac_meta[J_AGE] += 1
-
     r_ball = np.empty((count, 6))
     r_shared = np.empty(3)
-    worst = _residual(
-        stacked, u, u0, sv, shared0, ball_nut, jammed, body, commands, c, r_ball, r_shared
-    )
     du = np.empty((count, 6))
     d_shared = np.empty(3)
     u_try = np.empty((count, 6))
@@ -589,60 +654,105 @@ def step_kernel(
     stacked_try = np.empty((count, N_STACK))
     rb = np.empty((count, 6))
     rs = np.empty(3)
-    converged_loop = False
-    previous = worst
-    for iteration in range(STEP_NEWTON_MAX):
-        if iteration > 0 and worst < STEP_TOLERANCE:
-            converged_loop = True
-            break
-        if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
-            for i in range(count):
-                for k in range(3):
-                    v_try[i, k] = u[i, k]
-                    w_try[i, k] = u[i, 3 + k]
-            _jacobians(
-                v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets, ball_nut,
-                c, p, jac_own, jac_shared,
-            )  # fmt: skip
-            evals += 8
-            jacobians += 1
-            jac_active[:, :] = active
-            jac_meta[J_AGE] = 0
-        _correction(jac_own, jac_shared, r_ball, r_shared, ball_nut, jammed, c, du, d_shared)
-        iterations += 1
-        step = 1.0
-        w = 0.0
-        for _ in range(STEP_BACKTRACKS + 1):
-            for i in range(count):
-                for k in range(6):
-                    u_try[i, k] = u[i, k] + step * du[i, k]
-                for k in range(3):
-                    v_try[i, k] = u_try[i, k]
-                    w_try[i, k] = u_try[i, 3 + k]
+    evals = 0
+    jacobians = 0
+    iterations = 0
+    worst = 0.0
+    unconverged = False
+    # A step that does not converge from the predicted guess is solved again from u_n with a
+    # fresh Jacobian (the guess must not cost convergence).
+    for attempt in range(2):
+        u[:, :] = u0
+        sv[:] = shared0
+        predicted = False
+        if attempt == 0:
+            predicted = _predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
+        for i in range(count):
             for k in range(3):
-                sv_try[k] = sv[k] + step * d_shared[k]
-            active_try, out_try = _actions(
-                v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, offsets, ball_nut,
-                c, p, stacked_try,
-            )  # fmt: skip
-            evals += 1
-            w = _residual(
-                stacked_try, u_try, u0, sv_try, shared0, ball_nut, jammed, body, commands, c, rb,
-                rs,
-            )  # fmt: skip
-            if w < worst or iteration == 0:
-                break
-            step *= 0.5
+                v_start[i, k] = u[i, k]
+                w_start[i, k] = u[i, 3 + k]
+        active, out = _actions(
+            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, offsets, ball_nut, c, p,
+            stacked,
+        )  # fmt: skip
+        evals += 1
+        stale = attempt == 1 or jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
+        for i in range(count):
+            for j in range(4):
+                if active[i, j] != jac_active[i, j]:
+                    stale = True
+        if attempt == 0:
+            jac_meta[J_AGE] += 1
+        worst = _residual(
+            stacked, u, u0, sv, shared0, ball_nut, jammed, body, commands, c, r_ball, r_shared
+        )
+        converged_loop = False
         previous = worst
-        u[:, :] = u_try
-        sv[:] = sv_try
-        active = active_try
-        out = out_try
-        stacked[:, :] = stacked_try
-        r_ball[:, :] = rb
-        r_shared[:] = rs
-        worst = w
-    unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+        for iteration in range(STEP_NEWTON_MAX):
+            if worst < STEP_TOLERANCE:
+                converged_loop = True
+                break
+            if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
+                _jacobians(
+                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets,
+                    ball_nut, c, p, jac_own, jac_shared,
+                )  # fmt: skip
+                evals += 8
+                jacobians += 1
+                jac_active[:, :] = active
+                jac_meta[J_VALID] = 1
+                jac_meta[J_AGE] = 1
+            if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
+                for i in range(count):
+                    for k in range(3):
+                        v_try[i, k] = u[i, k]
+                        w_try[i, k] = u[i, 3 + k]
+                _jacobians(
+                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets, ball_nut,
+                    c, p, jac_own, jac_shared,
+                )  # fmt: skip
+                evals += 8
+                jacobians += 1
+                jac_active[:, :] = active
+                jac_meta[J_AGE] = 0
+            _correction(jac_own, jac_shared, r_ball, r_shared, ball_nut, jammed, c, du, d_shared)
+            iterations += 1
+            step = 1.0
+            w = 0.0
+            for _ in range(STEP_BACKTRACKS + 1):
+                for i in range(count):
+                    for k in range(6):
+                        u_try[i, k] = u[i, k] + step * du[i, k]
+                    for k in range(3):
+                        v_try[i, k] = u_try[i, k]
+                        w_try[i, k] = u_try[i, 3 + k]
+                for k in range(3):
+                    sv_try[k] = sv[k] + step * d_shared[k]
+                active_try, out_try = _actions(
+                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, offsets, ball_nut,
+                    c, p, stacked_try,
+                )  # fmt: skip
+                evals += 1
+                w = _residual(
+                    stacked_try, u_try, u0, sv_try, shared0, ball_nut, jammed, body, commands, c,
+                    rb, rs,
+                )  # fmt: skip
+                if w < worst or iteration == 0:
+                    break
+                step *= 0.5
+            previous = worst
+            u[:, :] = u_try
+            sv[:] = sv_try
+            active = active_try
+            out = out_try
+            stacked[:, :] = stacked_try
+            r_ball[:, :] = rb
+            r_shared[:] = rs
+            worst = w
+        unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
+        if not unconverged or not predicted:
+            break
+    _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]
     ki = c[K_KI]
@@ -760,6 +870,8 @@ def run_steps(
     jac_shared,
     jac_active,
     jac_meta,
+    history,
+    history_meta,
     acc,
     first_stats,
 ):
@@ -793,8 +905,8 @@ def run_steps(
             jammed[i] = body[B_TIME] >= jam_start[i]
         active, out = step_kernel(
             pos, vel, omega, theta, body, commands[n], ball_nut, c, p, sphere_offset, spalls,
-            jammed, jac_own, jac_shared, jac_active, jac_meta, new_pos, new_vel, new_omega,
-            new_theta, new_body, stats,
+            jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta, new_pos,
+            new_vel, new_omega, new_theta, new_body, stats,
         )  # fmt: skip
         sum_vel = 0.0
         sum_omega = 0.0
@@ -881,6 +993,9 @@ def ensure_fresh_cache() -> bool:
             _jacobians,
             _residual,
             _correction,
+            _extrapolate,
+            _predict,
+            _remember,
             step_kernel,
             run_steps,
             frozen_constants,

@@ -19,13 +19,14 @@ Omega p / (2 pi).
 
 Integration (docs/model.md, section 10): the regularised friction makes the sphere velocities
 stiff (time constant m / (dF/dv) ~ 1 ns), the contact springs less so (~100 kHz). Velocities
-of spheres, nuts and screw are advanced by backward Euler, solved by Newton iterations with the
-Jacobian of the contact actions with respect to those velocities (finite differences, kept
-between steps and refreshed every ``jacobian_interval`` steps, on a change of the contact set,
-and within a step whenever an iteration contracts the residual by less than
-JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler). The step
-is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs the same
-algorithm compiled (kernels/dynamic_step.py, tested equal).
+of spheres, nuts and screw are advanced by backward Euler, solved by Newton iterations from a
+polynomial extrapolation of the last steps' velocities (PREDICTOR_ORDER) with the Jacobian of
+the contact actions with respect to those velocities (finite differences, kept between steps;
+refreshed when a correction is needed and it is older than ``jacobian_interval`` steps or the
+contact set changed, and within a step whenever an iteration contracts the residual by less
+than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler).
+The step is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs
+the same algorithm compiled (kernels/dynamic_step.py, tested equal).
 
 Optional: contacts between neighbouring spheres of a nut (sphere_contact.py) in the implicit
 step, and a jammed sphere (rotation held at zero, faults.py).
@@ -60,6 +61,12 @@ STEP_BACKTRACKS = 4  # halvings of a Newton correction that would raise the resi
 #: Within a step the Jacobian is re-evaluated at the iterate only when the last iteration
 #: reduced the scaled residual by less than this factor (0: at every iterate, plain Newton).
 JACOBIAN_REFRESH_RATIO = 0.1
+#: Newton's first guess: the velocities extrapolated from the starts of the last steps by a
+#: polynomial of order up to this (0: the last velocities), the order that predicted the last
+#: step best; a guess that already meets STEP_TOLERANCE ends the step without a correction.
+PREDICTOR_ORDER = 3
+#: Extrapolation u_n, u_{n-1}, ... -> u_{n+1} of each order (kernels/dynamic_step.py has a copy).
+PREDICTOR_COEFFICIENTS = ((1.0,), (2.0, -1.0), (3.0, -3.0, 1.0), (4.0, -6.0, 4.0, -1.0))
 
 
 @dataclass
@@ -118,10 +125,11 @@ class DynamicModel:
         config: parameter set.
         temperature: bulk temperature [K] (constant during a run, as in the paper).
         time_step: integration step [s].
-        jacobian_interval: steps between refreshes of the velocity Jacobian (it is refreshed at
-            once when a contact opens or closes). 1, the default, is needed through impacts and
-            the preload transient: saturated damping and friction are not smooth enough for a
-            stale linearisation (measured, docs/model.md section 10).
+        jacobian_interval: steps after which the velocity Jacobian is refreshed when a Newton
+            correction needs it (at once when a contact opens or closes). 1, the default, is
+            needed through impacts and the preload transient: saturated damping and friction
+            are not smooth enough for a stale linearisation (measured, docs/model.md section
+            10).
         controller: PI gains of the screw speed controller.
         backend: ``"compiled"`` (numba kernel) or ``"reference"`` (numpy) contact laws.
         faults: defective spheres and raceway spalls (models/faults.py).
@@ -169,6 +177,12 @@ class DynamicModel:
             self.gravity = np.array([0.0, -self.config.environment.gravity, 0.0])
         self._nut_offset0 = np.zeros(2)
         self._jacobian: Jacobians | None = None
+        # The predictor's memory (_predict, _remember): the velocities at the starts of the
+        # last steps, newest first, each (sphere rows (B, 6), screw / nut velocities (3,)); the
+        # time [s] the next step starts at if it continues the last one; the order to use.
+        self._history: list[tuple[FloatArray, FloatArray]] = []
+        self._history_time = math.nan
+        self._history_order = 0
         self._jacobian_contacts = np.zeros((0, 4), dtype=bool)
         self._step_location: tuple[FloatArray, tuple[FloatArray, FloatArray, FloatArray]] | None
         self._step_location = None
@@ -218,6 +232,7 @@ class DynamicModel:
         )
         self._nut_offset0 = static.state.nut_offset.copy()
         self._jacobian = None
+        self._history, self._history_time, self._history_order = [], math.nan, 0
         if self._kernel is not None:
             self._kernel = _CompiledStep(self)
         zeros = np.zeros((2 * count, 3))
@@ -466,6 +481,63 @@ class DynamicModel:
         d_shared = np.linalg.solve(lhs, rhs_shared)
         return p + np.einsum("bij,j->bi", q, d_shared), d_shared
 
+    def _extrapolations(
+        self, u0: FloatArray, shared0: FloatArray
+    ) -> list[tuple[FloatArray, FloatArray]]:
+        """u_{n+1} extrapolated at every order the history allows (0: u_n), sphere rows and
+        screw / nut velocities."""
+        guesses = []
+        for order in range(len(self._history) + 1):
+            weights = PREDICTOR_COEFFICIENTS[order]
+            u, shared = weights[0] * u0, weights[0] * shared0
+            for weight, (u_old, shared_old) in zip(weights[1:], self._history, strict=False):
+                u, shared = u + weight * u_old, shared + weight * shared_old
+            guesses.append((u, shared))
+        return guesses
+
+    def _predict(
+        self, time: float, u0: FloatArray, shared0: FloatArray, jammed: NDArray[np.bool_]
+    ) -> tuple[FloatArray, FloatArray, bool]:
+        """Newton's first guess for the step starting at ``time`` [s] from sphere velocities
+        ``u0`` (B, 6) and screw / nut velocities ``shared0`` (3,): extrapolated from the starts
+        of the last steps at the order chosen by :meth:`_remember` when this step continues the
+        last one, else u_n. A jammed sphere's rotation stays zero. Also returns whether it
+        extrapolated."""
+        if self._history_time != time:
+            self._history = []
+        order = self._history_order if self._history else 0
+        u, shared = self._extrapolations(u0, shared0)[order]
+        u = u.copy()
+        u[jammed, 3:] = 0.0
+        return u, shared.copy(), order > 0
+
+    def _remember(
+        self,
+        time: float,
+        u0: FloatArray,
+        shared0: FloatArray,
+        u: FloatArray,
+        shared: FloatArray,
+    ) -> None:
+        """After the step from ``time`` [s]: the order for the next step is the one whose
+        prediction came closest to the converged ``u``, ``shared`` (largest difference, angular
+        velocities times the ball radius, screw speed times the pitch radius, in m/s; ties to
+        the lower order); u_n joins the history (at most PREDICTOR_ORDER starts kept)."""
+        if self._history_time != time:
+            self._history = []
+        scale = np.array([1.0, 1.0, 1.0] + [self.geometry.ball_radius] * 3)
+        shared_scale = np.array([self.geometry.pitch_radius, 1.0, 1.0])
+        errors = [
+            max(
+                float(np.max(scale * np.abs(guess - u))),
+                float(np.max(shared_scale * np.abs(guess_shared - shared))),
+            )
+            for guess, guess_shared in self._extrapolations(u0, shared0)
+        ]
+        self._history_order = int(np.argmin(errors))
+        self._history = [(u0.copy(), shared0.copy()), *self._history][:PREDICTOR_ORDER]
+        self._history_time = time + self.time_step
+
     def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
         """Advance all bodies by one step (see :meth:`_step`); the spheres are located once."""
         if self._kernel is not None:
@@ -481,13 +553,13 @@ class DynamicModel:
 
         The equations M (u - u_n) = dt f(x_n, u) for every sphere and S (U - U_n) = dt g for
         screw (PI controller implicit) and nuts are solved by Newton iterations until the
-        scaled residual is below STEP_TOLERANCE (at most STEP_NEWTON_MAX). The Jacobian of the
-        contact actions is the one kept from earlier steps (refreshed at the step's start every
-        ``jacobian_interval`` steps or when the contact set changed); it is re-evaluated at the
+        scaled residual is below STEP_TOLERANCE (at most STEP_NEWTON_MAX), starting from the
+        predictor's guess (:meth:`_predict`; a guess already below the tolerance ends the step
+        without a correction). The Jacobian of the contact actions is the one kept from earlier
+        steps; before the first correction it is refreshed at the guess when the contact set
+        changed or it is older than ``jacobian_interval`` steps; it is re-evaluated at the
         iterate only when the last iteration reduced the residual by less than
-        JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer Jacobians;
-        measured on 50 spheres through preload and speed ramps: 7.2 evaluations of the contact
-        laws per step instead of 20.2).
+        JACOBIAN_REFRESH_RATIO (a modified Newton iteration: same solution, fewer Jacobians).
         Positions then move with the new velocities. The
         reported contact actions and dissipation are those at the converged velocities, i.e.
         the forces the step applied.
@@ -510,18 +582,6 @@ class DynamicModel:
         u0 = np.concatenate([state.ball_velocity, state.ball_omega], axis=1)
         u0[jammed, 3:] = 0.0  # a jam blocks the rotation (faults.py)
         shared0 = np.concatenate([[state.screw_speed], state.nut_velocity])
-        u, shared = u0.copy(), shared0.copy()
-        actions = self.contact_actions(state)
-        contact_set = actions.contacts.active
-        if (
-            self._jacobian is None
-            or self._jacobian_age >= self.jacobian_interval
-            or not np.array_equal(contact_set, self._jacobian_contacts)
-        ):
-            self._jacobian = self._jacobians(state, actions)
-            self._jacobian_contacts = contact_set.copy()
-            self._jacobian_age = 0
-        self._jacobian_age += 1
 
         def residual(
             acts: Actions, u: FloatArray, shared: FloatArray
@@ -547,31 +607,59 @@ class DynamicModel:
             )
             return r_ball, r_shared, worst
 
-        r_ball, r_shared, worst = residual(actions, u, shared)
-        previous = worst
-        for iteration in range(STEP_NEWTON_MAX):
-            if iteration > 0 and worst < STEP_TOLERANCE:
-                break
-            if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
-                trial = self._with_velocities(state, u, shared)
-                self._jacobian = self._jacobians(trial, actions)  # at the iterate
-                self._jacobian_contacts = actions.contacts.active.copy()
-                self._jacobian_age = 0
-            du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route, jammed)
-            step = 1.0
-            for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
-                u_try, shared_try = u + step * du, shared + step * d_shared
-                acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
-                rb, rs, w = residual(acts, u_try, shared_try)
-                if w < worst or iteration == 0:
-                    break
-                step *= 0.5
+        # A step that does not converge from the predicted guess is solved again from u_n with
+        # a fresh Jacobian (the guess must not cost convergence).
+        for attempt in range(2):
+            if attempt == 0:
+                u, shared, predicted = self._predict(state.time, u0, shared0, jammed)
+            else:
+                u, shared, predicted = u0.copy(), shared0.copy(), False
+            start = self._with_velocities(state, u, shared)
+            actions = self.contact_actions(start)
+            contact_set = actions.contacts.active
+            stale = (
+                attempt == 1
+                or self._jacobian is None
+                or self._jacobian_age >= self.jacobian_interval
+                or not np.array_equal(contact_set, self._jacobian_contacts)
+            )
+            if attempt == 0:
+                self._jacobian_age += 1
+            r_ball, r_shared, worst = residual(actions, u, shared)
             previous = worst
-            u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
-        else:
-            if worst >= STEP_TOLERANCE:
-                self.unconverged_steps += 1
+            converged = False
+            for iteration in range(STEP_NEWTON_MAX):
+                if worst < STEP_TOLERANCE:
+                    converged = True
+                    break
+                if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
+                    self._jacobian = self._jacobians(start, actions)
+                    self._jacobian_contacts = contact_set.copy()
+                    self._jacobian_age = 1
+                if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
+                    trial = self._with_velocities(state, u, shared)
+                    self._jacobian = self._jacobians(trial, actions)  # at the iterate
+                    self._jacobian_contacts = actions.contacts.active.copy()
+                    self._jacobian_age = 0
+                assert self._jacobian is not None  # refreshed above when there was none
+                du, d_shared = self._correction(self._jacobian, r_ball, r_shared, route, jammed)
+                step = 1.0
+                for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
+                    u_try, shared_try = u + step * du, shared + step * d_shared
+                    acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
+                    rb, rs, w = residual(acts, u_try, shared_try)
+                    if w < worst or iteration == 0:
+                        break
+                    step *= 0.5
+                previous = worst
+                u, shared, actions, r_ball, r_shared, worst = u_try, shared_try, acts, rb, rs, w
+            unconverged = not converged and worst >= STEP_TOLERANCE
+            if not unconverged or not predicted:
+                break
+        if unconverged:
+            self.unconverged_steps += 1
         self.last_step_residual = worst
+        self._remember(state.time, u0, shared0, u, shared)
         screw_speed = float(shared[0])
         nut_velocity = shared[1:].copy()
         new_error = commands.screw_speed - screw_speed
@@ -686,6 +774,8 @@ class _CompiledStep:
         self.jac_shared = np.zeros((count, 8, 3))
         self.jac_active = np.zeros((count, 4), dtype=np.bool_)
         self.jac_meta = np.array([0, 0, model.jacobian_interval], dtype=np.int64)
+        self.history = np.zeros((PREDICTOR_ORDER, count + 1, 6))
+        self.history_meta = np.array([math.nan, 0.0, 0.0])
         self.stats = np.zeros(ks.S_COUNT)
 
     def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
@@ -726,6 +816,8 @@ class _CompiledStep:
             self.jac_shared,
             self.jac_active,
             self.jac_meta,
+            self.history,
+            self.history_meta,
             pos,
             vel,
             omega,

@@ -509,7 +509,14 @@ class _Run:
             jam_start[hit] = np.minimum(jam_start[hit], jam.start)
         acc = np.zeros(ks.A_COUNT)
         first_stats = np.zeros(ks.S_COUNT)
-        jacobian = (kernel.jac_own, kernel.jac_shared, kernel.jac_active, kernel.jac_meta)
+        jacobian = (
+            kernel.jac_own,
+            kernel.jac_shared,
+            kernel.jac_active,
+            kernel.jac_meta,
+            kernel.history,
+            kernel.history_meta,
+        )
         done = [0, 0, 0, 0]  # evaluations, Jacobians, iterations, unconverged already counted
         k = 0
         while k <= steps:

@@ -36,6 +36,7 @@ def test_frozen_constants_are_those_of_the_reference() -> None:
     assert dynamic_step.frozen_constants() == (
         dynamic.HELIX_NEWTON_STEPS,
         dynamic.JACOBIAN_REFRESH_RATIO,
+        dynamic.PREDICTOR_ORDER,
         dynamic.STEP_BACKTRACKS,
         dynamic.STEP_NEWTON_MAX,
         dynamic.STEP_TOLERANCE,
@@ -82,3 +83,100 @@ def test_compiled_step_follows_the_reference_trajectory(faults: Faults, interval
     if faults.jams:
         np.testing.assert_array_equal(fast.ball_omega[1], 0.0)
         assert np.all(np.abs(ref.ball_omega[0]) > 0.0)
+
+
+def test_predictor_coefficients_are_those_of_the_reference() -> None:
+    for compiled, reference in zip(
+        dynamic_step.PREDICTOR_COEFFICIENTS, dynamic.PREDICTOR_COEFFICIENTS, strict=True
+    ):
+        assert compiled == reference + (0.0,) * (len(compiled) - len(reference))
+    assert len(dynamic_step.PREDICTOR_COEFFICIENTS) == dynamic.PREDICTOR_ORDER + 1
+
+
+def _polynomial_velocities(
+    order: int, count: int, steps: int
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Sphere and shared velocities sampled on a polynomial of ``order`` in the step index."""
+    rng = np.random.default_rng(order)
+    a, b = rng.normal(size=(order + 1, count, 6)), rng.normal(size=(order + 1, 3))
+    return [
+        (sum(a[p] * k**p for p in range(order + 1)), sum(b[p] * k**p for p in range(order + 1)))
+        for k in range(steps)
+    ]
+
+
+@pytest.mark.parametrize("order", [0, 1, 2, 3])
+def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
+    """Velocities on a polynomial of degree ``order`` in time: after enough steps the predictor
+    has chosen that order (the lowest exact one) and its guess is the next value, in the kernel
+    and in the reference; a jammed sphere's rotation stays zero; a jump in time (a state that
+    does not continue the last step) restarts from u_n."""
+    count, dt, t0 = 3, 2e-6, 0.25
+    model = DynamicModel(
+        dataclasses.replace(BASE, screw=dataclasses.replace(BASE.screw, balls_per_nut=2)),
+        293.15,
+        time_step=dt,
+        compiled_step=False,
+    )
+    consts = np.zeros(dynamic_step.N_CONST)
+    consts[dynamic_step.K_DT] = dt
+    consts[dynamic_step.K_BALL_RADIUS] = model.geometry.ball_radius
+    consts[dynamic_step.K_PITCH_RADIUS] = model.geometry.pitch_radius
+    history = np.zeros((dynamic.PREDICTOR_ORDER, count + 1, 6))
+    meta = np.array([np.nan, 0.0, 0.0])
+    jammed = np.array([False, True, False])
+    samples = _polynomial_velocities(order, count, 8)
+    for u_k, _ in samples:
+        u_k[1, 3:] = 0.0  # the step hands the predictor u_n with a jammed rotation at zero
+    for k in range(len(samples) - 1):
+        time = t0 + k * dt
+        (u0, s0), (u1, s1) = samples[k], samples[k + 1]
+        u, s = u0.copy(), s0.copy()
+        extrapolated = dynamic_step._predict(u0, s0, time, jammed, history, meta, u, s)
+        ref_u, ref_s, ref_extrapolated = model._predict(time, u0, s0, jammed)
+        assert extrapolated == ref_extrapolated == (k >= 2 and model._history_order > 0)
+        if k >= order + 1:  # the order has been found on the step before
+            expected = u1
+            for got_u, got_s in ((u, s), (ref_u, ref_s)):
+                np.testing.assert_allclose(got_u, expected, rtol=1e-9, atol=1e-9)
+                np.testing.assert_allclose(got_s, s1, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(u, ref_u, rtol=1e-12, atol=1e-12)
+        dynamic_step._remember(u0, s0, u1, s1, time, consts, history, meta)
+        model._remember(time, u0, s0, u1, s1)
+        assert meta[dynamic_step.H_ORDER] == model._history_order
+    assert meta[dynamic_step.H_ORDER] == order
+    (u0, s0) = samples[0]
+    u, s = u0.copy(), s0.copy()
+    assert not dynamic_step._predict(u0, s0, t0 + 1.0, jammed, history, meta, u, s)  # a jump
+    np.testing.assert_array_equal(u, u0)
+    np.testing.assert_array_equal(model._predict(t0 + 1.0, u0, s0, jammed)[0][0], u0[0])
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_predictor_leaves_the_converged_trajectory_unchanged(compiled: bool) -> None:
+    """The predictor changes where Newton starts, not where it ends: the same ramp with and
+    without it (history cleared before every step) agrees to the step tolerance, with fewer
+    evaluations of the contact laws."""
+    screw = dataclasses.replace(BASE.screw, balls_per_nut=2)
+    config = dataclasses.replace(BASE, screw=screw)
+    models = [
+        DynamicModel(config, 293.15, jacobian_interval=5, compiled_step=compiled) for _ in (0, 1)
+    ]
+    states = [model.initial_state(0.0) for model in models]
+    evaluations = [0, 0]
+    for k in range(STEPS):
+        ramp = min(k / 100.0, 1.0)
+        commands = Commands(30.0 * ramp * ramp * (3.0 - 2.0 * ramp), 400.0 * ramp)
+        models[1]._history_time = np.nan
+        if models[1]._kernel is not None:
+            models[1]._kernel.history_meta[0] = np.nan
+        for n, model in enumerate(models):
+            before = model.work["contact_evaluations"]
+            states[n], _ = model.step(states[n], commands)
+            evaluations[n] += model.work["contact_evaluations"] - before
+    predicted, plain = states
+    for name in ("ball_position", "ball_velocity", "ball_omega", "nut_velocity"):
+        assert _relative(getattr(predicted, name), getattr(plain, name)) < 1e-5, name
+    assert _relative(predicted.screw_speed, plain.screw_speed) < 1e-6
+    if compiled:  # the Python step does not count its work
+        assert evaluations[0] < evaluations[1], evaluations
