@@ -1,6 +1,7 @@
 """ROS 2 health-monitor node: bench measurements in, residuals, verdict and /diagnostics out.
 
-Subscribes (sensor-data QoS with a deep queue; names and types are parameters):
+Subscribes (best-effort sensor-data QoS with a deep queue, or reliable with
+``reliable_inputs``; names and types are parameters):
     ``torque_topic``       geometry_msgs/WrenchStamped (wrench.torque.z) or std_msgs/Float64 [N m]
     ``speed_topic``        sensor_msgs/JointState (velocity of ``joint_name``) or Float64 [rad/s]
     ``temperature_topic``  sensor_msgs/Temperature [deg C], converted to [K]
@@ -146,7 +147,18 @@ class HealthNode(Node):
                 ParameterDescriptor(
                     type=ParameterType.PARAMETER_INTEGER,
                     read_only=True,
-                    description="Depth of the input queues (best effort, keep last) [-]",
+                    description="Depth of the input queues (keep last) [-]",
+                ),
+            ),
+            (
+                "reliable_inputs",
+                False,
+                ParameterDescriptor(
+                    type=ParameterType.PARAMETER_BOOL,
+                    read_only=True,
+                    description="Subscribe reliably (a replayed bag arrives whole; the "
+                    "publisher must be reliable) instead of best effort (sensor data: a late "
+                    "sample is dropped, the bench is never slowed)",
                 ),
             ),
             ("diagnostics_rate_hz", 1.0, _float("/diagnostics rate [Hz]", 0.1, 10.0)),
@@ -263,7 +275,9 @@ class HealthNode(Node):
         qos = QoSProfile(
             history=HistoryPolicy.KEEP_LAST,
             depth=int(self.get_parameter("queue_depth").value),
-            reliability=ReliabilityPolicy.BEST_EFFORT,
+            reliability=ReliabilityPolicy.RELIABLE
+            if self.get_parameter("reliable_inputs").value
+            else ReliabilityPolicy.BEST_EFFORT,
         )
         self._health_pub = self.create_publisher(HealthResidual, self._str("health_topic"), 100)
         self._diag_pub = self.create_publisher(DiagnosticArray, "/diagnostics", 10)
