@@ -65,6 +65,9 @@ SEVERITIES: dict[str, tuple[float, ...]] = {
     "sphere_defect": (0.02, 0.04),
     "jam_onset": (0.3, 0.6),
 }
+#: Share of a fault run's length gated from which the run counts as one the monitor is blind
+#: to [-].
+BLIND_SHARE = 0.9
 #: Confidence from which a named class is counted as a confident call [-].
 CONFIDENT = 0.9
 #: Default unit ranges.
@@ -208,9 +211,12 @@ def _fault(number: int, k: int, length: float, rng: np.random.Generator) -> Faul
     )
 
 
-def run_unit(number: int, plan: Plan, config: TwinConfig, settings: MonitorSettings) -> list[Run]:
-    """Commission unit ``number`` on a recording of its own, then run the monitor over its
-    healthy and fault recordings."""
+def run_unit(
+    number: int, plan: Plan, config: TwinConfig, settings: tuple[MonitorSettings, ...]
+) -> list[list[Run]]:
+    """Commission unit ``number`` on a recording of its own, then run a monitor of each of
+    ``settings`` over its healthy and fault recordings (the same recordings for each: a side
+    by side comparison); one list of runs per settings."""
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench detection sensors")
     unit = draw_unit(number)
@@ -226,8 +232,8 @@ def run_unit(number: int, plan: Plan, config: TwinConfig, settings: MonitorSetti
     data = generate_unit_data(
         config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"
     )
-    baseline = commission(_channels(data), config, settings.residual, twin=twin).baseline
-    runs = []
+    baseline = commission(_channels(data), config, settings[0].residual, twin=twin).baseline
+    runs: list[list[Run]] = [[] for _ in settings]
     healthy = _with_preload(draw_trajectory(int(seeds[2]), plan.healthy), set_preload)
     recordings: list[tuple[Trajectory, tuple[FaultSpec, ...], int]] = [(healthy, (), int(seeds[2]))]
     for k in range(plan.faults):
@@ -241,19 +247,24 @@ def run_unit(number: int, plan: Plan, config: TwinConfig, settings: MonitorSetti
         data = generate_unit_data(
             config, unit, trajectory, faults=faults, sensors=sensors, seed=seed, name="run"
         )
-        monitor = HealthMonitor(config, settings, baseline=baseline, twin=twin)
-        feed(monitor, _channels(data))
-        runs.append(score(data, monitor, number, settings.warmup))
+        for k, each in enumerate(settings):
+            monitor = HealthMonitor(config, each, baseline=baseline, twin=twin)
+            feed(monitor, _channels(data))
+            runs[k].append(score(data, monitor, number, each.warmup))
     return runs
 
 
-def _worker(job: tuple[int, Plan, TwinConfig, MonitorSettings]) -> list[Run]:
+def _worker(job: tuple[int, Plan, TwinConfig, tuple[MonitorSettings, ...]]) -> list[list[Run]]:
     return run_unit(*job)
 
 
 def run_units(
-    units: range, plan: Plan, config: TwinConfig, settings: MonitorSettings, workers: int
-) -> Iterator[list[Run]]:
+    units: range,
+    plan: Plan,
+    config: TwinConfig,
+    settings: tuple[MonitorSettings, ...],
+    workers: int,
+) -> Iterator[list[list[Run]]]:
     """Runs of every unit, in parallel processes when ``workers`` > 1."""
     jobs = [(n, plan, config, settings) for n in units]
     if workers <= 1:
@@ -338,6 +349,20 @@ def report(runs: list[Run], units: range, plan: Plan, settings: MonitorSettings)
         counts = [sum(1 for r in group if r.fault_class == c) for c in FAULT_CLASSES]
         counts.append(sum(1 for r in group if r.fault_class not in FAULT_CLASSES))
         lines.append(f"| {cls} | " + " | ".join(map(str, counts)) + " |")
+    by_detector: dict[str, list[int]] = {}
+    for r in runs:
+        if r.detector:
+            counts = by_detector.setdefault(r.detector, [0, 0])
+            counts[0 if r.true_class and r.alarm >= r.onset else 1] += 1
+    blind = [r for r in faulty if r.gated >= BLIND_SHARE * r.duration]
+    lines += [
+        "",
+        "First alarms by detector (fault runs after the onset / false alarms): "
+        + ", ".join(f"{k} {v[0]}/{v[1]}" for k, v in sorted(by_detector.items())),
+        f"Fault runs gated for >= {BLIND_SHARE:.0%} of their length (a duty cycle the monitor "
+        f"is blind to: fast sines near standstill): {len(blind)} of {len(faulty)}, "
+        f"{sum(1 for r in blind if math.isnan(r.alarm))} of them missed",
+    ]
     confident = [r for r in runs if r.true_class and r.fault_class and r.confidence >= CONFIDENT]
     right = sum(1 for r in confident if r.fault_class == r.true_class)
     reasons: dict[str, int] = {}
@@ -425,6 +450,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--fault-length", type=float, default=60.0, help="fault run [s]")
     parser.add_argument("--workers", type=int, default=2, help="processes [-]")
     parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
+    parser.add_argument(
+        "--compare-detectors",
+        default=None,
+        metavar="A,B",
+        help="also run a monitor with only these detectors on the same recordings and report "
+        "it beside the default (e.g. cusum,spectral: the monitor before the local test)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -432,7 +464,10 @@ def run(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     config = load_config(args.config)
-    settings = MonitorSettings()
+    settings: tuple[MonitorSettings, ...] = (MonitorSettings(),)
+    if args.compare_detectors:
+        names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
+        settings += (MonitorSettings(detectors=names),)
     units = range(2) if args.quick else _range(args.units)
     if args.quick:
         plan = Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
@@ -440,15 +475,22 @@ def run(args: argparse.Namespace) -> int:
         plan = Plan(args.commission, args.healthy, args.faults, args.fault_length)
     if plan.faults < 0 or min(plan.commission, plan.healthy, plan.fault_length) <= 10.0:
         raise ConfigError("--faults must be >= 0 and every length > 10 s")
-    runs: list[Run] = []
+    every: list[list[Run]] = [[] for _ in settings]
     for unit_runs in tqdm(
         run_units(units, plan, config, settings, args.workers),
         total=len(units),
         desc="units",
         file=sys.stderr,
     ):
-        runs.extend(unit_runs)
-    text = report(runs, units, plan, settings)
+        for k, each in enumerate(unit_runs):
+            every[k].extend(each)
+    runs = every[0]
+    text = report(runs, units, plan, settings[0])
+    for each, other in zip(settings[1:], every[1:], strict=True):
+        text += (
+            f"\n\n### The same recordings, detectors {', '.join(each.detectors)} only\n\n"
+            + report(other, units, plan, each)
+        )
     print(text)
     if args.out:
         out = Path(args.out)

@@ -179,6 +179,30 @@ def _pick(values: FloatArray, count: int) -> FloatArray:
     return np.asarray(values[::step], dtype=float)
 
 
+class _AdjustedUnit:
+    """The twin adjusted to theta = (g, b, ln k_F, dT, J, beta_1, beta_2): preload scale and
+    temperature shift, the shape correction, and the residual surface when given."""
+
+    def __init__(
+        self, twin: UnitTwin, theta: FloatArray, surface: ResidualSurface | None = None
+    ) -> None:
+        self.unit = twin.adjusted(math.exp(theta[2]), theta[3])
+        self.shaped = Baseline(
+            config="",
+            fingerprint="",
+            inertia=1.0,
+            shape_slope=theta[5],
+            shape_curvature=theta[6],
+            surface=surface,
+        )
+
+    def drag(self, speeds: FloatArray, temperature: float, preload: float) -> FloatArray:
+        """Drag torque [N m] at each of ``speeds`` [rad/s], ``temperature`` [K], ``preload``
+        [N]."""
+        values = self.unit.drag(speeds, temperature, preload) * self.shaped.shape(speeds)
+        return np.asarray(values * self.shaped.surface_factor(speeds, temperature))
+
+
 def _drags(
     twin: UnitTwin,
     theta: FloatArray,
@@ -186,20 +210,10 @@ def _drags(
     surface: ResidualSurface | None = None,
 ) -> FloatArray:
     """Block means of the drag with the shape correction (and the surface) [N m]."""
-    unit = twin.adjusted(math.exp(theta[2]), theta[3])
-    shaped = Baseline(
-        config="",
-        fingerprint="",
-        inertia=1.0,
-        shape_slope=theta[5],
-        shape_curvature=theta[6],
-        surface=surface,
+    adjusted = _AdjustedUnit(twin, theta, surface)
+    return np.array(
+        [float(np.mean(adjusted.drag(b.speeds, b.temperature, b.preload))) for b in blocks]
     )
-    out = []
-    for b in blocks:
-        values = unit.drag(b.speeds, b.temperature, b.preload) * shaped.shape(b.speeds)
-        out.append(float(np.mean(values * shaped.surface_factor(b.speeds, b.temperature))))
-    return np.array(out)
 
 
 def _predict(
@@ -234,14 +248,11 @@ class SurfaceStudy:
 
 def _surface_study(twin: UnitTwin, theta: FloatArray, usable: list[Block]) -> SurfaceStudy:
     """Relative residuals and design rows of every usable block at the fitted ``theta``."""
-    unit = twin.adjusted(math.exp(theta[2]), theta[3])
-    shaped = Baseline(
-        config="", fingerprint="", inertia=1.0, shape_slope=theta[5], shape_curvature=theta[6]
-    )
+    adjusted = _AdjustedUnit(twin, theta)
     times, speeds, residual, rows = [], [], [], []
     for b in usable:
         picked = _pick(b.speed, FIT_SPEEDS)
-        drags = unit.drag(picked, b.temperature, b.preload) * shaped.shape(picked)
+        drags = adjusted.drag(picked, b.temperature, b.preload)
         drag = float(np.mean(drags))
         inertia = theta[4] * b.mean_acceleration
         if abs(drag) < 1e-9 or abs(inertia) > SURFACE_INERTIA * abs(drag):
@@ -279,33 +290,21 @@ def _settling_angle(
     (bins without data are passed over, but the angle does not go below the lowest data)."""
     if not blocks:
         return gate_angle
-    fitted = Baseline(
-        config="",
-        fingerprint="",
-        inertia=theta[4],
-        shape_slope=theta[5],
-        shape_curvature=theta[6],
-        error_bands=bands,
-        surface=surface,
+    adjusted = _AdjustedUnit(twin, theta, surface)
+    errors = Baseline(
+        config="", fingerprint="", inertia=theta[4], error_bands=bands, surface=surface
     )
-    unit = twin.adjusted(math.exp(theta[2]), theta[3])
     travels, ratios = [], []
     for b, travel in blocks:
         picked = _pick(b.speed, FIT_SPEEDS)
-        drag = float(
-            np.mean(
-                unit.drag(picked, b.temperature, b.preload)
-                * fitted.shape(picked)
-                * fitted.surface_factor(picked, b.temperature)
-            )
-        )
+        drag = float(np.mean(adjusted.drag(picked, b.temperature, b.preload)))
         inertia = theta[4] * b.mean_acceleration
         if abs(drag) < 1e-9 or abs(inertia) > SURFACE_INERTIA * abs(drag):
             continue
         relative = (float(np.mean(b.torque)) - theta[0] * (drag + inertia) - theta[1]) / (
             theta[0] * drag
         )
-        error = fitted.error_at(float(np.mean(b.speed)), b.temperature)
+        error = errors.error_at(float(np.mean(b.speed)), b.temperature)
         travels.append(travel)
         ratios.append(abs(relative) / error)
     travel_arr, ratio_arr = np.array(travels), np.array(ratios)

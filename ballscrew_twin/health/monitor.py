@@ -2,7 +2,8 @@
 
 Samples in (stamp [s], SI value) -> blocks aligned with the slow signals (:mod:`.residuals`) ->
 twin prediction and residual -> Kalman tracking of slow drift (:mod:`.tracker`) -> detectors
-on the innovations and on the raw torque (:mod:`.detectors`) -> verdict and fault class
+on the innovations, on the residual against this run's memory of the same operating point
+(:mod:`.memory`) and on the raw torque (:mod:`.detectors`) -> verdict and fault class
 (:mod:`.classify`). The node calls the ``add_*`` methods as messages arrive; ``detect`` calls
 them for the bag's messages merged in stamp order (:func:`feed`), so both see the same blocks
 in the same order and reach the same verdict.
@@ -44,6 +45,14 @@ from .classify import (
     defect_orders,
 )
 from .detectors import Cusum, OrderSpectralTest, WindowChiSquare, check_rate
+from .memory import (
+    LOUD_SIGMA,
+    REPEAT_SHARE,
+    SETTLING_FACTOR,
+    UPDATE_GATE,
+    ResidualMemory,
+    bin_key,
+)
 from .residuals import (
     SIGNATURE_CHANGES,
     Block,
@@ -62,7 +71,7 @@ from .tracker import DriftTracker, TrackerSettings
 OK, WARN, FAULT, UNKNOWN = 0, 1, 2, 3
 VERDICT_NAMES = {OK: "OK", WARN: "WARN", FAULT: "FAULT", UNKNOWN: "UNKNOWN"}
 #: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
-DETECTORS: tuple[str, ...] = ("cusum", "chi_square", "spectral")
+DETECTORS: tuple[str, ...] = ("cusum", "local", "chi_square", "spectral")
 #: Blocks of history kept for classification after an alarm.
 HISTORY_BLOCKS = 1200
 #: Samples of a block at which the twin is evaluated (evenly spread) [-].
@@ -117,7 +126,7 @@ class MonitorSettings:
     classification_window: float = 8.0
     warn_fraction: float = 0.5
     error_correlation_time: float = 1.0
-    detectors: tuple[str, ...] = ("cusum", "spectral")
+    detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = 1.0
 
     def __post_init__(self) -> None:
@@ -316,6 +325,12 @@ class HealthMonitor:
         block_rate = 1.0 / s.residual.block_duration
         share = s.false_alarm_rate / len(s.detectors)
         self.cusum = Cusum(s.cusum_shift, share, block_rate)
+        #: The run's own residual per operating point and the CUSUM on its innovations
+        #: (:mod:`.memory`), with the block times of those innovations.
+        self.memory = ResidualMemory()
+        self.local_cusum = Cusum(s.cusum_shift, share, block_rate)
+        self._local_times: deque[float] = deque(maxlen=HISTORY_BLOCKS)
+        self._local_stat = 0.0
         self.chi_square = WindowChiSquare(s.chi_square_window, share, block_rate)
         self.orders = defect_orders(config)
         self.spectral = OrderSpectralTest(share, 1.0 / s.spectral_period, len(self.orders))
@@ -414,13 +429,20 @@ class HealthMonitor:
         )
 
     def block_sigma(
-        self, block: Block, drag: float, inertia: float, drag_change: float = 0.0
+        self,
+        block: Block,
+        drag: float,
+        inertia: float,
+        drag_change: float = 0.0,
+        steady: bool = True,
     ) -> float:
         """1-sigma error of the twin's block mean [N m] without the sensor noise (see
         :mod:`.baseline`), plus TRANSIENT_ERROR times ``drag_change`` [N m], how much the
         quasi-static drag changes along the block: where the speed sweeps the drag through a
         range within 0.1 s (a hard stop, a step), the unit's friction lags it (presliding over
-        the rotation, breakaway near standstill) by an amount the twin does not model."""
+        the rotation, breakaway near standstill) by an amount the twin does not model.
+        ``steady=False`` leaves out the twin's steady error (band, absolute, outside the
+        commissioned temperatures), which repeats at a revisited operating point."""
         b = self.baseline
         span = block.span
         edge = (
@@ -428,15 +450,14 @@ class HealthMonitor:
             if span > 0.0
             else 0.0
         )
+        lag = TRANSIENT_ERROR * drag_change
+        transient = (b.inertia_error * inertia) ** 2 + edge**2 + lag**2
+        if not steady:
+            return b.torque_gain * math.sqrt(transient)
         outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
         error = b.error_at(float(np.mean(block.speed)), block.temperature)
         return b.torque_gain * math.sqrt(
-            (error * drag) ** 2
-            + b.error_absolute**2
-            + (b.inertia_error * inertia) ** 2
-            + edge**2
-            + outside**2
-            + (TRANSIENT_ERROR * drag_change) ** 2
+            (error * drag) ** 2 + b.error_absolute**2 + outside**2 + transient
         )
 
     def _process(self, block: Block) -> HealthSample:
@@ -509,7 +530,8 @@ class HealthMonitor:
         residual = measured - predicted
         # the lag outlasts the sweep by a block: this block's change or the last one's
         change = float(np.ptp(evaluated * factor))
-        model_sigma = self.block_sigma(block, drag, inertia, max(change, self._last_change))
+        swept = max(change, self._last_change)
+        model_sigma = self.block_sigma(block, drag, inertia, swept)
         self._last_change = change
         noise_var = sensor_var / n + model_sigma**2
         normalized = residual / math.sqrt(noise_var)
@@ -538,14 +560,21 @@ class HealthMonitor:
         )
         self._buffer_raw(block, block.torque - (b.torque_gain * drags + b.torque_bias), angle)
         e = step.normalized
+        local = self._local(block, speed, residual, drag, inertia, swept, sensor_var / n)
         if in_warmup:
             return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
 
+        local_step = None
+        if local is not None:
+            local_step = self.local_cusum.update(local)
+            self._local_times.append(block.time)
+            self._local_stat = local_step.statistic
         cusum = self.cusum.update(e)
         chi_stat, chi_alarm = self.chi_square.update(e)
         self._spectral(block.time)
         every = {
             "cusum": (cusum.statistic, self.cusum.threshold),
+            "local": (self._local_stat, self.local_cusum.threshold),
             "chi_square": (chi_stat, self.chi_square.threshold),
             "spectral": (self._spectral_stat, self.spectral.threshold),
         }
@@ -556,6 +585,7 @@ class HealthMonitor:
                 for name, hit in (
                     ("spectral", self._ripple_alarm),
                     ("cusum", cusum.alarm),
+                    ("local", local_step is not None and local_step.alarm),
                     ("chi_square", chi_alarm),
                 )
                 if hit and name in s.detectors
@@ -565,6 +595,9 @@ class HealthMonitor:
                 blocks_back = self.cusum.count - cusum.change_index - 1
                 if detector == "cusum":
                     onset = block.time - blocks_back * s.residual.block_duration
+                elif detector == "local" and local_step is not None:
+                    back = self.local_cusum.count - local_step.change_index - 1
+                    onset = self._local_times[max(len(self._local_times) - 1 - back, 0)]
                 elif detector == "chi_square":
                     onset = block.time - s.chi_square_window * s.residual.block_duration
                 else:
@@ -579,6 +612,38 @@ class HealthMonitor:
             if block.stamps[-1] - self.alarm.time >= s.classification_window:
                 self.alarm.final = True
         return self._sample(block, measured, predicted, residual, normalized, e, stats, op)
+
+    def _local(
+        self,
+        block: Block,
+        speed: float,
+        residual: float,
+        drag: float,
+        inertia: float,
+        swept: float,
+        sensor_variance: float,
+    ) -> float | None:
+        """Innovation of the block against this run's memory of its operating point and
+        motion (:mod:`.memory`), None when the block is mostly inertia or lag, is within
+        SETTLING_FACTOR gate angles of a reversal, or its bin is new; a healthy block updates
+        its bin."""
+        scale = self.baseline.torque_gain * abs(drag)
+        change = block.mean_acceleration * block.span
+        key = bin_key(speed, block.temperature, block.preload, change)
+        if key is None or scale <= 0.0:
+            return None
+        if self.gate.block_travel < SETTLING_FACTOR * self.gate.settings.gate_angle:
+            return None
+        own = self.block_sigma(block, drag, inertia, swept, steady=False)
+        if own > LOUD_SIGMA * scale:
+            return None
+        variance = (sensor_variance + (REPEAT_SHARE * own) ** 2) / scale**2
+        relative = residual / (self.baseline.torque_gain * drag)
+        where = (block.time, block.temperature, speed)
+        z = self.memory.innovation(key, relative, variance, *where)
+        if self.alarm is None and (z is None or abs(z) < UPDATE_GATE):
+            self.memory.update(key, relative, variance, *where)
+        return z
 
     def _sample(
         self,
