@@ -96,6 +96,10 @@ STATUS_NOT_FINITE = 3  # every line-search step gave a non-finite residual
 CHORD_DECREASE = 0.1
 #: such steps continue below the tolerance down to this fraction of it, while they cut [-]
 CHORD_POLISH = 1e-3
+#: with exact blocks, a step from an iterate whose worst scaled residual is below this lands
+#: below the tolerance (quadratic convergence): its trial point is evaluated without partials,
+#: and they are computed there only if it does not converge after all [-]
+NEWTON_FINAL = 1e-6
 
 # Positions in the tuple of scene_arrays(scene) (the scalar parameters of contacts_kernel).
 _I_SCREW_SPEED = 12
@@ -109,6 +113,7 @@ SOLVER_CONSTANTS = (
     DIAGONAL_SHIFT,
     CHORD_DECREASE,
     CHORD_POLISH,
+    NEWTON_FINAL,
 )
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
@@ -133,8 +138,7 @@ def compiled_stamp():
 
 @njit(cache=True)
 def frozen_constants():
-    """The solver constants as the cached machine code sees them: (NEWTON_MAX_ITER,
-    LINE_SEARCH_STEPS, MIN_STEP [-], DIAGONAL_SHIFT [-])."""
+    """The solver constants as the cached machine code sees them: SOLVER_CONSTANTS."""
     return SOLVER_CONSTANTS
 
 
@@ -610,6 +614,30 @@ def summarise(z, nut, weight, gravity, scene, active, out):
     return summary, states
 
 
+@njit(cache=True, error_model="numpy")
+def extrapolate(old, last, fraction, speed, ball_nb, kinematics, nut_offset):
+    """Warm start on the line through two solutions (``SteadyStateModel._predicted``).
+
+    Args:
+        old, last: (ball_nb (B, 2) [m], kinematics (B, 4) [rad/s], nut_offset (2,) [m], screw
+            speed [rad/s]) of the two solutions.
+        fraction: s, the new point's place beyond ``last`` in units of their step [-].
+        speed: screw speed of the new point [rad/s] (of the sign of both solutions' speeds).
+        ball_nb, kinematics, nut_offset: out, the start: offsets moved by s times their step,
+            rates over the speed (the rolling pattern) moved the same way, times ``speed``.
+    """
+    nb0, kin0, e0, speed0 = old
+    nb1, kin1, e1, speed1 = last
+    for i in range(nb1.shape[0]):
+        for c in range(2):
+            ball_nb[i, c] = nb1[i, c] + fraction * (nb1[i, c] - nb0[i, c])
+        for c in range(4):
+            per_speed = kin1[i, c] / speed1
+            kinematics[i, c] = (per_speed + fraction * (per_speed - kin0[i, c] / speed0)) * speed
+    for k in range(2):
+        nut_offset[k] = e1[k] + fraction * (e1[k] - e0[k])
+
+
 # ----------------------------------------------------------------------------- Newton
 @njit(cache=True, error_model="numpy")
 def newton_kernel(
@@ -716,6 +744,7 @@ def newton_kernel(
         singular = False
         accepted = False
         trial_recorded = False
+        trial_linearised = False
         while True:
             if not factored:
                 regular = factorise(jac, nut, free, lu, perm, inv_e, schur)
@@ -737,11 +766,13 @@ def newton_kernel(
                         trial_z[i, r] = z[i, r] + step * dz[i, r]
                 for k in range(2):
                     trial_e[k] = e_nut[k] + step * de[k]
-                if attempt == 0 and not reuse:  # the full step is usually taken: linearise there
+                # The full step is usually taken: linearise there, unless it is the last one.
+                if attempt == 0 and not reuse and worst >= NEWTON_FINAL:
                     trial_nut = linearise(trial_z, trial_e, *args, trial_res, axial, jac)
                     linearisations += 1
                     factored = False
                     trial_recorded = False
+                    trial_linearised = True
                 else:
                     trial_nut = residuals(
                         trial_z, trial_e, *args, trial_res, trial_active, trial_out
@@ -765,8 +796,8 @@ def newton_kernel(
                 factored = False
                 continue
             # The blocks now belong to the first trial point (reference iteration, taken when it
-            # is the new iterate) or to an earlier iterate (reuse).
-            fresh = accepted and not reuse and step == 1.0
+            # is the new iterate) or to an earlier iterate (reuse, last step).
+            fresh = accepted and trial_linearised and step == 1.0
             break
         if polishing and not accepted:
             status = STATUS_CONVERGED
@@ -823,6 +854,7 @@ def ensure_fresh_cache() -> bool:
             residuals,
             finish_contacts,
             summarise,
+            extrapolate,
             newton_kernel,
             frozen_constants,
             compiled_stamp,
@@ -850,7 +882,7 @@ def solve_compiled(
     nut_offset: FloatArray,
     jacobian: FloatArray,
     reuse: bool,
-    jacobian_scales: FloatArray,
+    jacobian_scales: tuple[float, float, float],
     nut: NDArray[np.int64],
     weight: FloatArray,
     gravity: FloatArray,

@@ -624,14 +624,19 @@ class SteadyStateModel:
             return None
         s = sum(d * w for d, w in zip(moved, wanted, strict=True)) / norm
         s = min(max(s, PREDICTOR_RANGE[0]), PREDICTOR_RANGE[1])
-        rates = last.kinematics / q1[0]
-        rates = rates + s * (rates - old.kinematics / q0[0])
-        return SteadyState(
-            last.ball_nb + s * (last.ball_nb - old.ball_nb),
-            rates * speed,
-            last.nut_offset + s * (last.nut_offset - old.nut_offset),
+        from ..kernels.steady_solver import extrapolate
+
+        start = SteadyState(np.empty((count, 2)), np.empty((count, 4)), np.empty(2), speed)
+        extrapolate(
+            (old.ball_nb, old.kinematics, old.nut_offset, q0[0]),
+            (last.ball_nb, last.kinematics, last.nut_offset, q1[0]),
+            s,
             speed,
+            start.ball_nb,
+            start.kinematics,
+            start.nut_offset,
         )
+        return start
 
     def _rescaled(
         self, start: SteadyState, scene: ContactScene, balls: BallSet, speed: float
@@ -647,7 +652,7 @@ class SteadyStateModel:
 
     def _cold_solve(
         self, op: OperatingPoint, balls: BallSet, loads: FloatArray
-    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+    ) -> tuple[SteadyState, ContactSource, int, float]:
         """Static equilibrium first (robust: smooth Hertz only), then the speed.
 
         If the direct step to full speed fails, the speed is raised in stages (continuation,

@@ -85,6 +85,7 @@ def test_frozen_constants_are_the_current_ones() -> None:
         steady.DIAGONAL_SHIFT,
         steady_solver.CHORD_DECREASE,
         steady_solver.CHORD_POLISH,
+        steady_solver.NEWTON_FINAL,
     )
     assert compiled_stamp() == DEPENDENCY_STAMP
     assert ensure_fresh_cache() is False  # checked once per process
