@@ -389,8 +389,8 @@ def run_low_preload(
     for low, high in LOW_PRELOAD_BANDS:
         band = [(op, e) for op, e in results if low <= op.preload < high]
         row = _summary_row(
-            "steady",
-            f"low preload {low:g}-{min(high, 200.0):g} N (cold steady reference)",
+            "low preload",
+            f"{low:g}-{min(high, 200.0):g} N (cold steady reference)",
             "realtime-map",
             elapsed / max(len(results), 1),
             "s/evaluation",
