@@ -68,6 +68,11 @@ PRELOADS = (0.0, 180.0, 720.0, 1650.0, 2900.0)
 SPEEDS_RPM = (130.0, 470.0, 1350.0, 2600.0, 3900.0)
 TEMPERATURES_C = (-20.0, 20.0, 60.0, -17.5, 22.5, 57.5)
 QUICK_POINTS = ((470.0, 22.5, 720.0), (2600.0, -17.5, 1650.0), (130.0, 57.5, 180.0))
+#: Low-preload grid (issue 14, item 4): preloads [N] from 0 to 200 N at the steady grid's speeds
+#: and temperatures; the real-time model against the symmetric steady model solved cold.
+LOW_PRELOADS = (0.0, 2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 50.0, 75.0, 100.0, 150.0, 200.0)
+#: Preload bands [N) of the low-preload summary (the issue's goals: 1 % from 20 N up).
+LOW_PRELOAD_BANDS = ((0.0, 20.0), (20.0, 100.0), (100.0, 201.0))
 
 
 @dataclass(frozen=True)
@@ -335,6 +340,78 @@ def run_steady(
     return point_rows, summary
 
 
+def run_low_preload(
+    config: TwinConfig, table: SteadyMap, quick: bool, progress: bool
+) -> tuple[list[Row], list[Row]]:
+    """Part 1b: the real-time model at 0-200 N against the symmetric steady model, each point
+    solved cold (the steady model's own branch where it has several) at the reference
+    tolerance; per-point rows and one summary row per preload band, its note naming the worst
+    point and the points the steady model could not solve."""
+    from tqdm import tqdm
+
+    preloads = LOW_PRELOADS[::4] if quick else LOW_PRELOADS
+    points = [
+        OperatingPoint(screw_speed=n * RPM, temperature=t + CELSIUS_ZERO, preload=f)
+        for t in (TEMPERATURES_C[:1] if quick else TEMPERATURES_C)
+        for f in preloads
+        for n in (SPEEDS_RPM[:2] if quick else SPEEDS_RPM)
+    ]
+    reference = SteadyStateModel(config, mode="symmetric", tolerance=REFERENCE_TOLERANCE)
+    model = RealTimeModel(config, table)
+    point_rows: list[Row] = []
+    results: list[tuple[OperatingPoint, dict[str, float]]] = []
+    failed: list[OperatingPoint] = []
+    elapsed = 0.0
+    for op in tqdm(points, desc="low preload", disable=not progress):
+        reference.forget_warm_start()
+        try:
+            ref = reference.evaluate(op)
+        except SolverError:
+            failed.append(op)
+            continue
+        start = time.perf_counter()
+        out = model.evaluate(op)
+        elapsed += time.perf_counter() - start
+        err = errors(out, ref)
+        results.append((op, err))
+        point_rows.append(
+            {
+                "model": "realtime-map (low preload)",
+                "speed_rpm": op.screw_speed / RPM,
+                "temperature_C": op.temperature - CELSIUS_ZERO,
+                "preload_N": op.preload,
+                "drag_torque_Nm": out.drag_torque,
+                "reference_Nm": ref.drag_torque,
+                **err,
+            }
+        )
+    summary = []
+    for low, high in LOW_PRELOAD_BANDS:
+        band = [(op, e) for op, e in results if low <= op.preload < high]
+        row = _summary_row(
+            "low preload",
+            f"{low:g}-{min(high, 200.0):g} N (cold steady reference)",
+            "realtime-map",
+            elapsed / max(len(results), 1),
+            "s/evaluation",
+            [e for _, e in band],
+        )
+        notes = []
+        if band:
+            op, e = max(band, key=lambda item: item[1]["drag_error"])
+            notes.append(
+                f"worst {100 * e['drag_error']:.3g} % at {op.screw_speed / RPM:.0f} rpm, "
+                f"{op.temperature - CELSIUS_ZERO:.1f} C, {op.preload:g} N; "
+                f"{sum(1 for _, x in band if x['drag_error'] > 0.01)} of {len(band)} above 1 %"
+            )
+        lost = [op for op in failed if low <= op.preload < high]
+        if lost:
+            notes.append(f"{len(lost)} points the cold steady solve did not converge at")
+        row["note"] = "; ".join(notes)
+        summary.append(row)
+    return point_rows, summary
+
+
 def _summary_row(
     part: str, scene: str, model: str, seconds: float, unit: str, errs: Sequence[dict[str, float]]
 ) -> Row:
@@ -577,6 +654,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="bench_accuracy", help="output directory")
     parser.add_argument("--quick", action="store_true", help="a few points and ticks (CI smoke)")
     parser.add_argument("--no-dynamic", action="store_true", help="skip the dynamic-model check")
+    parser.add_argument(
+        "--low-preload-only",
+        action="store_true",
+        help="run only the low-preload part (0-200 N, real-time model against cold steady solves)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
@@ -587,14 +669,18 @@ def run(args: argparse.Namespace) -> int:
     progress = not args.no_progress
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    point_rows, summary = run_steady(config, table, args.quick, progress)
-    summary += run_transients(config, table, args.quick, progress)
-    if not (args.quick or args.no_dynamic):
+    point_rows, summary = run_low_preload(config, table, args.quick, progress)
+    if not args.low_preload_only:
+        steady_rows, steady_summary = run_steady(config, table, args.quick, progress)
+        point_rows, summary = steady_rows + point_rows, steady_summary + summary
+        summary += run_transients(config, table, args.quick, progress)
+    if not (args.quick or args.no_dynamic or args.low_preload_only):
         summary += run_dynamic(progress)
     _write_csv(out / "accuracy_points.csv", point_rows)
     _write_csv(out / "accuracy_summary.csv", summary)
     _plot(out / "accuracy.png", summary)
     command = "ballscrew-twin bench accuracy" + (" --quick" if args.quick else "")
+    command += " --low-preload-only" if args.low_preload_only else ""
     text = _markdown(summary, command)
     (out / "accuracy.md").write_text(text)
     print(text)

@@ -8,7 +8,13 @@ the readable Newton over the compiled contact laws):
 
 - cold: ``solve`` with no warm start (static stage, then the speed);
 - warm: ``solve`` at 20 C / 100 rpm / 1500 N and 21 C / 110 rpm / 1550 N alternately, each
-  warm-started from the other, with all outputs (torques, per-contact states); per solve;
+  warm-started from the other, with all outputs (torques, per-contact states); per solve. The
+  structured solver extrapolates its warm start from its last two solutions, which here are
+  the point itself and the other one: its start is then the point's own earlier solution, so
+  this task measures a repeated solve, and the next one a new point each time;
+- warm path: ``solve`` along a path of new points (:func:`path_point`: speed, temperature and
+  preload as slow sines of incommensurate periods around the two points above, steps of up to
+  1 rpm, 0.07 K and 17 N), each warm-started from the one before, with all outputs; per solve;
 - warm Newton: the Newton solve alone from the other point's state (no outputs assembled).
 
 With ``--agreement N``, also the drag torque of both solvers at N random points of the envelope
@@ -22,6 +28,8 @@ so that a change of the machine's load hits both alike.
 from __future__ import annotations
 
 import argparse
+import itertools
+import math
 import statistics
 import time
 from collections.abc import Callable
@@ -44,6 +52,17 @@ DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solve
 
 SOLVERS = (("previous", "newton"), ("structured", "compiled"))
 Mode = Literal["symmetric", "full"]
+TASKS = ("cold", "warm", "warm path", "warm Newton")
+
+
+def path_point(k: int) -> OperatingPoint:
+    """Point ``k`` of the warm path: 105 +- 5 rpm, 20.5 +- 0.5 C and 1500 +- 50 N as sines of
+    periods 10 pi, 14 pi and 6 pi points."""
+    return OperatingPoint(
+        screw_speed=(105.0 + 5.0 * math.sin(k / 5.0)) * RPM,
+        temperature=20.5 + 0.5 * math.sin(k / 7.0) + CELSIUS_ZERO,
+        preload=1500.0 + 50.0 * math.sin(k / 3.0),
+    )
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,6 +111,11 @@ def _tasks(
         flip.reverse()
         model.solve(flip[0])
 
+    path = itertools.count()
+
+    def warm_path() -> None:
+        model.solve(path_point(next(path)))
+
     def newton() -> None:
         flip.reverse()
         target = flip[0]
@@ -101,7 +125,7 @@ def _tasks(
         start = model._rescaled(other, scene, balls, target.screw_speed)
         model._newton(scene, balls, start, model.nut_axial_loads(target), warm=True)
 
-    return {"cold": cold, "warm": warm, "warm Newton": newton}
+    return {"cold": cold, "warm": warm, "warm path": warm_path, "warm Newton": newton}
 
 
 def _solver_lines(
@@ -111,7 +135,7 @@ def _solver_lines(
     models = {name: SteadyStateModel(config, mode=mode, backend=b) for name, b in SOLVERS}  # type: ignore[arg-type]
     tasks = {name: _tasks(model, point, nearby) for name, model in models.items()}
     times: dict[tuple[str, str], list[float]] = {}
-    for task in ("cold", "warm", "warm Newton"):
+    for task in TASKS:
         rounds = max(repeat // 4, 3) if task == "cold" else repeat
         for name in models:  # warm-up: compilation, caches, the first warm start
             tasks[name][task]()
@@ -123,13 +147,11 @@ def _solver_lines(
                 times.setdefault((name, task), []).append(time.process_time() - start)
     lines = []
     for name in models:
-        cells = [
-            f"{task} {statistics.median(times[(name, task)]) * 1e6:8.0f} us"
-            for task in ("cold", "warm", "warm Newton")
-        ]
+        cells = [f"{task} {statistics.median(times[(name, task)]) * 1e6:8.0f} us" for task in TASKS]
         lines.append(f"  {mode:<9} {name:<10} solver: " + ", ".join(cells))
-    old, new = (statistics.median(times[(n, "warm")]) for n, _ in SOLVERS)
-    lines.append(f"  {mode:<9} warm solve x{old / new:.1f} faster with the structured solver")
+    for task in ("warm", "warm path"):
+        old, new = (statistics.median(times[(n, task)]) for n, _ in SOLVERS)
+        lines.append(f"  {mode:<9} {task} x{old / new:.1f} faster with the structured solver")
     return lines
 
 

@@ -25,7 +25,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import Literal
+from functools import cached_property
+from typing import TYPE_CHECKING, Literal, Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -35,6 +36,9 @@ from ..params import TwinConfig
 from ..physics import geometry, hertz
 from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
 from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, make_scene
+
+if TYPE_CHECKING:
+    from ..kernels.steady_solver import KernelSolution
 
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
@@ -57,6 +61,15 @@ KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to th
 STANDSTILL_SPEED = 1e-6
 #: Temperatures whose lubricant/material state is kept (oldest dropped beyond) [-].
 SCENE_CACHE_SIZE = 64
+#: Step of each operating quantity that counts as one unit when the warm start is extrapolated
+#: from the last two solutions (:meth:`SteadyStateModel._predicted`): 1 % of the speed, 0.1 K,
+#: 1 % of the preload (at least 0.1 N) and 1 % of the axial load (at least 0.1 N).
+PREDICTOR_UNITS = (0.01, 0.1, 0.01, 0.01)
+#: Extrapolation along the last two solutions is limited to this range of their step [-].
+PREDICTOR_RANGE = (-1.0, 2.0)
+
+#: Contacts of a solve: the numpy evaluation (readable backends) or the compiled solver's result.
+ContactSource = Union[ContactEvaluation, "KernelSolution"]
 
 
 @dataclass(frozen=True)
@@ -81,16 +94,27 @@ class SteadyState:
 
 @dataclass(frozen=True)
 class SteadySolution:
-    """A converged steady state with what it implies."""
+    """A converged steady state with what it implies (``contacts``: every contact quantity at
+    the solution, built on first use from ``contact_source``)."""
 
     output: TwinOutput
     state: SteadyState
     balls: BallSet
-    contacts: ContactEvaluation
+    contact_source: ContactSource
     screw_torque_direct: float  # N m, sum of moments of the spheres on the screw (with gravity)
     gravity_torque: float  # N m, the part of the direct torque that lifts nuts and spheres
     iterations: int
     residual: float  # max scaled residual at convergence
+
+    @cached_property
+    def contacts(self) -> ContactEvaluation:
+        """Forces, moments, states and dissipation of every contact at the solution."""
+        source = self.contact_source
+        if isinstance(source, ContactEvaluation):
+            return source
+        from ..kernels.contacts import evaluation_from_buffer
+
+        return evaluation_from_buffer(source.active, source.buffer)
 
 
 class SteadyStateModel:
@@ -138,6 +162,11 @@ class SteadyStateModel:
         self.inertial_terms = bool(inertial_terms)
         self.name = "steady" if self.inertial_terms else "steady-no-inertia"
         self._warm: SteadyState | None = None
+        # The last two solutions of the compiled solver with their operating quantities (speed
+        # [rad/s], temperature [K], preload [N], axial load [N]), oldest first: the predictor.
+        self._history: list[tuple[tuple[float, float, float, float], SteadyState]] = []
+        self._notes: dict[tuple[str, float, bool], tuple[str, ...]] = {}
+        self._contact_index: dict[str, tuple[NDArray[np.int64], ...]] = {}
         # Sphere Jacobian blocks of the compiled solver's last solve, with their residual scales.
         self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
         self._scenes: dict[float, ContactScene] = {}
@@ -308,7 +337,7 @@ class SteadyStateModel:
         state: SteadyState,
         loads: FloatArray,
         warm: bool = False,
-    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+    ) -> tuple[SteadyState, ContactSource, int, float]:
         """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
         scaled residual); SolverError when it does not converge. ``warm``: ``state`` comes from
         the last solution (the compiled solver may then reuse its Jacobian)."""
@@ -329,20 +358,6 @@ class SteadyStateModel:
             params = self._parameters[key] = np.array(scene_arrays(scene), dtype=np.float64)
         return params
 
-    def _reusable_jacobian(
-        self, count: int, scales: tuple[float, float, float], warm: bool
-    ) -> tuple[FloatArray, bool]:
-        """Storage for the sphere Jacobian blocks (B, 7, 7) of the compiled solver, holding
-        those of the last solve in the current residual scales when ``warm`` and available."""
-        stored = self._jacobian
-        if not warm or stored is None or stored[0].shape[0] != count:
-            return np.empty((count, 7, 7)), False
-        jacobian, old = stored
-        ratios = np.array(
-            [old[0] / scales[0]] * 3 + [old[1] / scales[1]] * 3 + [old[2] / scales[2]]
-        )
-        return np.ascontiguousarray(jacobian * ratios[:, None]), True
-
     def _newton_compiled(
         self,
         scene: ContactScene,
@@ -350,33 +365,41 @@ class SteadyStateModel:
         state: SteadyState,
         loads: FloatArray,
         warm: bool,
-    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+    ) -> tuple[SteadyState, KernelSolution, int, float]:
         """The iteration of :meth:`_newton_readable`, compiled, with exact per-sphere Jacobian
         blocks (:mod:`ballscrew_twin.kernels.steady_solver`). ``warm``: ``state`` is the last
         solution of this model, or near it, so the Jacobian blocks of the last solve are reused
         while they converge fast (refreshed when they do not)."""
         from ..kernels import steady_solver as solver
 
+        count = len(balls.nut)
         z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
         nut_offset = np.array(state.nut_offset, dtype=np.float64)
         force_scale, moment_scale = self._scales(scene, loads)
         scales = (force_scale, moment_scale, force_scale * self.config.screw.balls_per_nut)
-        jacobian, reuse = self._reusable_jacobian(len(z), scales, warm)
-        iterations, worst, status, linearisations, ev = solver.solve_compiled(
+        stored = self._jacobian
+        reuse = warm and stored is not None and stored[0].shape[0] == count
+        if reuse and stored is not None:
+            jacobian, old_scales = stored  # rescaled to ``scales`` in place by the kernel
+        else:
+            jacobian, old_scales = np.empty((count, 7, 7)), scales
+        solved = solver.solve_compiled(
             z,
             nut_offset,
             jacobian,
             reuse,
+            old_scales,
             balls.nut,
             balls.weight,
-            np.ascontiguousarray(balls.gravity),
-            np.ascontiguousarray(loads, dtype=np.float64),
+            balls.gravity,
+            loads,
             scales,
             self.inertial_terms,
             self.tolerance,
             self._kernel_parameters(scene),
         )
-        self._jacobian = (jacobian, scales) if linearisations or reuse else None
+        self._jacobian = (jacobian, scales) if solved.linearisations or reuse else None
+        iterations, worst, status = solved.iterations, solved.residual, solved.status
         if status == solver.STATUS_SINGULAR:
             raise SolverError("steady state: singular sphere Jacobian")
         if status == solver.STATUS_NOT_FINITE:
@@ -389,12 +412,12 @@ class SteadyStateModel:
                 f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
                 f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
             )
-        solved = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), nut_offset, scene.screw_speed)
-        return solved, ev, iterations, worst
+        solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed)
+        return solved_state, solved, iterations, worst
 
     def _newton_readable(
         self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
-    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+    ) -> tuple[SteadyState, ContactSource, int, float]:
         count = len(balls.nut)
         mask = self._unknown_mask(scene, count)
         ball_res, _, nut_res, ev = self._residual(scene, balls, state, loads)
@@ -546,7 +569,10 @@ class SteadyStateModel:
         loads = self.nut_axial_loads(op)
         start = warm_start if warm_start is not None else self._warm
         if start is not None and start.ball_nb.shape[0] == len(balls.nut):
-            if start.screw_speed != op.screw_speed:
+            predicted = self._predicted(op, len(balls.nut)) if warm_start is None else None
+            if predicted is not None:
+                start = predicted
+            elif start.screw_speed != op.screw_speed:
                 start = self._rescaled(start, scene, balls, op.screw_speed)
             try:
                 state, ev, iterations, residual = self._newton(
@@ -557,7 +583,60 @@ class SteadyStateModel:
         else:
             state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         self._warm = state
+        if self.backend == "compiled":
+            quantities = (op.screw_speed, op.temperature, op.preload, op.axial_load)
+            self._history = [*self._history[-1:], (quantities, state)]
         return self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+
+    def _predicted(self, op: OperatingPoint, count: int) -> SteadyState | None:
+        """Warm start extrapolated from the last two solutions (compiled solver), or None.
+
+        The operating quantities q = (speed, temperature, preload, axial load), each in units
+        of :data:`PREDICTOR_UNITS`, moved by d between the two; the new point lies s d from the
+        last one, s the projection of its own move on d (limited to PREDICTOR_RANGE). The
+        offsets and the rates over the speed (the rolling pattern) move by s times their own
+        change: exact while the solution is affine in q along d, as a warm start needs no more
+        (the Newton iteration then finishes the solve). None when there are no two solutions of
+        this mode, both at speeds of the sign of the new one (a start at a speed of other sign
+        or at standstill is rescaled as before).
+        """
+        if len(self._history) < 2:
+            return None
+        (q0, old), (q1, last) = self._history
+        speed = op.screw_speed
+        if (
+            old.ball_nb.shape[0] != count
+            or last.ball_nb.shape[0] != count
+            or not (speed * q0[0] > 0.0 and speed * q1[0] > 0.0)
+        ):
+            return None
+        target = (speed, op.temperature, op.preload, op.axial_load)
+        units = (
+            PREDICTOR_UNITS[0] * abs(q1[0]),
+            PREDICTOR_UNITS[1],
+            PREDICTOR_UNITS[2] * max(q1[2], 10.0),
+            PREDICTOR_UNITS[3] * max(abs(q1[3]), 10.0),
+        )
+        moved = [(b - a) / u for a, b, u in zip(q0, q1, units, strict=True)]
+        wanted = [(t - b) / u for b, t, u in zip(q1, target, units, strict=True)]
+        norm = sum(d * d for d in moved)
+        if norm == 0.0:
+            return None
+        s = sum(d * w for d, w in zip(moved, wanted, strict=True)) / norm
+        s = min(max(s, PREDICTOR_RANGE[0]), PREDICTOR_RANGE[1])
+        from ..kernels.steady_solver import extrapolate
+
+        start = SteadyState(np.empty((count, 2)), np.empty((count, 4)), np.empty(2), speed)
+        extrapolate(
+            (old.ball_nb, old.kinematics, old.nut_offset, q0[0]),
+            (last.ball_nb, last.kinematics, last.nut_offset, q1[0]),
+            s,
+            speed,
+            start.ball_nb,
+            start.kinematics,
+            start.nut_offset,
+        )
+        return start
 
     def _rescaled(
         self, start: SteadyState, scene: ContactScene, balls: BallSet, speed: float
@@ -573,7 +652,7 @@ class SteadyStateModel:
 
     def _cold_solve(
         self, op: OperatingPoint, balls: BallSet, loads: FloatArray
-    ) -> tuple[SteadyState, ContactEvaluation, int, float]:
+    ) -> tuple[SteadyState, ContactSource, int, float]:
         """Static equilibrium first (robust: smooth Hertz only), then the speed.
 
         If the direct step to full speed fails, the speed is raised in stages (continuation,
@@ -604,6 +683,7 @@ class SteadyStateModel:
         """Make the next solve start cold (used by benchmarks and after a scene change)."""
         self._warm = None
         self._jacobian = None
+        self._history = []
 
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""
@@ -618,10 +698,12 @@ class SteadyStateModel:
         scene: ContactScene,
         balls: BallSet,
         state: SteadyState,
-        ev: ContactEvaluation,
+        ev: ContactSource,
         iterations: int,
         residual: float,
     ) -> SteadySolution:
+        if not isinstance(ev, ContactEvaluation):
+            return self._assemble_compiled(op, mode, scene, balls, state, ev, iterations, residual)
         weight = balls.weight[:, None]
         speed = op.screw_speed
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
@@ -658,12 +740,112 @@ class SteadyStateModel:
             output=output,
             state=state,
             balls=balls,
-            contacts=ev,
+            contact_source=ev,
             screw_torque_direct=direct,
             gravity_torque=gravity_torque,
             iterations=iterations,
             residual=residual,
         )
+
+    def _assemble_compiled(
+        self,
+        op: OperatingPoint,
+        mode: str,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        solved: KernelSolution,
+        iterations: int,
+        residual: float,
+    ) -> SteadySolution:
+        """:meth:`_assemble` from the compiled solver's own summary of the solution (the same
+        sums, taken in the kernel) and its per-contact states (views of one array)."""
+        from ..kernels import steady_solver as solver
+
+        summary = solved.summary.tolist()
+        speed = op.screw_speed
+        if speed == 0.0:
+            breakdown = TorqueBreakdown()
+            nut_torque = (0.0, 0.0)
+            total = 0.0
+        else:
+            parts = [p / speed for p in summary[: len(MECHANISMS)]]
+            breakdown = TorqueBreakdown(**dict(zip(MECHANISMS, parts, strict=True)))
+            first = solver.SUMMARY_NUT_POWER
+            nut_torque = (summary[first] / speed, summary[first + 1] / speed)
+            total = float(sum(parts))  # TorqueBreakdown.total, the same sum
+        lift_power = -(summary[solver.SUMMARY_BALLS_POWER] + self._nut_gravity_power(scene))
+        output = TwinOutput(
+            drag_torque=total,
+            nut_torque=nut_torque,
+            breakdown=breakdown,
+            fidelity=f"{self.name}-{mode}",
+            operating_point=op,
+            contacts=self._kernel_contact_states(mode, balls, solved),
+            notes=self._fixed_notes(mode, scene, len(balls.nut)),
+        )
+        return SteadySolution(
+            output=output,
+            state=state,
+            balls=balls,
+            contact_source=solved,
+            screw_torque_direct=summary[solver.SUMMARY_DIRECT],
+            gravity_torque=lift_power / speed if speed != 0.0 else 0.0,
+            iterations=iterations,
+            residual=residual,
+        )
+
+    def _kernel_contact_states(
+        self, mode: str, balls: BallSet, solved: KernelSolution
+    ) -> ContactStates:
+        """:func:`_contact_states` of the compiled solver's state rows (no copies; the index
+        arrays, the same for every solve of a mode, are shared and read-only)."""
+        from ..kernels.steady_solver import STATE_ROWS
+
+        index = self._contact_index.get(mode)
+        if index is None:
+            count = len(balls.nut)
+            index = (
+                np.repeat(np.arange(count), 4),
+                np.repeat(balls.nut, 4),
+                np.tile(np.arange(4), count),
+            )
+            for array in index:
+                array.flags.writeable = False
+            self._contact_index[mode] = index
+        rows = dict(zip(STATE_ROWS, solved.states, strict=True))
+        return ContactStates(
+            sphere=index[0],
+            nut=index[1],
+            half_groove=index[2],
+            in_contact=solved.active.reshape(-1),
+            **rows,
+        )
+
+    def _fixed_notes(self, mode: str, scene: ContactScene, count: int) -> tuple[str, ...]:
+        """The notes of :meth:`_assemble` (they depend on the mode, the temperature and
+        whether the screw stands), kept per temperature."""
+        key = (mode, scene.temperature, scene.screw_speed == 0.0)
+        notes = self._notes.get(key)
+        if notes is None:
+            if len(self._notes) >= SCENE_CACHE_SIZE:
+                self._notes.pop(next(iter(self._notes)))
+            lines = [f"steady state, {mode} mode ({count} spheres solved)"]
+            if not self.inertial_terms:
+                lines.append("centrifugal force and gyroscopic moment of the spheres dropped")
+            if scene.screw_speed == 0.0:
+                lines.append("zero speed: nothing slides, drag torque 0 (breakaway not modelled)")
+            lines.extend(self._spacing_notes(scene))
+            notes = self._notes[key] = tuple(lines)
+        return notes
+
+    def _nut_gravity_power(self, scene: ContactScene) -> float:
+        """Gravity's power on the two nuts, moving at -Omega p/(2 pi) z [W] (vertical screw)."""
+        if self.config.screw.orientation != "vertical":
+            return 0.0
+        lead_rate = scene.geometry.lead / (2.0 * math.pi)
+        g = self.config.environment.gravity
+        return 2.0 * self.config.screw.nut_mass * g * scene.screw_speed * lead_rate
 
     def _potential_energy_rate(
         self, scene: ContactScene, balls: BallSet, state: SteadyState
@@ -691,11 +873,7 @@ class SteadyStateModel:
             + acc[:, 2] * (orbit_rate * (z_t * r_n) + along * z_b)
         )
         balls_power = scene.ball_mass * float(np.sum(balls.weight * g_dot_v))
-        nut_power = 0.0  # gravity's power on the two nuts, moving at -Omega p/(2 pi) z
-        if self.config.screw.orientation == "vertical":
-            g = self.config.environment.gravity
-            nut_power = 2.0 * self.config.screw.nut_mass * g * scene.screw_speed * lead_rate
-        return -(balls_power + nut_power)
+        return -(balls_power + self._nut_gravity_power(scene))
 
     def _spacing_notes(self, scene: ContactScene) -> list[str]:
         """Sphere-to-sphere contact is skipped when equally spaced spheres cannot touch."""

@@ -36,6 +36,8 @@ def test_quick_run_writes_every_output(tmp_path: Path) -> None:
     assert float(steady["realtime-map"]["drag_error_max"]) < 0.01
     transient = [r for r in rows if r["part"] == "transient" and r["model"] == "realtime-map"]
     assert transient and all(float(r["drag_error_max"]) < 0.05 for r in transient)
+    low = [r for r in rows if r["part"] == "low preload" and r["model"] == "realtime-map"]
+    assert [r["scene"].split(" ")[0] for r in low] == ["0-20", "20-100", "100-200"]
     table = (tmp_path / "accuracy.md").read_text()
     assert "| realtime-map |" in table.replace("| realtime-map-half |", "")
 

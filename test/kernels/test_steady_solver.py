@@ -20,18 +20,20 @@ import pytest
 
 from ballscrew_twin.errors import SolverError
 from ballscrew_twin.kernels import steady_solver
-from ballscrew_twin.kernels.contacts import scene_arrays
+from ballscrew_twin.kernels.contacts import N_ROWS, contacts_kernel, scene_arrays
 from ballscrew_twin.kernels.steady_solver import (
     DEPENDENCY_STAMP,
     compiled_stamp,
     ensure_fresh_cache,
     frozen_constants,
     linearise,
-    lu_solve_pair,
+    lu_factor,
+    lu_solve,
     residuals,
 )
 from ballscrew_twin.models import steady
-from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
+from ballscrew_twin.models.base import MECHANISMS, ContactStates, OperatingPoint
+from ballscrew_twin.models.contact_forces import ContactEvaluation
 from ballscrew_twin.models.steady import SteadySolution, SteadyState, SteadyStateModel
 from ballscrew_twin.params import TwinConfig, load_config
 
@@ -83,26 +85,33 @@ def test_frozen_constants_are_the_current_ones() -> None:
         steady.DIAGONAL_SHIFT,
         steady_solver.CHORD_DECREASE,
         steady_solver.CHORD_POLISH,
+        steady_solver.NEWTON_FINAL,
     )
     assert compiled_stamp() == DEPENDENCY_STAMP
     assert ensure_fresh_cache() is False  # checked once per process
 
 
-def test_lu_solve_pair_equals_numpy_and_flags_singular_blocks() -> None:
+def test_lu_factors_solve_as_numpy_and_flag_singular_blocks() -> None:
     rng = np.random.default_rng(7)
     for _ in range(20):
         a = rng.normal(size=(6, 6)) * 10.0 ** rng.integers(-6, 7, size=6)[:, None]
-        r1, r2 = rng.normal(size=6), rng.normal(size=6)
-        x1, x2 = np.empty(6), np.empty(6)
-        assert lu_solve_pair(a.copy(), r1, r2, x1, x2)
-        np.testing.assert_allclose(x1, np.linalg.solve(a, r1), rtol=1e-9, atol=1e-12)
-        np.testing.assert_allclose(x2, np.linalg.solve(a, r2), rtol=1e-9, atol=1e-12)
+        factors, perm = a.copy(), np.empty(6, dtype=np.int64)
+        assert lu_factor(factors, perm)
+        for _ in range(2):  # the factors serve several right-hand sides
+            rhs, x = rng.normal(size=6), np.empty(6)
+            lu_solve(factors, perm, rhs, x)
+            np.testing.assert_allclose(x, np.linalg.solve(a, rhs), rtol=1e-9, atol=1e-12)
     singular = rng.normal(size=(6, 6))
     singular[:, 3] = 0.0
-    assert not lu_solve_pair(singular.copy(), np.ones(6), np.ones(6), np.empty(6), np.empty(6))
+    assert not lu_factor(singular.copy(), np.empty(6, dtype=np.int64))
 
 
 # ----------------------------------------------------------------------------- residual, Jacobian
+def _records(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Output arrays of ``residuals``: active contacts, contact buffer."""
+    return np.zeros((count, 4), dtype=bool), np.zeros((N_ROWS, count, 4))
+
+
 def _problem(config: TwinConfig, mode: str, point: OperatingPoint):  # type: ignore[no-untyped-def]
     """A state near the solution of ``point`` and the arguments of the residual kernels."""
     model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
@@ -136,7 +145,7 @@ def test_residuals_are_those_of_the_reference_model(config: TwinConfig, mode: st
     point = operating_point(1000.0, -20.0, 800.0, axial_load=300.0)
     model, scene, balls, z, e, args = _problem(config, mode, point)
     res = np.empty((len(z), 6))
-    nut_res = residuals(z, e, *args, res)
+    nut_res = residuals(z, e, *args, res, *_records(len(z)))
     state = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), e, scene.screw_speed)
     reference = SteadyStateModel(config, mode=mode, backend="reference")  # type: ignore[arg-type]
     ref_res, _, ref_nut, _ = reference._residual(scene, balls, state, model.nut_axial_loads(point))
@@ -155,7 +164,7 @@ def test_forward_mode_blocks_equal_difference_quotients(
     res, axial, jac = np.empty((count, 6)), np.empty(count), np.empty((count, 7, 7))
     nut_res = linearise(z, e, *args, res, axial, jac)
     plain = np.empty((count, 6))
-    assert np.array_equal(residuals(z, e, *args, plain), nut_res)
+    assert np.array_equal(residuals(z, e, *args, plain, *_records(count)), nut_res)
     assert np.array_equal(plain, res)  # the value part is the plain evaluation
 
     def rows(zz: np.ndarray, ee: np.ndarray) -> np.ndarray:
@@ -236,6 +245,97 @@ def test_inertia_free_reduction_equals_the_reference(config: TwinConfig) -> None
     ).solve(point)
     got = SteadyStateModel(config, mode="symmetric", inertial_terms=False).solve(point)
     assert_same_solution(got, ref)
+
+
+# ----------------------------------------------------------------------------- results
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+@pytest.mark.parametrize("rpm", [700.0, 0.0])
+def test_contacts_recorded_in_the_solve_are_those_of_the_contact_kernel(
+    config: TwinConfig, mode: str, rpm: float
+) -> None:
+    """The solver records the contacts while it evaluates the residuals (active ones) and
+    completes them at the end (inactive ones, gravity and inertia): the buffer must be the
+    contact kernel's at the returned state, to the last bit."""
+    point = operating_point(rpm, 10.0, 900.0, axial_load=400.0)  # both nuts, both flanks
+    model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
+    model.solve(operating_point(rpm * 1.1, 12.0, 950.0))
+    solution = model.solve(point)  # warm: recorded by residuals()
+    state, balls = solution.state, solution.balls
+    scene = model.scene(point.temperature, point.screw_speed)
+    count = len(balls.nut)
+    active, buffer = contacts_kernel(
+        np.ascontiguousarray(state.ball_nb),
+        np.ascontiguousarray(state.kinematics),
+        state.nut_offset[balls.nut],
+        balls.gravity,
+        np.zeros((0, 3)),
+        np.zeros(count),
+        np.zeros((0, 4)),
+        False,
+        *scene_arrays(scene),
+    )
+    source = solution.contact_source
+    assert not isinstance(source, ContactEvaluation)
+    assert not active.all() and active.any()
+    np.testing.assert_array_equal(source.active, active)
+    np.testing.assert_array_equal(source.buffer, buffer)
+
+
+@pytest.mark.parametrize("mode", ["symmetric", "full"])
+@pytest.mark.parametrize("rpm", [-1500.0, 0.0])
+def test_outputs_summed_in_the_kernel_equal_those_summed_in_python(
+    config: TwinConfig, mode: str, rpm: float
+) -> None:
+    """Torques, breakdown, per-contact states, direct and gravity torque of the compiled
+    solver's own summary against ``_assemble`` of the same contacts (numpy sums)."""
+    point = operating_point(rpm, 35.0, 700.0, axial_load=-300.0)
+    model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
+    got = model.solve(point)
+    scene = model.scene(point.temperature, point.screw_speed)
+    want = model._assemble(
+        point, model.resolved_mode(), scene, got.balls, got.state, got.contacts, 0, 0.0
+    )
+    scale = max(abs(want.output.drag_torque), 1e-300)
+    assert got.output.drag_torque == pytest.approx(want.output.drag_torque, rel=1e-13, abs=0)
+    np.testing.assert_allclose(got.output.nut_torque, want.output.nut_torque, atol=1e-13 * scale)
+    for name in MECHANISMS:
+        assert getattr(got.output.breakdown, name) == pytest.approx(
+            getattr(want.output.breakdown, name), abs=1e-13 * scale
+        )
+    assert got.screw_torque_direct == pytest.approx(want.screw_torque_direct, rel=1e-12)
+    assert got.gravity_torque == pytest.approx(want.gravity_torque, rel=1e-12, abs=1e-300)
+    assert got.output.notes == want.output.notes
+    assert got.output.contacts is not None and want.output.contacts is not None
+    for name in ContactStates.__dataclass_fields__:
+        np.testing.assert_allclose(
+            getattr(got.output.contacts, name),
+            getattr(want.output.contacts, name),
+            rtol=1e-14,
+            atol=0,
+            err_msg=name,
+        )
+
+
+def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> None:
+    """The warm start extrapolated from two solutions: their own points give them back, a
+    point beyond the second lies on the line through both (offsets, rates over the speed)."""
+    first, second = operating_point(200.0, 20.0, 1000.0), operating_point(220.0, 22.0, 1100.0)
+    model = SteadyStateModel(config, mode="symmetric")
+    a = model.solve(first).state
+    b = model.solve(second).state
+    back = model._predicted(first, 2)
+    assert back is not None
+    np.testing.assert_allclose(back.ball_nb, a.ball_nb, rtol=1e-12, atol=1e-20)
+    np.testing.assert_allclose(back.kinematics, a.kinematics, rtol=1e-12)
+    beyond = model._predicted(operating_point(230.0, 23.0, 1150.0), 2)
+    assert beyond is not None
+    np.testing.assert_allclose(
+        beyond.nut_offset, b.nut_offset + 0.5 * (b.nut_offset - a.nut_offset), rtol=1e-12
+    )
+    per_speed = b.kinematics / second.screw_speed
+    expected = per_speed + 0.5 * (per_speed - a.kinematics / first.screw_speed)
+    np.testing.assert_allclose(beyond.kinematics, expected * 230.0 * RPM, rtol=1e-12)
+    assert model._predicted(operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
 
 
 # ----------------------------------------------------------------------------- failures

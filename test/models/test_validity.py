@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from ballscrew_twin.errors import ConfigError, OperatingPointError
 from ballscrew_twin.models.base import OperatingPoint, QuasiStaticModel, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel
+from ballscrew_twin.models.realtime import RealTimeModel
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.validity import (
     NonFiniteOutputError,
@@ -21,6 +22,7 @@ from ballscrew_twin.models.validity import (
     ValidityEnvelope,
     all_finite,
     clamp_operating_point,
+    low_preload_note,
 )
 from ballscrew_twin.params import load_config
 
@@ -203,3 +205,40 @@ def test_all_finite_of_huge_values_and_of_nothing() -> None:
     assert all_finite([huge, -huge])
     assert not all_finite([huge, np.array([0.0, math.nan])])
     assert all_finite([])
+
+
+@pytest.mark.parametrize(
+    ("preload", "bound"), [(0.0, "172 %"), (12.0, "172 %"), (20.0, "58 %"), (120.0, "31 %")]
+)
+def test_real_time_table_at_low_preload_carries_the_measured_bound(
+    preload: float, bound: str
+) -> None:
+    """Below 150 N the packaged table is off the steady model by more than 1 %: each output
+    says by how much it was measured to be, on the step and the steady interface alike."""
+    model = ValidatedModel(RealTimeModel(CONFIG), ENVELOPE)
+    op = OperatingPoint(screw_speed=300 * RPM, temperature=293.15, preload=preload)
+    for out in (model.step(op, 1e-3), model.step(op, 1e-3, contacts=False), model.evaluate(op)):
+        notes = [n for n in out.notes if n.startswith("validity:")]
+        assert len(notes) == 1 and bound in notes[0] and f"{preload:.4g} N" in notes[0]
+
+
+def test_no_low_preload_note_above_150_n_or_for_other_models() -> None:
+    realtime = ValidatedModel(RealTimeModel(CONFIG), ENVELOPE)
+    op = OperatingPoint(screw_speed=300 * RPM, temperature=293.15, preload=150.0)
+    assert not [n for n in realtime.step(op, 1e-3).notes if n.startswith("validity:")]
+    catalog = ValidatedModel(CatalogModel(CONFIG), ENVELOPE)
+    low = replace(op, preload=5.0)
+    assert not [n for n in catalog.evaluate(low).notes if n.startswith("validity:")]
+
+
+def test_a_table_of_another_screw_says_it_was_not_checked_at_low_preload() -> None:
+    class OtherTable:
+        fingerprint = "0" * 64
+
+    class OtherScrew:
+        name = "realtime_map"
+        map = OtherTable()
+
+    op = OperatingPoint(screw_speed=300 * RPM, temperature=293.15, preload=40.0)
+    note = low_preload_note(OtherScrew(), op)
+    assert note is not None and "not checked" in note and "58 %" in note
