@@ -16,7 +16,8 @@ def test_quick_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     assert "| class |" in table
     # the comparison monitor's report follows, on the same recordings (same hours of data)
     first, _, second = table.partition("### The same recordings, detectors cusum, spectral only")
-    assert second and first.count("| class | severity |") == second.count("| class | severity |") == 1
+    header = "| class | severity |"
+    assert second and first.count(header) == second.count(header) == 1
     hours = [line for line in table.splitlines() if line.startswith("Healthy data:")]
     assert len(hours) == 2 and hours[0].split(" in ")[0] == hours[1].split(" in ")[0]
     runs = json.loads((tmp_path / "runs.json").read_text())
