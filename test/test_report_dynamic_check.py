@@ -6,17 +6,17 @@ leaves a first-order error in the screw/nut split (docs/model.md, issue 15 secti
 extrapolation to dt -> 0 that these tests check on exact sequences and on a real run.
 """
 
+import contextlib
+import io
+import json
 import math
+from pathlib import Path
 
 import pytest
 
+from ballscrew_twin.cli import main
 from ballscrew_twin.params import load_config
-from ballscrew_twin.report.dynamic_check import (
-    check_scenario,
-    check_speed,
-    richardson,
-    scaled_preload,
-)
+from ballscrew_twin.report.dynamic_check import check_scenario, richardson, scaled_preload
 
 
 @pytest.mark.parametrize(("power", "order"), [(1, 1.0), (2, 2.0)])
@@ -51,15 +51,21 @@ def test_scaled_preload_keeps_each_spheres_load() -> None:
     assert scaled_preload(config, 1, 1500.0) * config.screw.balls_per_nut == pytest.approx(1500.0)
 
 
-def test_dynamic_model_confirms_the_steady_inertial_terms_at_3000_rpm() -> None:
-    """One sphere per nut carrying the paper screw's per-sphere load at 1500 N, 20 C, 3000 rpm,
-    runs at 2 and 1 us: extrapolated to dt -> 0, the screw/nut split of the normal force and
-    the friction order are the steady model's with its centrifugal and gyroscopic terms, not
-    without them (where the order has the other sign). The drag compared is the dissipated
-    power over the speed: with one sphere per nut (1.4 N mm) the motor-side drag still carries
-    the change of the stored energy while the PI loop's speed creeps (-0.026 N mm measured)."""
-    preload = scaled_preload(load_config(), 1)
-    entry = check_speed(20.0, 3000.0, preload, (2e-6, 1e-6), balls_per_nut=1)
+def test_dynamic_model_confirms_the_steady_inertial_terms_at_3000_rpm(tmp_path: Path) -> None:
+    """``report gaps --study dynamic --quick --balls-per-nut 1``: one sphere per nut carrying
+    the paper screw's per-sphere load at 1500 N, 20 C, 3000 rpm, runs at 2 and 1 us:
+    extrapolated to dt -> 0, the screw/nut split of the normal force and the friction order
+    are the steady model's with its centrifugal and gyroscopic terms, not without them (where
+    the order has the other sign). The drag compared is the dissipated power over the speed:
+    with one sphere per nut (1.4 N mm) the motor-side drag still carries the change of the
+    stored energy while the PI loop's speed creeps (-0.026 N mm measured)."""
+    printed = io.StringIO()
+    command = ["report", "gaps", "--study", "dynamic", "--quick", "--balls-per-nut", "1"]
+    with contextlib.redirect_stdout(printed):
+        assert main([*command, "--out", str(tmp_path)]) == 0
+    (entry,) = json.loads((tmp_path / "gaps.json").read_text(encoding="utf-8"))["dynamic"]
+    assert entry["preload_N"] == pytest.approx(scaled_preload(load_config(), 1))
+    assert "friction_order" in printed.getvalue() and entry["speed_rpm"] == 3000.0
     assert all(run["settled"] for run in entry["dynamic"]), entry["dynamic"]
     limit, steady, without = (
         entry["extrapolated"],
