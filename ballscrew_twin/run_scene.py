@@ -373,13 +373,17 @@ def write_npz(result: SceneResult, path: Path) -> None:
 
 
 def plot(result: SceneResult, selection: Selection, path: Path) -> None:
-    """Commands and torques over time (PNG)."""
-    import matplotlib
+    """Commands and torques over time (PNG; torques in mN m, as on the project's other plots).
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Raises:
+        BallscrewTwinError: the file cannot be written.
+    """
+    from matplotlib.figure import Figure
 
-    fig, axes = plt.subplots(3, 1, figsize=(8, 8), sharex=True)
+    from .plots.save import save_png
+
+    fig = Figure(figsize=(8, 8))
+    axes = fig.subplots(3, 1, sharex=True)
     t = result.time
     axes[0].plot(t, result.speed, label="command")
     axes[0].plot(t, result.screw_speed, ":", label="screw")
@@ -392,18 +396,18 @@ def plot(result: SceneResult, selection: Selection, path: Path) -> None:
     axes[1].plot(t, result.axial_load, label="axial load")
     axes[1].set_ylabel("force [N]")
     axes[1].legend()
-    axes[2].plot(t, result.drag_torque * 1e3, label="drag")
-    axes[2].plot(t, result.nut_torque[:, 0] * 1e3, label="master nut")
-    axes[2].plot(t, result.nut_torque[:, 1] * 1e3, label="slave nut")
-    axes[2].set_ylabel("torque [N mm]")
+    milli = 1e3  # N m -> mN m
+    axes[2].plot(t, result.drag_torque * milli, label="drag")
+    axes[2].plot(t, result.nut_torque[:, 0] * milli, label="master nut")
+    axes[2].plot(t, result.nut_torque[:, 1] * milli, label="slave nut")
+    axes[2].set_ylabel("torque [mN m]")
     axes[2].set_xlabel("time [s]")
     axes[2].legend()
     bound = selection.bounds.get("drag_torque")
     bound_text = "n/a" if bound is None else f"{bound:.2g}"
     fig.suptitle(f"{selection.scene.name}: {selection.model} (drag error bound {bound_text})")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_png(fig, path, dpi=100)
 
 
 def _extreme_points(scene: Scene) -> list[OperatingPoint]:

@@ -3,6 +3,7 @@
 import contextlib
 import csv
 import io
+import itertools
 import math
 from pathlib import Path
 
@@ -147,6 +148,35 @@ def test_gap_variants_replace_laws_only_inside_their_block() -> None:
         gaps.variant_laws("shipped+nope", config),
     ):
         pass
+
+
+def test_spin_sliding_variants_set_the_spin_sliding_speed_inside_their_block() -> None:
+    """The spin-sliding variants (D11) replace c in v_spin = c a |omega_spin| of the reference
+    laws inside the block only; MP grows with c (the friction force rises with the sliding
+    speed), and the compiled (shipped) model is untouched."""
+    from ballscrew_twin.models import contact_forces
+    from ballscrew_twin.models.steady import SteadyStateModel
+    from ballscrew_twin.params import load_config
+    from ballscrew_twin.report import gaps
+
+    config = load_config()
+    shipped = contact_forces.SPIN_SLIDING_FACTOR
+    assert shipped == pytest.approx(4.0 / (3.0 * math.pi))
+    op = gaps.operating_point(20.0, 100.0, 1500.0)
+    compiled = SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque
+    spin = {}
+    for name in ("spin_sliding_half", "shipped", "spin_sliding_pressure", "spin_sliding_edge"):
+        with gaps.variant_laws(name, config):
+            factor = contact_forces.SPIN_SLIDING_FACTOR
+            assert factor == gaps.SPIN_SLIDING_FACTORS.get(name, shipped)
+            inside = SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque
+            assert inside == compiled
+        (solution,) = gaps.solve_curve(config, name, 20.0, 100.0, (1500.0,))
+        assert not isinstance(solution, Exception)
+        spin[factor] = solution.output.breakdown.spin
+        assert shipped == contact_forces.SPIN_SLIDING_FACTOR
+    moments = [spin[c] for c in sorted(spin)]
+    assert all(b > a for a, b in itertools.pairwise(moments)), spin
 
 
 def test_gap_shipped_variant_is_the_shipped_model() -> None:

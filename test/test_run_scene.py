@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.models.base import OperatingPoint
@@ -95,6 +96,35 @@ def test_catalogue_scene_gives_eq_52(tmp_path: Path) -> None:
             screw.helix_angle,
         )
         assert row["drag_torque_Nm"] == pytest.approx(expected, rel=1e-9)
+
+
+def test_scene_plot_shows_torques_in_mn_m(tmp_path: Path, saved_figures: SavedFigures) -> None:
+    """scene.png: every axis carries a unit; the torque axis is in mN m and its curves are the
+    written drag and nut torques (N m in the CSV) times 1000."""
+    scene = write_scene(
+        tmp_path,
+        commands={
+            "speed": 100 * RPM,
+            "temperature": 293.15,
+            "preload": {"points": [[0, 1500.0], [1, 3000.0]]},
+        },
+        outputs=["drag", "per_nut"],
+        tolerance={"drag_torque": 0.9},
+    )
+    out = tmp_path / "out"
+    assert main(["scene", str(scene), "--out", str(out), "--quiet"]) == 0
+    assert saved_figures.paths() == [str(out / "scene.png")]
+    assert saved_figures.missing_units() == []
+    fig = saved_figures.saved[0][0]
+    (torque_axes,) = [ax for ax in fig.axes if ax.get_ylabel().startswith("torque")]
+    assert torque_axes.get_ylabel() == "torque [mN m]"
+    rows = read_csv(out / "timeseries.csv")
+    curves = {line.get_label(): np.asarray(line.get_ydata()) for line in torque_axes.lines}
+    for label, column in (("drag", "drag_torque_Nm"), ("master nut", "nut_master_Nm")):
+        # the CSV holds 10 significant digits
+        np.testing.assert_allclose(curves[label], [1e3 * r[column] for r in rows], rtol=1e-9)
+    assert min(curves["drag"]) > 1.0  # mN m: about 19 at 1500 N (Eq. 52), not 0.019
+    assert (out / "scene.png").stat().st_size > 1000
 
 
 def test_fault_scene_runs_the_dynamic_model_from_the_static_state(tmp_path: Path) -> None:

@@ -22,6 +22,8 @@ Studies (each prints a table; ``--out`` also gets them as JSON):
   removed; the 20 and 60 C speed trends by mechanism and the 60 C one against mu_dry; without
   ``--quick`` the screw/nut friction order over 144 points, with and without the spheres'
   inertial terms.
+- ``dynamic``: the steady model's centrifugal force and gyroscopic moment against the dynamic
+  model at 20 C, 1500 N, 100/1000/3000 rpm (:mod:`ballscrew_twin.report.dynamic_check`).
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ from scipy.optimize import minimize
 from ..calibration import with_parameters
 from ..cli import RPM
 from ..errors import SolverError
+from ..models import contact_forces
 from ..models.base import MECHANISMS, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyStateModel
@@ -65,8 +68,24 @@ FIT_PARAMETERS = ("eyring_stress", "dry_friction_coefficient")
 #: The 144-point grid of the friction-order count: temperatures [C], speeds [rpm], preloads [N].
 ORDER_GRID = ((-20.0, 20.0, 60.0), (100.0, 1000.0, 2000.0, 4000.0), tuple(range(250, 3001, 250)))
 
-#: One replaced law: (module, attribute, replacement).
-Patch = tuple[Any, str, Callable[..., Any]]
+#: One replaced law or constant: (module, attribute, replacement).
+Patch = tuple[Any, str, Any]
+
+#: Spin sliding speed of D11, v_spin = c a |omega_spin| (a the major semi-axis): the shipped c
+#: is 4 / (3 pi), the mean |y| / a over a thin ellipse weighted by *area*; weighted by the Hertz
+#: *pressure* the mean is 3/8, the thin-ellipse limit of Eq. 45's bracket (the arm of MP); the
+#: largest sliding speed, at the ends of the major axis, has c = 1.
+SPIN_SLIDING_FACTORS = {
+    "spin_sliding_half": 0.5 * contact_forces.SPIN_SLIDING_FACTOR,
+    "spin_sliding_pressure": 0.375,
+    "spin_sliding_edge": 1.0,
+}
+
+
+def _spin_sliding(factor: float) -> list[Patch]:
+    """Spin sliding speed (D11) c a |omega_spin| with c = ``factor``: it sets the friction of MP
+    (Eq. 45) and, added to the centre slip, mu_s of MER and MC."""
+    return [(contact_forces, "SPIN_SLIDING_FACTOR", factor)]
 
 
 def _mer_unscaled() -> list[Patch]:
@@ -197,6 +216,18 @@ VARIANTS: dict[str, tuple[str, Callable[[TwinConfig], list[Patch]]]] = {
         "Eq. 37 with coefficient 1.21",
         lambda _: [(traction, "load_share_asperities", load_share_121)],
     ),
+    "spin_sliding_half": (
+        "spin sliding speed (D11) 2/(3 pi) a |omega_spin|: half the shipped one",
+        lambda _: _spin_sliding(SPIN_SLIDING_FACTORS["spin_sliding_half"]),
+    ),
+    "spin_sliding_pressure": (
+        "spin sliding speed (D11) 3/8 a |omega_spin|: pressure-weighted mean arm (Eq. 45)",
+        lambda _: _spin_sliding(SPIN_SLIDING_FACTORS["spin_sliding_pressure"]),
+    ),
+    "spin_sliding_edge": (
+        "spin sliding speed (D11) a |omega_spin|: its largest value, at the ellipse's ends",
+        lambda _: _spin_sliding(SPIN_SLIDING_FACTORS["spin_sliding_edge"]),
+    ),
     "no_mer": ("MER removed", lambda _: _zero(rolling, "hysteresis_moment")),
     "no_mc": ("MC removed", lambda _: _zero(rolling, "curvature_moment")),
     "no_fr": ("FR and FP removed", lambda _: _zero(rolling, "rolling_resistance_force")),
@@ -211,7 +242,12 @@ CANDIDATES = (
     "film_alpha_asymptotic",
     "load_share_printed",
     "load_share_121",
+    "spin_sliding_half",
+    "spin_sliding_pressure",
+    "spin_sliding_edge",
 )
+#: Refits of ``--study eq52``: of tau_e and mu_dry freely, and within :data:`LITERATURE`.
+REFITS = ("free", "literature")
 
 
 @contextlib.contextmanager
@@ -594,10 +630,13 @@ def _print_eq52(fit: Eq52Fit, label: str) -> None:
 
 
 def run_eq52(
-    config: TwinConfig, quick: bool, variants: Sequence[str] | None = None
+    config: TwinConfig,
+    quick: bool,
+    variants: Sequence[str] | None = None,
+    refits: Sequence[str] = REFITS,
 ) -> dict[str, Any]:
-    """Eq. 52 study: breakdown, each variant (default: :data:`CANDIDATES`) as shipped,
-    refitted freely and refitted within the literature ranges."""
+    """Eq. 52 study: breakdown, each variant (default: :data:`CANDIDATES`) as shipped and,
+    without ``quick``, refitted freely and/or within the literature ranges (``refits``)."""
     report: dict[str, Any] = {"breakdown": {}, "variants": {}}
     print(
         "Eq. 52 at 100 rpm (drag N mm, error), preloads",
@@ -622,10 +661,11 @@ def run_eq52(
         shipped = eq52_fit(config, variant)
         _print_eq52(shipped, "as shipped")
         entry: dict[str, Any] = {"shipped": shipped.__dict__ | {"max_error": shipped.max_error}}
-        if not quick:
+        if not quick and "free" in refits:
             fitted = refit(config, variant)
             _print_eq52(fitted, "refitted")
             entry["refitted"] = fitted.__dict__ | {"max_error": fitted.max_error}
+        if not quick and "literature" in refits:
             bounded = refit(config, variant, bounds=LITERATURE)
             _print_eq52(bounded, "refitted within the literature ranges")
             entry["literature"] = bounded.__dict__ | {"max_error": bounded.max_error}
@@ -683,7 +723,7 @@ def run_angles(config: TwinConfig, quick: bool) -> dict[str, Any]:
     return report
 
 
-STUDIES = ("eq52", "film", "angles")
+STUDIES = ("eq52", "film", "angles", "dynamic")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -697,6 +737,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="gaps, eq52: variant of the laws (default: all candidates; '+' combines): "
         + ", ".join(VARIANTS),
     )
+    parser.add_argument(
+        "--balls-per-nut",
+        type=int,
+        default=None,
+        help="gaps, dynamic: spheres per nut of the dynamic check, the preload scaled to keep "
+        "each sphere's load (default: the config's)",
+    )
+    parser.add_argument(
+        "--refit",
+        action="append",
+        choices=REFITS,
+        help="gaps, eq52: refit of tau_e and mu_dry, free or within the literature ranges "
+        "(default: both; none with --quick)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -706,11 +760,15 @@ def run(args: argparse.Namespace) -> int:
     studies = args.study or list(STUDIES)
     report: dict[str, Any] = {}
     if "eq52" in studies:
-        report["eq52"] = run_eq52(config, args.quick, args.variant)
+        report["eq52"] = run_eq52(config, args.quick, args.variant, args.refit or REFITS)
     if "film" in studies:
         report["film"] = run_film(config)
     if "angles" in studies:
         report["angles"] = run_angles(config, args.quick)
+    if "dynamic" in studies:
+        from .dynamic_check import run_dynamic  # the dynamic model: only when asked for
+
+        report["dynamic"] = run_dynamic(args.quick, args.balls_per_nut, args.config)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     path = out / "gaps.json"
