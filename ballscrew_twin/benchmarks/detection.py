@@ -11,8 +11,9 @@ unit on a **separate** healthy recording of it (:mod:`ballscrew_twin.health.comm
 
 Units are numbered; their number seeds the unit, its duty cycles, faults and noise. Tuning
 (the monitor's error scale, gates, thresholds) may use only the training range
-(``--units 0:30``); the reported figures come from the test range (``--units 1000:1030``, the
-default), printed with the range. Per unit: one commissioning recording (``--commission`` s,
+(``--units 0:30``); the reported figures come from the test range (``--units 2000:2030``, the
+default), printed with the range. Units 1000-1029 were the test range of round 2 of issue 13;
+their run list was read afterwards to see where misses fell, so they are no longer held out. Per unit: one commissioning recording (``--commission`` s,
 a cold start warming through the temperatures the unit will see: commission through a
 warm-up), one healthy recording (``--healthy`` s, a new duty cycle, 1 in 4 a cold
 start) and ``--faults`` fault recordings (``--fault-length`` s, onset uniform in the middle
@@ -71,7 +72,7 @@ BLIND_SHARE = 0.9
 #: Confidence from which a named class is counted as a confident call [-].
 CONFIDENT = 0.9
 #: Default unit ranges.
-TEST_UNITS = (1000, 1030)
+TEST_UNITS = (2000, 2030)
 TRAINING_UNITS = (0, 30)
 SENSORS = {
     "torque": {"rate": 1000.0, "noise": 2.0e-4, "bias": 0.0, "resolution": 1.0e-5},
