@@ -13,11 +13,12 @@ Units are numbered; their number seeds the unit, its duty cycles, faults and noi
 (the monitor's error scale, gates, thresholds) may use only the training range
 (``--units 0:30``); the reported figures come from the test range (``--units 2000:2030``, the
 default), printed with the range. Units 1000-1029 were the test range of round 2 of issue 13;
-their run list was read afterwards to see where misses fell, so they are no longer held out. Per unit: one commissioning recording (``--commission`` s,
-a cold start warming through the temperatures the unit will see: commission through a
-warm-up), one healthy recording (``--healthy`` s, a new duty cycle, 1 in 4 a cold
-start) and ``--faults`` fault recordings (``--fault-length`` s, onset uniform in the middle
-third) of the classes in turn at the severities of :data:`SEVERITIES`.
+their run list was read afterwards to see where misses fell, so they are no longer held out.
+Per unit: one commissioning recording (``--commission`` s, a cold start warming through the
+temperatures the unit will see: commission through a warm-up), one healthy recording
+(``--healthy`` s, a new duty cycle, 1 in 4 a cold start) and ``--faults`` fault recordings
+(``--fault-length`` s, onset uniform in the middle third) of the classes in turn at the
+severities of :data:`SEVERITIES`.
 
 Measured: false alarms per hour on the healthy recordings (95 % upper bound 3 / hours when
 none), the share of time gated; per class x severity: detected within :data:`DELAY_GOAL` s,
