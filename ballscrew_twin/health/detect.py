@@ -125,6 +125,7 @@ def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, 
         "sensor_noise_Nm": math.sqrt(monitor.sensor_variance or math.nan),
         "thresholds": {
             "cusum": monitor.cusum.threshold,
+            "local": monitor.local_cusum.threshold,
             "chi_square": monitor.chi_square.threshold,
             "spectral": monitor.spectral.threshold,
         },

@@ -13,7 +13,7 @@ from ballscrew_twin.health.bags import read_bench_bag
 from ballscrew_twin.health.baseline import load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR, SAMPLE_NAMES
 from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary
-from ballscrew_twin.health.monitor import FAULT, OK, MonitorSettings
+from ballscrew_twin.health.monitor import DETECTORS, FAULT, OK, MonitorSettings
 from ballscrew_twin.health.residuals import TwinPredictor, shared_predictor
 from ballscrew_twin.params import load_config
 
@@ -75,6 +75,8 @@ def test_detect_command_writes_verdict_plots_and_samples(
     assert verdict["verdict"] == "FAULT"
     assert verdict["fault_class"] == "raceway_defect"
     assert verdict["class_correct"] is True
+    # every detector of the monitor has its threshold in the verdict
+    assert set(verdict["thresholds"]) == set(DETECTORS)
     for name in ("residuals.png", "statistics.png", "classification.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # every axis carries its unit; the verdict axis reads UNKNOWN < OK < WARN < FAULT upwards
