@@ -36,6 +36,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..errors import ConfigError
+
 #: Bin widths: log10 speed [decades], natural-log preload [-].
 SPEED_BIN = 0.1
 PRELOAD_BIN = 0.05
@@ -84,6 +86,13 @@ class _Bin:
     temperature: float = math.nan
     log_speed: float = math.nan
 
+    def fresh(self, time: float, temperature: float) -> bool:
+        """Whether the bin is still a reference at ``time`` [s] and ``temperature`` [K]
+        (MEMORY_AGE, TEMPERATURE_SPAN)."""
+        return time - self.last <= MEMORY_AGE and abs(temperature - self.temperature) <= (
+            TEMPERATURE_SPAN
+        )
+
 
 BinKey = tuple[int, int, int, int]
 
@@ -120,19 +129,12 @@ class ResidualMemory:
 
     def __init__(self, floor: float = FLOOR) -> None:
         if not (math.isfinite(floor) and floor >= 0.0):
-            raise ValueError(f"residual memory floor = {floor!r} must be finite and >= 0")
+            raise ConfigError(f"residual memory floor = {floor!r} must be finite and >= 0")
         self.floor = floor
         self._bins: dict[BinKey, _Bin] = {}
 
     def __len__(self) -> int:
         return len(self._bins)
-
-    def _fresh(self, b: _Bin | None, time: float, temperature: float) -> bool:
-        return (
-            b is not None
-            and time - b.last <= MEMORY_AGE
-            and abs(temperature - b.temperature) <= TEMPERATURE_SPAN
-        )
 
     def innovation(
         self,
@@ -148,7 +150,7 @@ class ResidualMemory:
         fewer than MIN_COUNT blocks, was last updated more than MEMORY_AGE ago or lies more
         than TEMPERATURE_SPAN away."""
         b = self._bins.get(key)
-        if b is None or not self._fresh(b, time, temperature) or b.count < MIN_COUNT:
+        if b is None or not b.fresh(time, temperature) or b.count < MIN_COUNT:
             return None
         apart = (SPEED_SLOPE * (math.log(abs(speed)) - b.log_speed)) ** 2 + (
             TEMPERATURE_SLOPE * (temperature - b.temperature)
@@ -169,7 +171,7 @@ class ResidualMemory:
         [rad/s] to its bin (the caller checks |z| < UPDATE_GATE); a stale bin (MEMORY_AGE,
         TEMPERATURE_SPAN) starts afresh."""
         b = self._bins.get(key)
-        if b is None or not self._fresh(b, time, temperature):
+        if b is None or not b.fresh(time, temperature):
             b = self._bins[key] = _Bin(temperature=temperature, log_speed=math.log(abs(speed)))
         b.last = time
         b.count = min(b.count + 1, MEMORY_BLOCKS)

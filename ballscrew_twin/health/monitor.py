@@ -428,21 +428,13 @@ class HealthMonitor:
             note=note,
         )
 
-    def block_sigma(
-        self,
-        block: Block,
-        drag: float,
-        inertia: float,
-        drag_change: float = 0.0,
-        steady: bool = True,
-    ) -> float:
-        """1-sigma error of the twin's block mean [N m] without the sensor noise (see
-        :mod:`.baseline`), plus TRANSIENT_ERROR times ``drag_change`` [N m], how much the
-        quasi-static drag changes along the block: where the speed sweeps the drag through a
-        range within 0.1 s (a hard stop, a step), the unit's friction lags it (presliding over
-        the rotation, breakaway near standstill) by an amount the twin does not model.
-        ``steady=False`` leaves out the twin's steady error (band, absolute, outside the
-        commissioned temperatures), which repeats at a revisited operating point."""
+    def transient_variance(self, block: Block, inertia: float, drag_change: float) -> float:
+        """Variance of the twin's block mean from the block's motion [N^2 m^2], before the
+        torque gain: the inertia torque's error, the edge curvature of the speed, and
+        TRANSIENT_ERROR times ``drag_change`` [N m], how much the quasi-static drag changes
+        along the block: where the speed sweeps the drag through a range within 0.1 s (a hard
+        stop, a step), the unit's friction lags it (presliding over the rotation, breakaway
+        near standstill) by an amount the twin does not model."""
         b = self.baseline
         span = block.span
         edge = (
@@ -451,9 +443,13 @@ class HealthMonitor:
             else 0.0
         )
         lag = TRANSIENT_ERROR * drag_change
-        transient = (b.inertia_error * inertia) ** 2 + edge**2 + lag**2
-        if not steady:
-            return b.torque_gain * math.sqrt(transient)
+        return (b.inertia_error * inertia) ** 2 + edge**2 + lag**2
+
+    def block_sigma(self, block: Block, drag: float, transient: float) -> float:
+        """1-sigma error of the twin's block mean [N m] without the sensor noise (see
+        :mod:`.baseline`): its steady error (band, absolute, outside the commissioned
+        temperatures) and the ``transient`` variance of :meth:`transient_variance`."""
+        b = self.baseline
         outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
         error = b.error_at(float(np.mean(block.speed)), block.temperature)
         return b.torque_gain * math.sqrt(
@@ -530,8 +526,8 @@ class HealthMonitor:
         residual = measured - predicted
         # the lag outlasts the sweep by a block: this block's change or the last one's
         change = float(np.ptp(evaluated * factor))
-        swept = max(change, self._last_change)
-        model_sigma = self.block_sigma(block, drag, inertia, swept)
+        transient = self.transient_variance(block, inertia, max(change, self._last_change))
+        model_sigma = self.block_sigma(block, drag, transient)
         self._last_change = change
         noise_var = sensor_var / n + model_sigma**2
         normalized = residual / math.sqrt(noise_var)
@@ -560,7 +556,8 @@ class HealthMonitor:
         )
         self._buffer_raw(block, block.torque - (b.torque_gain * drags + b.torque_bias), angle)
         e = step.normalized
-        local = self._local(block, speed, residual, drag, inertia, swept, sensor_var / n)
+        own = b.torque_gain * math.sqrt(transient)
+        local = self._local(block, speed, residual, drag, own, sensor_var / n)
         if in_warmup:
             return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
 
@@ -619,14 +616,13 @@ class HealthMonitor:
         speed: float,
         residual: float,
         drag: float,
-        inertia: float,
-        swept: float,
+        own: float,
         sensor_variance: float,
     ) -> float | None:
         """Innovation of the block against this run's memory of its operating point and
-        motion (:mod:`.memory`), None when the block is mostly inertia or lag, is within
-        SETTLING_FACTOR gate angles of a reversal, or its bin is new; a healthy block updates
-        its bin."""
+        motion (:mod:`.memory`), None when the block is mostly inertia or lag (``own``, the
+        transient sigma [N m], beyond LOUD_SIGMA of the drag), is within SETTLING_FACTOR gate
+        angles of a reversal, or its bin is new; a healthy block updates its bin."""
         scale = self.baseline.torque_gain * abs(drag)
         change = block.mean_acceleration * block.span
         key = bin_key(speed, block.temperature, block.preload, change)
@@ -634,7 +630,6 @@ class HealthMonitor:
             return None
         if self.gate.block_travel < SETTLING_FACTOR * self.gate.settings.gate_angle:
             return None
-        own = self.block_sigma(block, drag, inertia, swept, steady=False)
         if own > LOUD_SIGMA * scale:
             return None
         variance = (sensor_variance + (REPEAT_SHARE * own) ** 2) / scale**2

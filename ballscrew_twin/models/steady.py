@@ -709,11 +709,7 @@ class SteadyStateModel:
         power = {m: float(np.sum(ev.dissipation[m] * weight)) for m in MECHANISMS}
         sphere_power = np.sum([ev.dissipation[m] for m in MECHANISMS], axis=(0, 2)) * balls.weight
         per_nut_power = [float(np.sum(sphere_power[balls.nut == k])) for k in (0, 1)]
-        notes = [f"steady state, {mode} mode ({len(balls.nut)} spheres solved)"]
-        if not self.inertial_terms:
-            notes.append("centrifugal force and gyroscopic moment of the spheres dropped")
         if speed == 0.0:
-            notes.append("zero speed: nothing slides, drag torque 0 (breakaway not modelled)")
             breakdown = TorqueBreakdown()
             nut_torque = (0.0, 0.0)
             total = 0.0
@@ -725,7 +721,6 @@ class SteadyStateModel:
         direct = -float(np.sum(np.where(screw_side, ev.groove_moment_z, 0.0) * weight))
         lift_power = self._potential_energy_rate(scene, balls, state)
         gravity_torque = lift_power / speed if speed != 0.0 else 0.0
-        notes.extend(self._spacing_notes(scene))
         contacts = _contact_states(balls, ev)
         output = TwinOutput(
             drag_torque=total,
@@ -734,7 +729,7 @@ class SteadyStateModel:
             fidelity=f"{self.name}-{mode}",
             operating_point=op,
             contacts=contacts,
-            notes=tuple(notes),
+            notes=self._fixed_notes(mode, scene, len(balls.nut)),
         )
         return SteadySolution(
             output=output,
