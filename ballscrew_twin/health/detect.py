@@ -124,10 +124,14 @@ def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, 
         "blocks_compared": sum(1 for s in result.samples if math.isfinite(s.innovation)),
         "sensor_noise_Nm": math.sqrt(monitor.sensor_variance or math.nan),
         "thresholds": {
-            "cusum": monitor.cusum.threshold,
-            "local": monitor.local_cusum.threshold,
-            "chi_square": monitor.chi_square.threshold,
-            "spectral": monitor.spectral.threshold,
+            name: threshold
+            for name, threshold in (
+                ("cusum", monitor.cusum.threshold),
+                ("local", monitor.local_cusum.threshold),
+                ("chi_square", monitor.chi_square.threshold),
+                ("spectral", monitor.spectral.threshold),
+            )
+            if name in monitor.settings.detectors
         },
         "false_alarm_rate_per_h": monitor.settings.false_alarm_rate,
         "model": monitor.twin_name,
@@ -318,6 +322,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="target false alarms per hour [1/h]",
     )
     parser.add_argument(
+        "--detectors",
+        default=",".join(MonitorSettings.detectors),
+        help="comma-separated detectors that may raise an alarm, some of "
+        f"{','.join(DETECTORS)} (docs/model.md section 15)",
+    )
+    parser.add_argument(
         "--warmup",
         type=float,
         default=MonitorSettings.warmup,
@@ -351,7 +361,11 @@ def read_recording(args: argparse.Namespace) -> BenchRecording:
 def run(args: argparse.Namespace) -> int:
     """Run the detector over the bag; print the verdict; exit 0 (1 for a FAULT verdict)."""
     recording = read_recording(args)
-    settings = MonitorSettings(false_alarm_rate=args.false_alarm_rate, warmup=args.warmup)
+    settings = MonitorSettings(
+        false_alarm_rate=args.false_alarm_rate,
+        warmup=args.warmup,
+        detectors=tuple(name.strip() for name in args.detectors.split(",") if name.strip()),
+    )
     config = load_config(args.config)
     out = Path(args.out)
     try:

@@ -62,7 +62,16 @@ from std_srvs.srv import Trigger  # type: ignore[import-untyped]
 from ..errors import BallscrewTwinError
 from ..health.baseline import load_baseline
 from ..health.commission import commission
-from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMonitor, HealthSample
+from ..health.monitor import (
+    DETECTORS,
+    FAULT,
+    OK,
+    UNKNOWN,
+    VERDICT_NAMES,
+    WARN,
+    HealthMonitor,
+    HealthSample,
+)
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..models.validity import celsius_to_kelvin
@@ -180,6 +189,15 @@ class HealthNode(Node):
                 defaults.false_alarm_rate,
                 _float("Target false alarms per hour, all detectors [1/h]", 1e-9, 1e3),
             ),
+            (
+                "detectors",
+                list(defaults.detectors),
+                ParameterDescriptor(
+                    type=ParameterType.PARAMETER_STRING_ARRAY,
+                    read_only=True,
+                    description=f"Detectors that may raise an alarm, some of {list(DETECTORS)}",
+                ),
+            ),
             ("warmup", defaults.warmup, _float("Healthy warm-up at the start [s]", 0.5, 3600.0)),
             (
                 "block_duration",
@@ -234,6 +252,7 @@ class HealthNode(Node):
                 model_error_relative=self._float("model_error_relative"),
             ),
             false_alarm_rate=self._float("false_alarm_rate"),
+            detectors=self._detectors(),
             warmup=self._float("warmup"),
             classification_window=self._float("classification_window"),
         )
@@ -325,6 +344,16 @@ class HealthNode(Node):
 
     def _str(self, name: str) -> str:
         return str(self.get_parameter(name).value)
+
+    def _detectors(self) -> tuple[str, ...]:
+        """The ``detectors`` parameter, checked against :data:`DETECTORS`."""
+        chosen = tuple(str(name) for name in self.get_parameter("detectors").value)
+        unknown = sorted(set(chosen) - set(DETECTORS))
+        if unknown or not chosen:
+            raise ParameterException(
+                f"detectors = {list(chosen)}: use one or more of {list(DETECTORS)}", ["detectors"]
+            )
+        return chosen
 
     def _warn(self, kind: str, text: str) -> None:
         """Log a warning at most once per :data:`WARN_THROTTLE` seconds per kind."""

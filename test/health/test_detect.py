@@ -75,8 +75,8 @@ def test_detect_command_writes_verdict_plots_and_samples(
     assert verdict["verdict"] == "FAULT"
     assert verdict["fault_class"] == "raceway_defect"
     assert verdict["class_correct"] is True
-    # every detector of the monitor has its threshold in the verdict
-    assert set(verdict["thresholds"]) == set(DETECTORS)
+    # every detector that may alarm has its threshold in the verdict
+    assert set(verdict["thresholds"]) == set(MonitorSettings().detectors)
     for name in ("residuals.png", "statistics.png", "classification.png"):
         assert (out / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # every axis carries its unit; the verdict axis reads UNKNOWN < OK < WARN < FAULT upwards
@@ -86,6 +86,26 @@ def test_detect_command_writes_verdict_plots_and_samples(
     assert ticks == ["UNKNOWN", "OK", "WARN", "FAULT"]
     lines = (out / "samples.csv").read_text().splitlines()
     assert len(lines) == verdict["blocks"] + 1
+
+
+def test_detect_runs_only_the_chosen_detectors(
+    tmp_path: Path, predictor: TwinPredictor, capsys: pytest.CaptureFixture[str]
+) -> None:
+    bag = str(SAMPLE_DIR / "healthy")
+    out = tmp_path / "cusum_only"
+    assert main(["detect", bag, "--out", str(out), "--detectors", "cusum", "--no-plots"]) == 0
+    verdict = json.loads((out / "verdict.json").read_text())
+    assert set(verdict["thresholds"]) == {"cusum"}
+    # the whole false-alarm budget goes to the one detector: a lower threshold than its share
+    # of the budget with all detectors on
+    default = tmp_path / "all"
+    assert main(["detect", bag, "--out", str(default), "--no-plots"]) == 0
+    shared = json.loads((default / "verdict.json").read_text())["thresholds"]["cusum"]
+    assert verdict["thresholds"]["cusum"] < shared
+    code = main(["detect", bag, "--out", str(tmp_path / "bad"), "--detectors", "cusum,magic"])
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "magic" in err and all(name in err for name in DETECTORS)
 
 
 def test_unreadable_bag_is_a_clear_error(

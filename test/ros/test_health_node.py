@@ -141,6 +141,16 @@ def test_non_finite_samples_are_dropped_and_bad_types_rejected(
             context=executor.context,
             parameter_overrides=[Parameter("torque_type", value="Twist")],
         )
+    with pytest.raises(ParameterException, match=r"detectors.*magic"):
+        HealthNode(
+            context=executor.context,
+            parameter_overrides=[Parameter("detectors", value=["cusum", "magic"])],
+        )
+    local_only = HealthNode(
+        context=executor.context, parameter_overrides=[Parameter("detectors", value=["local"])]
+    )
+    assert local_only.settings.detectors == ("local",)
+    local_only.destroy_node()
     node = HealthNode(context=executor.context)
     executor.add_node(node)
     bench = Node("bench", context=executor.context)
