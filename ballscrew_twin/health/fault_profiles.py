@@ -21,8 +21,10 @@ growth_time), a first-order approach). The classes and what they change:
   exponential.
 - ``raceway_defect`` (spall on a nut raceway) and ``sphere_defect`` (spot on a sphere): torque
   ripple. PARAMETRIC RIPPLE MODEL, not derived from the contact mechanics: a raised-cosine
-  ripple s g |T| (1 - cos 2 pi phi) / 2 added to the drag torque T, phi the number of defect
-  impacts so far, at the rolling-kinematics frequencies of :func:`defect_frequencies`
+  ripple s g |T| (1 - cos 2 pi phi) / 2 added to the drag torque T, phi the signed position
+  of the sphere train in defect periods (a sphere that rolls back over a spall meets it again
+  at the same place, so the ripple is a function of the screw angle, through reversals too),
+  at the rolling-kinematics frequencies of :func:`defect_frequencies`
   (``nut_raceway`` for a raceway spall; ``sphere_spin`` for a sphere spot, and only while that
   sphere is in the loaded zone, a fraction Z/Z_tot of its ``circulation`` period). The
   amplitude s is the peak ripple as a fraction of the drag torque.
@@ -322,8 +324,9 @@ def ripple_torque(
         raceway_amplitude: relative peak ripple of a nut-raceway spall [-] (s g(t)).
         sphere_amplitude: relative peak ripple of a sphere spot [-] (s g(t)).
 
-    The phase of each ripple is the integral of its frequency over time, so it stays
-    continuous when the speed changes.
+    The phase of each ripple is the integral of its signed frequency over time: continuous
+    when the speed changes, and running back when the screw reverses (the spheres roll back
+    over the same defect), so the ripple is periodic in the screw angle.
     """
     t = np.asarray(time, dtype=np.float64)
     w = np.asarray(screw_speed, dtype=np.float64)
@@ -331,7 +334,7 @@ def ripple_torque(
     per_rad_s = defect_frequencies(config, 1.0)  # frequencies are linear in |w|
 
     def phase(key: str) -> FloatArray:
-        rate = per_rad_s[key] * np.abs(w)
+        rate = per_rad_s[key] * w
         return np.concatenate(([0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))))
 
     raised = 0.5 * (1.0 - np.cos(2.0 * math.pi * phase("nut_raceway")))

@@ -345,11 +345,14 @@ class HealthMonitor:
         self._noise_sum = 0.0
         self._noise_count = 0
         self._history: deque[_Record] = deque(maxlen=HISTORY_BLOCKS)
-        self._raw: deque[tuple[FloatArray, FloatArray, FloatArray]] = deque()
+        self._raw: deque[tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = deque()
         self._next_spectral = -math.inf
         self._spectral_stat = 0.0
         self._spectral_ratios: dict[str, float] = {}
         self._ripple_alarm = False
+        #: Largest power ratio of each order in the tests since the alarm's onset [-]: the
+        #: ripple evidence the class is judged on (a defect's ripple also shifts the mean).
+        self._order_peaks: dict[str, float] = {}
 
     def _tracker_settings(self) -> TrackerSettings:
         """The tracker's priors: as set for the nominal twin (it learns the unit in the
@@ -554,7 +557,12 @@ class HealthMonitor:
                 prior_cov,
             )
         )
-        self._buffer_raw(block, block.torque - (b.torque_gain * drags + b.torque_bias), angle)
+        # per sample, the inertia torque of the motion too (a quadratic of the speed over the
+        # block: the strokes' accelerations, which would leak into the orders the ripple test
+        # looks at; not the encoder's speed ripple, whose images through the speed samples'
+        # interpolation would land on those orders)
+        expected = b.torque_gain * (drags + b.inertia * _smooth_acceleration(block)) + b.torque_bias
+        self._buffer_raw(block, block.torque - expected, angle, drags)
         e = step.normalized
         own = b.torque_gain * math.sqrt(transient)
         local = self._local(block, speed, residual, drag, own, sensor_var / n)
@@ -566,7 +574,9 @@ class HealthMonitor:
             local_step = self.local_cusum.update(local)
             self._local_times.append(block.time)
             self._local_stat = local_step.statistic
-        cusum = self.cusum.update(e)
+        # oriented by the direction of the friction: a fault that changes the friction moves
+        # the residual with the drag's sign, and reversals must not undo what it accumulated
+        cusum = self.cusum.update(e if drag >= 0.0 else -e)
         chi_stat, chi_alarm = self.chi_square.update(e)
         self._spectral(block.time)
         every = {
@@ -602,6 +612,7 @@ class HealthMonitor:
                 self.alarm = Alarm(
                     float(block.stamps[-1]), detector, onset, Classification("", 0.0, {}, {})
                 )
+                self._order_peaks = dict(self._spectral_ratios)
                 self.tracker.frozen = True
         if self.alarm is not None and not self.alarm.final:
             self.alarm.classification = self._classify()
@@ -707,10 +718,12 @@ class HealthMonitor:
         self._angle_at = (float(t[-1]), float(w[-1]), float(angle[-1]))
         return np.asarray(angle)
 
-    def _buffer_raw(self, block: Block, residual: FloatArray, angle: FloatArray) -> None:
-        """Keep the per-sample residual [N m] and angle [rad] of the last ``spectral_window``
-        of compared blocks for the order test."""
-        self._raw.append((block.stamps, residual, angle))
+    def _buffer_raw(
+        self, block: Block, residual: FloatArray, angle: FloatArray, drag: FloatArray
+    ) -> None:
+        """Keep the per-sample residual [N m], angle [rad] and predicted drag [N m] of the last
+        ``spectral_window`` of compared blocks for the order test."""
+        self._raw.append((block.stamps, residual, angle, drag))
         while self._raw and self._raw[0][0][0] < block.stamps[-1] - self.settings.spectral_window:
             self._raw.popleft()
 
@@ -723,33 +736,56 @@ class HealthMonitor:
         t = np.concatenate([r[0] for r in self._raw])
         x = np.concatenate([r[1] for r in self._raw])
         angle = np.concatenate([r[2] for r in self._raw])
+        drag = np.concatenate([r[3] for r in self._raw])
         if len(t) < 16 or t[-1] - t[0] < 0.9 * s.spectral_window:
             return
-        travel = np.abs(np.diff(angle))
         if float(np.ptp(angle)) < 2.0 * math.pi * s.min_revolutions:
             self._spectral_stat = 0.0
             return
-        step = float(np.median(np.diff(t)))
+        intervals = np.diff(t)
+        step = float(np.median(intervals))
         nyquist = 0.5 / step
-        rotation = float(np.max(travel)) / step / (2.0 * math.pi)
+        # fastest rotation between neighbouring samples [rev/s]; the pairs across a gated gap
+        # (the angle runs on through it) are not neighbours
+        adjacent = intervals <= 1.5 * step
+        if not np.any(adjacent):
+            self._spectral_stat = 0.0
+            return
+        rates = np.abs(np.diff(angle))[adjacent] / intervals[adjacent]
+        rotation = float(np.max(rates)) / (2.0 * math.pi)
         names = [n for n, m in self.orders.items() if m * rotation < 0.9 * nyquist]
         if not names:
             self._spectral_stat = 0.0
             return
         centred = t - t.mean()
         x = x - np.polyval(np.polyfit(centred, x, 1), centred)
-        result = self.spectral.test(x, angle, np.array([self.orders[n] for n in names]))
+        # A defect's ripple scales with the drag and takes its sign (it opposes the motion):
+        # weighted by the predicted drag, the ripple of strokes in both directions adds up
+        # instead of cancelling (the matched filter of a ripple s |T| sign(w) c(angle)).
+        scale = math.sqrt(float(np.mean(drag**2)))
+        if not scale > 0.0:
+            self._spectral_stat = 0.0
+            return
+        weighted = x * (drag / scale)
+        weighted -= np.mean(weighted)
+        result = self.spectral.test(weighted, angle, np.array([self.orders[n] for n in names]))
         self._spectral_ratios = dict(zip(names, result.ratios.tolist(), strict=True))
         self._spectral_stat = float(np.max(result.ratios))
         if self._spectral_stat > self.spectral.threshold:
             self._ripple_alarm = True
+        if self.alarm is not None and not self.alarm.final:
+            for name, ratio in self._spectral_ratios.items():
+                self._order_peaks[name] = max(ratio, self._order_peaks.get(name, 0.0))
 
     # ------------------------------------------------------------------ classification
     def _classify(self) -> Classification:
         """Class of the current alarm from the evidence since its onset."""
         assert self.alarm is not None
-        if self._ripple_alarm:
-            return classify_ripple(self._spectral_ratios, self.spectral.threshold)
+        threshold = self.spectral.threshold
+        if self._ripple_alarm or any(r > threshold for r in self._order_peaks.values()):
+            # an order line since the alarm names a defect whichever detector alarmed first
+            # (its ripple shifts the mean drag by half its peak, which the mean-shift tests see)
+            return classify_ripple(self._order_peaks or self._spectral_ratios, threshold)
         records = [r for r in self._history if r.time >= self.alarm.onset]
         if not records:
             return Classification("", 0.0, {}, {}, reason="no compared block since the onset")
@@ -790,6 +826,16 @@ class HealthMonitor:
         if not changed:
             return first
         return classify_mean_shift(r_arr, s_arr, signatures, elapsed, correlation)
+
+
+def _smooth_acceleration(block: Block) -> FloatArray | float:
+    """Acceleration at the block's stamps [rad/s^2] from a quadratic fit of its speed over
+    time (the block mean when it has fewer than 3 stamps)."""
+    if len(block.stamps) < 3:
+        return block.mean_acceleration
+    centred = block.stamps - 0.5 * (block.stamps[0] + block.stamps[-1])
+    curvature, slope, _ = np.polyfit(centred, block.speed, 2)
+    return np.asarray(2.0 * curvature * centred + slope)
 
 
 def feed(

@@ -146,6 +146,24 @@ def test_raceway_ripple_is_a_line_at_the_nut_raceway_frequency() -> None:
     np.testing.assert_allclose(reverse, -ripple)
 
 
+def test_ripple_is_a_function_of_the_screw_angle_through_reversals() -> None:
+    # a reversing sine of speed: the screw goes forward and back over the same angles, and a
+    # sphere rolling back over a defect meets it at the same place
+    rate, w_peak, frequency = 4000.0, 30.0, 0.5
+    t = np.arange(int(rate / frequency)) / rate
+    speed = w_peak * np.cos(2 * math.pi * frequency * t)
+    angle = np.concatenate(([0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) / rate)))
+    torque = 0.02 * np.sign(speed)
+    for raceway, sphere in ((0.1, 0.0), (0.0, 0.1)):
+        ripple = ripple_torque(CONFIG, t, speed, torque, raceway, sphere)
+        relative = ripple / torque  # the raised cosine of the phase, without the drag's sign
+        forward = (t > 0.05) & (t < 0.45)  # away from the reversals at 0.5 and 1.5 s
+        back = (t > 0.55) & (t < 0.95)
+        # at the same screw angle the ripple is the same on the way back
+        on_back = np.interp(angle[forward], angle[back][::-1], relative[back][::-1])
+        np.testing.assert_allclose(on_back, relative[forward], atol=0.1 * 0.02)
+
+
 def test_sphere_ripple_only_while_the_sphere_is_loaded() -> None:
     rate, w = 2000.0, 20.0
     f = defect_frequencies(CONFIG, w)
