@@ -18,7 +18,12 @@ Structure:
   Laws are evaluated only for active contacts: an inactive contact has delta = 0, F_n = 0 and a
   zero contact area, so every force, moment and dissipation of the reference is exactly zero
   there, and the state arrays the reference masks with ``active`` are zero too;
-- :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``.
+- :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``;
+- for the dynamic model, whose positions stay fixed over the evaluations of a time step:
+  :func:`contacts_statics_kernel` (the velocity-independent part of every contact,
+  :func:`contact_statics`, once per step) and :func:`contacts_kinetics_kernel` (the rest,
+  :func:`contact_kinetics`, at each velocity), together ``contacts_kernel``'s dynamic path bit
+  for bit (:func:`contact_law` is the same two halves composed).
 
 The kernel returns two arrays: active (B, 4) and one stacked (N_ROWS, B, 4) buffer holding every
 per-contact quantity (row ``CONTACT_FIELDS.index(name)``, constants ``F_APPROACH`` ... name the
