@@ -55,8 +55,8 @@ CELSIUS_ZERO = 273.15  # K
 #: contact-law evaluations per step, unconverged steps, drag torque [N m], power-balance
 #: error [-], load average).
 PREVIOUS = {
-    ("paper_protocol", 2e-6, 0.6): ("2026-11-24", 173.6, 3.91, 3, 18.5251e-3, -0.0027, 2.3),
-    ("protocol_short", 2e-6, 0.012): ("2026-11-24", 11.8, 12.69, 438, 18.5762e-3, -0.023, 5.5),
+    ("paper_protocol", 2e-6, 0.6): ("2026-11-25", 132.4, 2.51, 0, 18.5251e-3, -0.0027, 4.7),
+    ("protocol_short", 2e-6, 0.012): ("2026-11-26", 20.6, 11.58, 410, 18.5325e-3, -0.021, 4.0),
 }
 
 #: The envelope of issue 4: preloads [N], speeds [rpm], temperatures [deg C] (CLI units).

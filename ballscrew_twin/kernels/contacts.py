@@ -18,7 +18,12 @@ Structure:
   Laws are evaluated only for active contacts: an inactive contact has delta = 0, F_n = 0 and a
   zero contact area, so every force, moment and dissipation of the reference is exactly zero
   there, and the state arrays the reference masks with ``active`` are zero too;
-- :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``.
+- :func:`evaluate_contacts_compiled`, the drop-in replacement of ``evaluate_contacts``;
+- for the dynamic model, whose positions stay fixed over the evaluations of a time step:
+  :func:`contacts_statics_kernel` (the velocity-independent part of every contact,
+  :func:`contact_statics`, once per step) and :func:`contacts_kinetics_kernel` (the rest,
+  :func:`contact_kinetics`, at each velocity), together ``contacts_kernel``'s dynamic path bit
+  for bit (:func:`contact_law` is the same two halves composed).
 
 The kernel returns two arrays: active (B, 4) and one stacked (N_ROWS, B, 4) buffer holding every
 per-contact quantity (row ``CONTACT_FIELDS.index(name)``, constants ``F_APPROACH`` ... name the
@@ -617,44 +622,38 @@ def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centr
     same code then also carries their partial derivatives. An inactive contact exerts nothing
     (zero force, moment and groove force), whatever its other fields.
 
+    It is :func:`contact_kinetics` of :func:`contact_statics` (the dynamic model keeps the
+    latter over a time step, in which the positions do not move).
+
     Returns:
         (force on the ball (t, n, b) [N], moment on the ball about its centre [N m], force of
         the ball on the groove [N], the CONTACT_FIELDS values in their order).
     """
-    (
-        ball_radius,
-        groove_radius,
-        pitch_radius,
-        lead_rate,
-        zhat,
-        cos2_helix,
-        _,
-        _,
-        _,
-        _,
-        screw_speed,
-        e_star,
-        e_reduced,
-        viscosity_atm,
-        ball_share,
-        surface_radius,
-        eta_t,
-        z_index,
-        alpha_pv,
-        beta,
-        k_h,
-        tau_e,
-        tau_l,
-        xi,
-        h_r,
-        mu_dry,
-        mu_dry_mer,
-        v_r,
-        roughness,
-        damping,
-    ) = constants
+    statics = contact_statics(j, constants, geometry, r_ball)
+    return contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, slide)
+
+
+@njit(inline="always")
+def contact_statics(j, constants, geometry, r_ball):
+    """The velocity-independent part of :func:`contact_law` for one contact: curvatures,
+    Hertz ellipse and stiffness, elastic normal force, contact normal and point, and the
+    pressure-dependent lubricant properties.
+
+    Args:
+        j: half groove (0 S1, 1 S2, 2 N1, 3 N2); constants: :func:`law_constants`;
+        geometry: :func:`contact_geometry`; r_ball: centre from the axis (t, n, b) [m].
+
+    Returns:
+        (delta [m], R_x [m], R_y [m], K_H [N m^-1.5], sqrt(K_H) [N^0.5 m^-0.75], semi-axes
+        x, y [m], Hertz approach [m], p0 [Pa], mean pressure [Pa], area [m^2], elastic normal
+        force K_H delta^1.5 [N], unit normal d (t, n, b), arm (a d) [m], contact point from the
+        axis [m], eta(p_mean, T) [Pa s], tau_lim [Pa], semi-major axis [m], spin-moment factor
+        [-]); the last four are 0 for an inactive contact.
+    """
+    ball_radius, groove_radius, pitch_radius, lead_rate, zhat, cos2_helix = constants[:6]
+    e_star, ball_share = constants[11], constants[14]
+    eta_t, z_index, tau_l, xi = constants[16], constants[17], constants[22], constants[23]
     d_n, d_b, approach, angle, active = geometry
-    w_nut = -screw_speed
     delta = approach if active else 0.0
     # Curvatures (Meusnier) and reduced radii.
     cos_a = math.cos(angle)
@@ -673,15 +672,110 @@ def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centr
         semi_x, semi_y = major, minor
     else:
         semi_x, semi_y = minor, major
-    f_n = stiffness * (delta * math.sqrt(delta))  # Eq. 18, static part
+    f_elastic = stiffness * (delta * math.sqrt(delta))  # Eq. 18, static part
 
-    # Kinematics: helicoid normal (D12), contact point, velocities.
+    # Helicoid normal (D12) and contact point.
     d_plane = (0.0, d_n, d_b)
     arm_length = ball_radius - ball_share * delta
     field = _helical(1.0, zhat, lead_rate, r_ball)  # d . V(F + a d) = d . V(F)
     d, _ = _unit(_sub(d_plane, _scale(_dot(d_plane, field) / _dot(field, field), field)))
     arm = _scale(arm_length, d)
     r_point = _add(r_ball, arm)
+
+    eta = 0.0
+    limit = 0.0
+    semi_major = 0.0
+    spin_factor = 0.0
+    if active:
+        eta = viscosity_pressure(eta_t, p_mean, z_index)
+        limit = tau_l + xi * max(p_mean, 0.0)
+        semi_major = max(semi_x, semi_y)
+        semi_minor = min(semi_x, semi_y)
+        ellipticity = semi_major / max(semi_minor, 1e-300)
+        spin_factor = spin_moment_factor(ellipticity)
+    return (
+        delta,
+        r_x,
+        r_y,
+        stiffness,
+        math.sqrt(stiffness),
+        semi_x,
+        semi_y,
+        h_approach,
+        p_max,
+        p_mean,
+        area,
+        f_elastic,
+        d,
+        arm,
+        r_point,
+        eta,
+        limit,
+        semi_major,
+        spin_factor,
+    )
+
+
+@njit(inline="always")
+def contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, slide):
+    """The velocity-dependent part of :func:`contact_law` for one contact, given its
+    :func:`contact_statics` ``statics`` (arguments and result as :func:`contact_law`)."""
+    (
+        ball_radius,
+        _,
+        _,
+        lead_rate,
+        zhat,
+        _,
+        _,
+        _,
+        _,
+        _,
+        screw_speed,
+        _,
+        e_reduced,
+        viscosity_atm,
+        _,
+        surface_radius,
+        _,
+        _,
+        alpha_pv,
+        beta,
+        k_h,
+        tau_e,
+        _,
+        _,
+        h_r,
+        mu_dry,
+        mu_dry_mer,
+        v_r,
+        roughness,
+        damping,
+    ) = constants
+    _, _, approach, angle, active = geometry
+    (
+        _,
+        r_x,
+        r_y,
+        stiffness,
+        root_stiffness,
+        semi_x,
+        semi_y,
+        h_approach,
+        p_max,
+        p_mean,
+        area,
+        f_n,
+        d,
+        arm,
+        r_point,
+        eta,
+        limit,
+        semi_major,
+        spin_factor,
+    ) = statics
+    w_nut = -screw_speed
+    # Velocities at the contact point.
     v_ball_point = _add(v_centre, _cross(omega, arm))
     if IS_NUT[j]:
         v_groove = _add(_helical(w_nut, zhat, lead_rate, r_point), _scale(slide, zhat))
@@ -693,7 +787,7 @@ def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centr
     # Eqs. 18-19: saturated damping on the approach rate (zero in a steady state).
     rate = _dot(_sub(v_centre, v_groove), d)
     # Smooth saturation of the damping at the elastic force (reference: hertz, D14).
-    damp_force = f_n * math.tanh(damping * math.sqrt(stiffness) * rate / f_n) if f_n > 0.0 else 0.0
+    damp_force = f_n * math.tanh(damping * root_stiffness * rate / f_n) if f_n > 0.0 else 0.0
     f_n = f_n + damp_force
     rel = _sub(v_ball_point, v_groove)
     slip_vec = _sub(rel, _scale(_dot(rel, d), d))
@@ -727,20 +821,15 @@ def contact_law(j, constants, geometry, n_i, b_i, w_ball, omega, r_ball, v_centr
         tallian = h_tot / roughness if roughness > 0.0 else np.inf
         share = load_share_asperities(tallian)
         # Sliding friction at the centre slip and the spin sliding (Eqs. 34-36, 45).
-        eta = viscosity_pressure(eta_t, p_mean, z_index)
-        limit = tau_l + xi * max(p_mean, 0.0)
         film_safe = max(h_tot, 1e-12)
         lub_c, dry_c, _ = sliding_friction(
             slip, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
         )
-        semi_major = max(semi_x, semi_y)
-        semi_minor = min(semi_x, semi_y)
         v_spin = SPIN_SLIDING_FACTOR * semi_major * abs(spin)
         lub_s, dry_s, _ = sliding_friction(
             v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
         )
-        ellipticity = semi_major / max(semi_minor, 1e-300)
-        mp = spin_moment_factor(ellipticity) * semi_major * (lub_s + dry_s)
+        mp = spin_factor * semi_major * (lub_s + dry_s)
         lub_m, dry_m, tau = sliding_friction(
             slip + v_spin, eta, limit, film_safe, area, share, f_n, tau_e, mu_dry, v_r
         )
@@ -955,6 +1044,123 @@ def contacts_kernel(
         gyro = _scale(orbit_rate, _cross(zhat, _scale(ball_inertia, omega_abs)))
         for k in range(3):
             out[R_MOMENT + k, i, 0] = m_sum[k] - gyro[k]
+    return active_out, out
+
+
+# ----------------------------------------------------------------------------- dynamic model
+# The dynamic model evaluates the contacts of one time step several times at the same positions
+# (Newton iterations, Jacobian columns): contacts_statics_kernel keeps what does not depend on
+# the velocities, per contact, in one float64 row of N_STATICS values: contact_geometry's
+# (d_n, d_b, approach, angle, active as 0/1), then contact_statics' in its order (the three
+# vectors d, arm and contact point as three values each); contacts_kinetics_kernel finishes the
+# evaluation from it. Together they are contacts_kernel's dynamic path, bit for bit.
+N_STATICS = 30
+
+
+@njit(inline="always")
+def _law_constants_from_array(p, screw_speed):
+    """law_constants of the scene's parameter array ``p`` (``scene_arrays`` order) at the screw
+    speed ``screw_speed`` [rad/s] (in place of p[12])."""
+    return law_constants(
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11],
+        screw_speed, p[13], p[14], p[15], p[16], p[17], p[18], p[19],
+        int(p[20]), p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29], p[30],
+        p[31], p[32], p[33], p[34], p[35], p[36], p[37],
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def contacts_statics_kernel(ball_nb, nut_offset, approach_offset, p, statics):
+    """The velocity-independent part of every contact (layout above), written to ``statics``
+    (B, 4, N_STATICS).
+
+    Args:
+        ball_nb: (B, 2) ball-centre offsets (n, b) from the ideal helix [m]; nut_offset: (B,)
+            b-offset of each ball's nut groove [m]; approach_offset: (B, 4) defect offsets of
+            the approach [m], or (0, 4) for none; p: the scalar parameters of contacts_kernel
+            (``scene_arrays``) as float64 (the screw speed p[12] is not used).
+    """
+    constants = _law_constants_from_array(p, p[12])
+    pitch_radius = p[2]
+    with_offsets = approach_offset.shape[0] > 0
+    for i in range(ball_nb.shape[0]):
+        n_i = ball_nb[i, 0]
+        b_i = ball_nb[i, 1]
+        r_ball = (0.0, n_i - pitch_radius, b_i)
+        for j in range(4):
+            offset = approach_offset[i, j] if with_offsets else 0.0
+            geometry = contact_geometry(j, constants, n_i, b_i, nut_offset[i], offset)
+            (
+                delta, r_x, r_y, stiffness, root_stiffness, semi_x, semi_y, h_approach, p_max,
+                p_mean, area, f_elastic, d, arm, r_point, eta, limit, semi_major, spin_factor,
+            ) = contact_statics(j, constants, geometry, r_ball)  # fmt: skip
+            row = statics[i, j]
+            row[0] = geometry[0]
+            row[1] = geometry[1]
+            row[2] = geometry[2]
+            row[3] = geometry[3]
+            row[4] = 1.0 if geometry[4] else 0.0
+            scalars = (delta, r_x, r_y, stiffness, root_stiffness, semi_x, semi_y, h_approach,
+                       p_max, p_mean, area, f_elastic)  # fmt: skip
+            for k in range(12):
+                row[5 + k] = scalars[k]
+            for k in range(3):
+                row[17 + k] = d[k]
+                row[20 + k] = arm[k]
+                row[23 + k] = r_point[k]
+            row[26] = eta
+            row[27] = limit
+            row[28] = semi_major
+            row[29] = spin_factor
+
+
+@njit(cache=True, error_model="numpy")
+def contacts_kinetics_kernel(statics, ball_nb, omega, centre_velocity, nut_slide, p, screw_speed):
+    """contacts_kernel's dynamic path from the contacts' ``statics`` (contacts_statics_kernel at
+    the same positions): the same active (B, 4) and out (N_ROWS, B, 4), bit for bit.
+
+    Args:
+        statics: (B, 4, N_STATICS); ball_nb: (B, 2) [m]; omega: (B, 3) sphere angular velocity
+            relative to the screw (t, n, b) [rad/s]; centre_velocity: (B, 3) [m/s]; nut_slide:
+            (B,) [m/s]; p: as contacts_statics_kernel; screw_speed: [rad/s].
+    """
+    count = ball_nb.shape[0]
+    active_out = np.zeros((count, 4), dtype=np.bool_)
+    out = np.zeros((N_ROWS, count, 4))
+    constants = _law_constants_from_array(p, screw_speed)
+    zhat = constants[4]
+    pitch_radius = p[2]
+    lead_rate = p[3]
+    for i in range(count):
+        r_ball = (0.0, ball_nb[i, 0] - pitch_radius, ball_nb[i, 1])
+        w = (omega[i, 0], omega[i, 1], omega[i, 2])
+        v_centre = (centre_velocity[i, 0], centre_velocity[i, 1], centre_velocity[i, 2])
+        w_ball = v_centre[0] / _helical(1.0, zhat, lead_rate, r_ball)[0]
+        f_sum = (0.0, 0.0, 0.0)
+        m_sum = (0.0, 0.0, 0.0)
+        for j in range(4):
+            row = statics[i, j]
+            active = row[4] > 0.0
+            geometry = (row[0], row[1], row[2], row[3], active)
+            kept = (
+                row[5], row[6], row[7], row[8], row[9], row[10], row[11], row[12], row[13],
+                row[14], row[15], row[16], (row[17], row[18], row[19]),
+                (row[20], row[21], row[22]), (row[23], row[24], row[25]), row[26], row[27],
+                row[28], row[29],
+            )  # fmt: skip
+            on_ball, moment, on_groove, fields = contact_kinetics(
+                j, constants, geometry, kept, w_ball, w, v_centre, nut_slide[i]
+            )
+            f_sum = _add(f_sum, on_ball)
+            m_sum = _add(m_sum, moment)
+            active_out[i, j] = active
+            for k in range(3):
+                out[R_GROOVE_FORCE + k, i, j] = on_groove[k]
+            for k in range(N_FIELDS):
+                out[k, i, j] = fields[k]
+        for k in range(3):
+            out[R_FORCE + k, i, 0] = f_sum[k]
+            out[R_MOMENT + k, i, 0] = m_sum[k]
     return active_out, out
 
 

@@ -1,15 +1,21 @@
 """Compiled time step of the dynamic model (numba): the twin of ``DynamicModel._step``.
 
 :func:`step_kernel` performs one step of :meth:`ballscrew_twin.models.dynamic.DynamicModel._step`
-operation for operation, with the contact laws evaluated by
-:func:`ballscrew_twin.kernels.contacts.contacts_kernel` and no Python in the step:
+operation for operation, with the contact laws of
+:mod:`ballscrew_twin.kernels.contacts` and no Python in the step:
 
 - the spheres are located on the helix once (Newton on (r - B(theta)) . dB/dtheta = 0, Eq. 4;
   ``_locate``), the defect offsets of the approach follow (``_approach_offsets``, as
   :meth:`Faults.approach_offsets`);
+- the velocity-independent part of the contact laws once per step (``_statics``:
+  :func:`~ballscrew_twin.kernels.contacts.contacts_statics_kernel`, geometry, Hertz ellipse and
+  stiffness, contact normal and point, pressure viscosity; the positions do not move within a
+  step);
 - contact actions at given velocities (``_actions``): velocities relative to the screw in each
-  sphere's Frenet frame, one call of the contact kernel, forces and moments back to the world
-  frame, each sphere's moment on the screw and axial force on its nut;
+  sphere's Frenet frame, the rest of the contact laws from the step's statics
+  (:func:`~ballscrew_twin.kernels.contacts.contacts_kinetics_kernel`, bit for bit
+  ``contacts_kernel``'s dynamic path), forces and moments back to the world frame, each
+  sphere's moment on the screw and axial force on its nut;
 - Newton's first guess (``_predict``, ``_remember``): the velocities extrapolated from the
   starts of the last steps (kept in caller-owned arrays) at the order, 0 to PREDICTOR_ORDER,
   that predicted the last step best; a guess that meets the tolerance ends the step;
@@ -58,10 +64,12 @@ from .contacts import (
     F_DISS_DAMPING,
     F_DISS_LUBRICANT,
     F_GROOVE_MZ,
+    N_STATICS,
     R_FORCE,
     R_GROOVE_FORCE,
     R_MOMENT,
-    contacts_kernel,
+    contacts_kinetics_kernel,
+    contacts_statics_kernel,
 )
 
 SOLVER_CONSTANTS = (
@@ -127,8 +135,6 @@ J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
 ) = (0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 17)
 N_MECHANISMS = F_DISS_DAMPING + 1 - F_DISS_LUBRICANT
 S_COUNT = 19
-# Index of the screw speed among the scalar parameters of contacts_kernel (scene_arrays).
-_I_SCREW_SPEED = 12
 # Rows of a sphere's stacked actions (8,): force (3) [N], moment (3) [N m], its moment on the
 # screw about z [N m], its axial force on its nut [N].
 N_STACK = 8
@@ -159,18 +165,6 @@ def frozen_constants():
 
 
 # ----------------------------------------------------------------------------- helpers
-@njit(cache=True)
-def _contacts(nb, kin, nut_offset, gravity, velocity, slide, offsets, speed, p):
-    """contacts_kernel (dynamic path) with the scene's parameters ``p`` and screw speed [rad/s]."""
-    return contacts_kernel(
-        nb, kin, nut_offset, gravity, velocity, slide, offsets, True,
-        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11],
-        speed, p[13], p[14], p[15], p[16], p[17], p[18], p[19],
-        int(p[20]), p[21], p[22], p[23], p[24], p[25], p[26], p[27], p[28], p[29], p[30],
-        p[31], p[32], p[33], p[34], p[35], p[36], p[37],
-    )  # fmt: skip
-
-
 @njit(cache=True)
 def _lu_solve(a, rhs):
     """Solve a x = rhs in place (rhs becomes x) by LU with partial pivoting; a is overwritten.
@@ -276,8 +270,25 @@ def _approach_offsets(theta, screw_angle, sphere_offset, spalls, offsets):
 
 
 @njit(cache=True)
-def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, offsets, ball_nut, c, p, stacked):
-    """Contact actions of every sphere at the given velocities (DynamicModel.contact_actions).
+def _statics(body, nb, offsets, ball_nut, c, p, statics):
+    """The velocity-independent part of every contact at the step's positions, written to
+    ``statics`` (B, 4, N_STATICS; contacts_statics_kernel): the sphere offsets ``nb`` (B, 2)
+    [m], the nut groove's b-offset from the nut positions and the screw angle in ``body``, the
+    defect offsets ``offsets`` (B, 4) [m]. Kept for every evaluation of the step."""
+    count = nb.shape[0]
+    angle = body[B_ANGLE]
+    nut_offset = np.empty(count)
+    for i in range(count):
+        k = ball_nut[i]
+        shift = body[B_NUT_POS + k] + c[K_LEAD_RATE] * angle
+        nut_offset[i] = c[K_NUT_OFFSET0 + k] + shift * c[K_COS_HELIX]
+    contacts_statics_kernel(nb, nut_offset, offsets, p, statics)
+
+
+@njit(cache=True)
+def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, statics, ball_nut, c, p, stacked):
+    """Contact actions of every sphere at the given velocities (DynamicModel.contact_actions),
+    from the contacts' ``statics`` at the step's positions (``_statics``).
 
     Writes ``stacked`` (B, 8): force and moment on the sphere (world frame), its moment on the
     screw about z and its axial force on its nut; returns the kernel's (active, buffer).
@@ -287,8 +298,7 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, offsets, ball_nu
     ca = math.cos(angle)
     sa = math.sin(angle)
     v_frenet = np.empty((count, 3))
-    kin = np.empty((count, 4))
-    nut_offset = np.empty(count)
+    w_frenet = np.empty((count, 3))
     slide = np.empty(count)
     lead = c[K_LEAD_RATE]
     for i in range(count):
@@ -302,17 +312,11 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, offsets, ball_nu
         ox = ca * omega[i, 0] + sa * omega[i, 1]
         oy = -sa * omega[i, 0] + ca * omega[i, 1]
         oz = omega[i, 2] - speed
-        kin[i, 0] = 0.0
         for r in range(3):
             v_frenet[i, r] = frames[i, r, 0] * vx + frames[i, r, 1] * vy + frames[i, r, 2] * vz
-            kin[i, 1 + r] = frames[i, r, 0] * ox + frames[i, r, 1] * oy + frames[i, r, 2] * oz
-        k = ball_nut[i]
-        shift = body[B_NUT_POS + k] + lead * angle
-        nut_offset[i] = c[K_NUT_OFFSET0 + k] + shift * c[K_COS_HELIX]
-        slide[i] = nut_vel[k] + speed * lead
-    active, out = _contacts(
-        nb, kin, nut_offset, np.zeros((count, 3)), v_frenet, slide, offsets, speed, p
-    )
+            w_frenet[i, r] = frames[i, r, 0] * ox + frames[i, r, 1] * oy + frames[i, r, 2] * oz
+        slide[i] = nut_vel[ball_nut[i]] + speed * lead
+    active, out = contacts_kinetics_kernel(statics, nb, w_frenet, v_frenet, slide, p, speed)
     for i in range(count):
         for q in range(2):
             row = R_FORCE if q == 0 else R_MOMENT
@@ -337,7 +341,7 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, offsets, ball_nu
 
 @njit(cache=True)
 def _jacobians(
-    vel, omega, nut_vel, speed, base, pos, body, frames, nb, offsets, ball_nut, c, p, own, shared
+    vel, omega, nut_vel, speed, base, pos, body, frames, nb, statics, ball_nut, c, p, own, shared
 ):
     """Forward-difference velocity Jacobians (DynamicModel._jacobians): ``own`` (B, 8, 6) with
     respect to each sphere's velocity and angular velocity, ``shared`` (B, 8, 3) with respect to
@@ -356,13 +360,13 @@ def _jacobians(
                 v[i, j] += h
             else:
                 w[i, j - 3] += h
-        _actions(v, w, nut_vel, speed, pos, body, frames, nb, offsets, ball_nut, c, p, bumped)
+        _actions(v, w, nut_vel, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
         for i in range(count):
             for r in range(N_STACK):
                 own[i, r, j] = (bumped[i, r] - base[i, r]) / h
     h_screw = VELOCITY_STEP / c[K_PITCH_RADIUS]
     _actions(
-        vel, omega, nut_vel, speed + h_screw, pos, body, frames, nb, offsets, ball_nut, c, p,
+        vel, omega, nut_vel, speed + h_screw, pos, body, frames, nb, statics, ball_nut, c, p,
         bumped,
     )  # fmt: skip
     for i in range(count):
@@ -371,7 +375,7 @@ def _jacobians(
     nut_bumped = np.empty(2)
     nut_bumped[0] = nut_vel[0] + VELOCITY_STEP
     nut_bumped[1] = nut_vel[1] + VELOCITY_STEP
-    _actions(vel, omega, nut_bumped, speed, pos, body, frames, nb, offsets, ball_nut, c, p, bumped)
+    _actions(vel, omega, nut_bumped, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
     for i in range(count):
         k = ball_nut[i]
         for r in range(N_STACK):
@@ -628,6 +632,8 @@ def step_kernel(
     _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
     offsets = np.empty((count, 4))
     _approach_offsets(out_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
+    statics = np.empty((count, 4, N_STATICS))
+    _statics(body, nb, offsets, ball_nut, c, p, statics)
 
     u0 = np.empty((count, 6))
     for i in range(count):
@@ -672,7 +678,7 @@ def step_kernel(
                 v_start[i, k] = u[i, k]
                 w_start[i, k] = u[i, 3 + k]
         active, out = _actions(
-            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, offsets, ball_nut, c, p,
+            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, statics, ball_nut, c, p,
             stacked,
         )  # fmt: skip
         evals += 1
@@ -694,7 +700,7 @@ def step_kernel(
                 break
             if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
                 _jacobians(
-                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets,
+                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, statics,
                     ball_nut, c, p, jac_own, jac_shared,
                 )  # fmt: skip
                 evals += 8
@@ -708,7 +714,7 @@ def step_kernel(
                         v_try[i, k] = u[i, k]
                         w_try[i, k] = u[i, 3 + k]
                 _jacobians(
-                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, offsets, ball_nut,
+                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, statics, ball_nut,
                     c, p, jac_own, jac_shared,
                 )  # fmt: skip
                 evals += 8
@@ -729,7 +735,7 @@ def step_kernel(
                 for k in range(3):
                     sv_try[k] = sv[k] + step * d_shared[k]
                 active_try, out_try = _actions(
-                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, offsets, ball_nut,
+                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, statics, ball_nut,
                     c, p, stacked_try,
                 )  # fmt: skip
                 evals += 1
@@ -985,7 +991,7 @@ def ensure_fresh_cache() -> bool:
     stale = bool(compiled_stamp() != DEPENDENCY_STAMP)
     if stale:
         for dispatcher in (
-            _contacts,
+            _statics,
             _lu_solve,
             _locate,
             _approach_offsets,

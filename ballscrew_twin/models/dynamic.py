@@ -366,9 +366,14 @@ class DynamicModel:
 
     # ----------------------------------------------------------------- energy
 
-    def energy(self, state: DynamicState) -> dict[str, float]:
+    def energy(
+        self, state: DynamicState, contacts: ContactEvaluation | None = None
+    ) -> dict[str, float]:
         """Stored energy [J]: kinetic (spheres, screw, nuts), elastic (Hertz, 2/5 K delta^2.5,
         the potential of Eq. 18's elastic force) and gravitational (relative to the start).
+
+        ``contacts``: the contact laws already evaluated at ``state``'s positions (at any
+        velocities: approach and stiffness depend on the positions only), else evaluated here.
         """
         screw = self.config.screw
         mass, inertia = self._scene.ball_mass, self._scene.ball_inertia
@@ -378,7 +383,7 @@ class DynamicModel:
             + 0.5 * screw.screw_inertia * state.screw_speed**2
             + 0.5 * screw.nut_mass * float(np.sum(state.nut_velocity**2))
         )
-        ev = self.contact_actions(state).contacts
+        ev = self.contact_actions(state).contacts if contacts is None else contacts
         delta = np.where(ev.active, np.maximum(ev.approach, 0.0), 0.0)
         elastic = 0.4 * float(np.sum(ev.hertz.stiffness * delta**2.5))
         if self.sphere_contacts and len(self.sphere_pairs):

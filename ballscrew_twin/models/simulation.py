@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from ..errors import SolverError
 from ..params import TwinConfig, load_config
 from .base import DISSIPATION_KEYS, OperatingPoint
-from .contact_forces import make_scene
+from .contact_forces import ContactEvaluation, make_scene
 from .dynamic import STEP_TOLERANCE, Commands, DynamicModel, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
@@ -374,9 +374,11 @@ class _Run:
         report: StepReport,
         p_grav: float,
         energies: tuple[float, float],
+        contacts: ContactEvaluation | None = None,
     ) -> None:
-        """Store the sample of step ``t`` [s]: ``energies`` = (input, dissipated) [J] so far."""
-        energy = self.model.energy(state)
+        """Store the sample of step ``t`` [s]: ``energies`` = (input, dissipated) [J] so far;
+        ``contacts``: the contact laws at ``state``'s positions when already evaluated."""
+        energy = self.model.energy(state, contacts)
         input_energy, dissipated = energies
         i = self.rec.n
         s = self.rec.series
@@ -578,7 +580,9 @@ class _Run:
             model.last_step_residual = float(acc[ks.A_RESIDUAL])
             done = totals
             if record or record_contacts:
-                report = _report_from_stats(ks, first_stats, evaluation_from_buffer(active, buffer))
+                # The first step's contacts, evaluated at the positions of ``before``.
+                contacts = evaluation_from_buffer(active, buffer)
+                report = _report_from_stats(ks, first_stats, contacts)
                 t = k * dt
                 if record:
                     assert before is not None
@@ -590,6 +594,7 @@ class _Run:
                         report,
                         float(acc[ks.A_FIRST_GRAVITY]),
                         (float(acc[ks.A_FIRST_INPUT]), float(acc[ks.A_FIRST_DISSIPATED])),
+                        contacts,
                     )
                 if record_contacts:
                     _record_contacts(self.rec, report, t)

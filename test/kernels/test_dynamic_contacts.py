@@ -7,7 +7,14 @@ The numba kernel against the numpy reference, and the reference against its own 
 import numpy as np
 import pytest
 
-from ballscrew_twin.kernels.contacts import evaluate_contacts_compiled
+from ballscrew_twin.kernels.contacts import (
+    N_STATICS,
+    contacts_kernel,
+    contacts_kinetics_kernel,
+    contacts_statics_kernel,
+    evaluate_contacts_compiled,
+    scene_arrays,
+)
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.contact_forces import evaluate_contacts, make_scene
 from ballscrew_twin.models.steady import SteadyStateModel
@@ -96,3 +103,39 @@ def test_damping_acts_only_while_approaching(solved) -> None:  # type: ignore[no
     nut = still.active[:, 2:]
     assert np.all(f_moving[:, :2][screw] > f_still[:, :2][screw])
     assert np.all(f_moving[:, 2:][nut] < f_still[:, 2:][nut])
+
+
+@pytest.mark.parametrize("defects", [False, True])
+def test_statics_kept_over_a_step_give_the_kernel_bit_for_bit(solved, defects: bool) -> None:  # type: ignore[no-untyped-def]
+    """contacts_statics_kernel once, then contacts_kinetics_kernel at several velocities and
+    screw speeds: the same buffer as contacts_kernel's dynamic path at each (the split only
+    reorders when the velocity-independent laws are evaluated)."""
+    sol, scene = solved
+    rng = np.random.default_rng(11)
+    count = len(sol.balls.nut)
+    p = np.array(scene_arrays(scene), dtype=np.float64)
+    # Spread the spheres so that some contacts open (inactive ones must match too).
+    ball_nb = np.ascontiguousarray(sol.state.ball_nb + rng.normal(0.0, 5e-6, (count, 2)))
+    nut_offset = np.ascontiguousarray(sol.state.nut_offset[sol.balls.nut], dtype=np.float64)
+    offsets = rng.normal(0.0, 2e-6, (count, 4)) if defects else np.zeros((0, 4))
+    statics = np.empty((count, 4, N_STATICS))
+    contacts_statics_kernel(ball_nb, nut_offset, offsets, p, statics)
+    inactive = 0
+    for _ in range(5):
+        speed = scene.screw_speed * (1.0 + rng.normal(0.0, 0.1))
+        omega = sol.state.kinematics[:, 1:] * (1.0 + rng.normal(0.0, 0.05, (count, 3)))
+        velocity = helical_velocity(scene, sol) + rng.normal(0.0, 2e-3, (count, 3))
+        slide = rng.normal(0.0, 1e-3, count)
+        kin = np.zeros((count, 4))
+        kin[:, 1:] = omega
+        active, out = contacts_kernel(
+            ball_nb, kin, nut_offset, np.zeros((count, 3)), velocity, slide, offsets, True,
+            *p[:12], speed, *p[13:20], int(p[20]), *p[21:],
+        )  # fmt: skip
+        split_active, split_out = contacts_kinetics_kernel(
+            statics, ball_nb, np.ascontiguousarray(omega), velocity, slide, p, speed
+        )
+        np.testing.assert_array_equal(split_active, active)
+        np.testing.assert_array_equal(split_out, out)
+        inactive += int(np.sum(~active))
+    assert 0 < inactive < 5 * 4 * count

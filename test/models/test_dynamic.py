@@ -83,6 +83,27 @@ def test_preloaded_static_state_stays_and_matches_hertz() -> None:
         assert ev.approach[i, j] == pytest.approx(exact.approach, rel=1e-4)
 
 
+def test_elastic_energy_from_contacts_evaluated_at_other_velocities() -> None:
+    """energy(state, contacts): approach, contact set and stiffness depend on the positions
+    only, so contacts evaluated at the same positions but other velocities (as the compiled
+    loop's first step of a stretch) give energy(state)'s own elastic energy."""
+    preload = 400.0
+    model = DynamicModel(small(BASE, 2), temperature=293.15, time_step=1e-6)
+    state = model.initial_state(preload)
+    for _ in range(50):
+        state, _ = model.step(state, Commands(5.0, preload))
+    own = model.energy(state)
+    moved = model.contact_actions(
+        state,
+        state.ball_velocity + 0.01,
+        state.ball_omega * 2.0,
+        state.nut_velocity + 1e-3,
+        state.screw_speed + 1.0,
+    ).contacts
+    assert own["elastic"] > 0.0
+    assert model.energy(state, moved) == pytest.approx(own, rel=1e-14, abs=0.0)
+
+
 def _total_energy(model: DynamicModel, state, preload: float) -> float:  # type: ignore[no-untyped-def]
     terms = model.energy(state)
     separation = state.nut_position[0] - state.nut_position[1]
