@@ -771,7 +771,7 @@ class HealthMonitor:
         result = self.spectral.test(weighted, angle, np.array([self.orders[n] for n in names]))
         self._spectral_ratios = dict(zip(names, result.ratios.tolist(), strict=True))
         self._spectral_stat = float(np.max(result.ratios))
-        if self._spectral_stat > self.spectral.threshold:
+        if self._spectral_stat > self.spectral.threshold and "spectral" in s.detectors:
             self._ripple_alarm = True
         if self.alarm is not None and not self.alarm.final:
             for name, ratio in self._spectral_ratios.items():
