@@ -41,8 +41,6 @@ from .command_args import add_ros_arguments, ros_argv
 CLOCK_TOPIC = "/clock"
 #: History depth of the reliable publishers [messages] (see the module doc).
 DEFAULT_DEPTH = 10_000
-#: Longest wait at the end for every subscriber to acknowledge what was published [s].
-DRAIN_TIMEOUT = 30.0
 #: Longest single sleep while pacing [s], so that a stop request is seen quickly.
 MAX_SLEEP = 0.05
 #: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
@@ -183,20 +181,6 @@ class BagPlayer:
                 return
             shift += self.period_ns
 
-    def unacknowledged(self, timeout: float) -> list[str]:
-        """Wait up to ``timeout`` [s] in all until every reliable subscriber has acknowledged
-        what was published; the topics still waiting then (a subscriber that fell behind
-        loses what it has not received once this process ends)."""
-        from rclpy.duration import Duration
-
-        deadline = time.monotonic() + max(timeout, 0.0)
-        waiting = []
-        for topic, publisher in self.publishers.items():
-            left = max(deadline - time.monotonic(), 0.0)
-            if not publisher.wait_for_all_acked(Duration(nanoseconds=int(left * 1e9))):
-                waiting.append(topic)
-        return waiting
-
     def play(self, ok: Callable[[], bool]) -> PlayStats:
         """Publish until the bag ends (or forever with ``loop``) or ``ok()`` turns false."""
         wall0 = time.monotonic()
@@ -234,13 +218,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--clock-rate", type=float, default=100.0, help="/clock rate [Hz]")
     parser.add_argument(
         "--depth", type=int, default=DEFAULT_DEPTH, help="publisher history depth [messages]"
-    )
-    parser.add_argument(
-        "--drain",
-        type=float,
-        default=DRAIN_TIMEOUT,
-        help="at the end, wait up to this long [s] for every subscriber to acknowledge what "
-        "was published (reliable delivery ends with this process)",
     )
     parser.add_argument(
         "--wait-subscribers",
@@ -289,15 +266,6 @@ def run(args: argparse.Namespace) -> int:
                 flush=True,
             )
             stats = player.play(context.ok)
-            if not stats.stopped:
-                behind = player.unacknowledged(args.drain)
-                if behind:
-                    print(
-                        f"replay: warning: {', '.join(behind)}: not every subscriber "
-                        f"acknowledged all messages within {args.drain:g} s (what a subscriber "
-                        "has not received is lost when the replay ends)",
-                        file=sys.stderr,
-                    )
             for issue in bag.issues[seen:]:
                 print(f"replay: warning: {issue}", file=sys.stderr)
         print(
