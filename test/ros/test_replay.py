@@ -128,8 +128,6 @@ def test_replay_publishes_every_message_and_the_bag_clock(
         thread.join(timeout=10.0)
         assert not thread.is_alive()
         assert spin_until(executor, lambda: len(listener.temperature) == 4)
-        # the reliable subscriber has acknowledged everything: nothing is left to wait for
-        assert player.unacknowledged(5.0) == []
     np.testing.assert_allclose(listener.torque, np.arange(TORQUES) * 1e-3)
     assert listener.stamps == [T0 + k * 20_000_000 for k in range(TORQUES)]
     assert listener.temperature == [20.0, 30.0, 40.0, 50.0]
