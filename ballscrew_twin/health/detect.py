@@ -123,16 +123,7 @@ def summary(result: DetectionResult, truth: dict[str, Any] | None) -> dict[str, 
         "blocks": len(result.samples),
         "blocks_compared": sum(1 for s in result.samples if math.isfinite(s.innovation)),
         "sensor_noise_Nm": math.sqrt(monitor.sensor_variance or math.nan),
-        "thresholds": {
-            name: threshold
-            for name, threshold in (
-                ("cusum", monitor.cusum.threshold),
-                ("local", monitor.local_cusum.threshold),
-                ("chi_square", monitor.chi_square.threshold),
-                ("spectral", monitor.spectral.threshold),
-            )
-            if name in monitor.settings.detectors
-        },
+        "thresholds": monitor.thresholds,
         "false_alarm_rate_per_h": monitor.settings.false_alarm_rate,
         "model": monitor.twin_name,
         "model_note": monitor.twin_note,

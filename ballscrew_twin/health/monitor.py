@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -88,6 +88,17 @@ TRANSIENT_ERROR = 0.5
 PRELOAD_STEP = 0.05
 
 
+def check_detectors(names: Iterable[str]) -> tuple[str, ...]:
+    """``names`` as a tuple when they are one or more of :data:`DETECTORS`; a ConfigError
+    naming the valid ones otherwise."""
+    chosen = tuple(names)
+    if not chosen or set(chosen) - set(DETECTORS):
+        raise ConfigError(
+            f"health settings: detectors {list(chosen)} must be one or more of {list(DETECTORS)}"
+        )
+    return chosen
+
+
 @dataclass(frozen=True, kw_only=True)
 class MonitorSettings:
     """Detection settings (the residual and tracker settings are nested).
@@ -144,11 +155,7 @@ class MonitorSettings:
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
-        unknown = sorted(set(self.detectors) - set(DETECTORS))
-        if unknown or not self.detectors:
-            raise ConfigError(
-                f"health settings: detectors {list(self.detectors)} must be some of {DETECTORS}"
-            )
+        check_detectors(self.detectors)
         if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
             raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
         if self.chi_square_window < 2:
@@ -353,6 +360,18 @@ class HealthMonitor:
         #: Largest power ratio of each order in the tests since the alarm's onset [-]: the
         #: ripple evidence the class is judged on (a defect's ripple also shifts the mean).
         self._order_peaks: dict[str, float] = {}
+
+    @property
+    def thresholds(self) -> dict[str, float]:
+        """Alarm threshold of each detector that may alarm, in ``settings.detectors`` order
+        [-]."""
+        every = {
+            "cusum": self.cusum.threshold,
+            "local": self.local_cusum.threshold,
+            "chi_square": self.chi_square.threshold,
+            "spectral": self.spectral.threshold,
+        }
+        return {name: every[name] for name in self.settings.detectors}
 
     def _tracker_settings(self) -> TrackerSettings:
         """The tracker's priors: as set for the nominal twin (it learns the unit in the
@@ -579,13 +598,13 @@ class HealthMonitor:
         cusum = self.cusum.update(e if drag >= 0.0 else -e)
         chi_stat, chi_alarm = self.chi_square.update(e)
         self._spectral(block.time)
-        every = {
-            "cusum": (cusum.statistic, self.cusum.threshold),
-            "local": (self._local_stat, self.local_cusum.threshold),
-            "chi_square": (chi_stat, self.chi_square.threshold),
-            "spectral": (self._spectral_stat, self.spectral.threshold),
+        statistics = {
+            "cusum": cusum.statistic,
+            "local": self._local_stat,
+            "chi_square": chi_stat,
+            "spectral": self._spectral_stat,
         }
-        stats = {name: every[name] for name in s.detectors}
+        stats = {name: (statistics[name], limit) for name, limit in self.thresholds.items()}
         if self.alarm is None:
             fired = [
                 name
@@ -782,10 +801,11 @@ class HealthMonitor:
         """Class of the current alarm from the evidence since its onset."""
         assert self.alarm is not None
         threshold = self.spectral.threshold
-        if self._ripple_alarm or any(r > threshold for r in self._order_peaks.values()):
+        if any(r > threshold for r in self._order_peaks.values()):
             # an order line since the alarm names a defect whichever detector alarmed first
-            # (its ripple shifts the mean drag by half its peak, which the mean-shift tests see)
-            return classify_ripple(self._order_peaks or self._spectral_ratios, threshold)
+            # (its ripple shifts the mean drag by half its peak, which the mean-shift tests see;
+            # a spectral alarm seeded these peaks with the ratios that raised it)
+            return classify_ripple(self._order_peaks, threshold)
         records = [r for r in self._history if r.time >= self.alarm.onset]
         if not records:
             return Classification("", 0.0, {}, {}, reason="no compared block since the onset")

@@ -59,7 +59,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger  # type: ignore[import-untyped]
 
-from ..errors import BallscrewTwinError
+from ..errors import BallscrewTwinError, ConfigError
 from ..health.baseline import load_baseline
 from ..health.commission import commission
 from ..health.monitor import (
@@ -71,6 +71,7 @@ from ..health.monitor import (
     WARN,
     HealthMonitor,
     HealthSample,
+    check_detectors,
 )
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
@@ -346,14 +347,11 @@ class HealthNode(Node):
         return str(self.get_parameter(name).value)
 
     def _detectors(self) -> tuple[str, ...]:
-        """The ``detectors`` parameter, checked against :data:`DETECTORS`."""
-        chosen = tuple(str(name) for name in self.get_parameter("detectors").value)
-        unknown = sorted(set(chosen) - set(DETECTORS))
-        if unknown or not chosen:
-            raise ParameterException(
-                f"detectors = {list(chosen)}: use one or more of {list(DETECTORS)}", ["detectors"]
-            )
-        return chosen
+        """The ``detectors`` parameter, checked by :func:`check_detectors`."""
+        try:
+            return check_detectors(str(name) for name in self.get_parameter("detectors").value)
+        except ConfigError as err:
+            raise ParameterException(str(err), ["detectors"]) from err
 
     def _warn(self, kind: str, text: str) -> None:
         """Log a warning at most once per :data:`WARN_THROTTLE` seconds per kind."""
