@@ -23,6 +23,8 @@ from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 
+from .synthetic import bench_channels
+
 
 def test_bins_split_direction_and_keep_close_points_together() -> None:
     here = bin_key(100.0, 293.15, 1500.0)
@@ -113,13 +115,7 @@ def _recording(change_at: float | None, change: float, duration: float = 120.0):
     rng = np.random.default_rng(7)
     torque = friction + config.screw.screw_inertia * np.gradient(w, t)
     torque = torque + rng.normal(0.0, 2e-4, len(t))
-    ts = t[::10]
-    channels = {
-        "torque": (t, torque),
-        "speed": (ts, w[::10]),
-        "temperature": (ts[::10], np.full(len(ts[::10]), 293.15)),
-        "preload": (ts[::5], np.full(len(ts[::5]), 1500.0)),
-    }
+    channels = bench_channels(t, torque, w)
     return config, twin, channels
 
 

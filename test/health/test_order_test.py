@@ -12,6 +12,8 @@ from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 
+from .synthetic import bench_channels
+
 ONSET = 30.0  # s
 
 
@@ -34,13 +36,7 @@ def _reversing(
     torque = drag + ripple_torque(config, t, w, drag, raceway, sphere)
     torque = torque + config.screw.screw_inertia * np.gradient(w, t)
     torque = torque + np.random.default_rng(11).normal(0.0, 2e-4, len(t))
-    ts = t[::10]
-    channels = {
-        "torque": (t, torque),
-        "speed": (ts, w[::10]),
-        "temperature": (ts[::10], np.full(len(ts[::10]), 293.15)),
-        "preload": (ts[::5], np.full(len(ts[::5]), 1500.0)),
-    }
+    channels = bench_channels(t, torque, w)
     return config, twin, channels
 
 

@@ -17,6 +17,8 @@ from ballscrew_twin.health.residuals import (
 )
 from ballscrew_twin.params import load_config
 
+from .synthetic import bench_channels
+
 
 def _blocks(speed_of, duration: float, settings: ResidualSettings, rate: float = 1000.0):
     aligner = BlockAligner(settings)
@@ -81,13 +83,7 @@ def test_prediction_follows_the_speed_inside_the_block() -> None:
     t = np.arange(0.0, 30.0, 1e-3)
     w = 33.0 + 30.0 * np.sin(2 * math.pi * 2.0 * t)
     torque = twin.drag(w, 293.15, 1500.0) + config.screw.screw_inertia * np.gradient(w, t)
-    ts = t[::10]
-    channels = {
-        "torque": (t, torque),
-        "speed": (ts, w[::10]),
-        "temperature": (ts[::10], np.full(len(ts[::10]), 293.15)),
-        "preload": (ts[::5], np.full(len(ts[::5]), 1500.0)),
-    }
+    channels = bench_channels(t, torque, w)
     settings = MonitorSettings(residual=ResidualSettings(sensor_noise=1e-5))
     monitor = HealthMonitor(config, settings, twin=twin)
     # (the last block ends after the last speed sample: its speed is held, not measured)
