@@ -69,10 +69,15 @@ def test_a_ripple_found_by_the_mean_shift_test_is_named_by_its_order() -> None:
 
 
 def test_a_friction_change_accumulates_through_reversals() -> None:
-    # 10 % less friction: 3.3 sigmas of the nominal twin's 3 % error, a residual that changes
+    # 15 % less friction: 5 sigmas of the nominal twin's 3 % error, a residual that changes
     # sign at every reversal (every 0.6 s). Oriented by the friction's direction the CUSUM
     # adds it up over the strokes; unoriented, every stroke undid the last (no alarm in 20 s).
-    config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.90, period=1.2)
+    # (10 % until round 5 of issue 13: the tracker then read 30 s of the twin's error at two
+    # operating points as 300 independent blocks and was sure of the friction scale to well
+    # under 3 %; updated as the shared error it is, the uncommissioned twin's friction scale
+    # stays as uncertain as its 3 % error after 30 s, and a 10 % change is 2.3 innovation
+    # sigmas, under the CUSUM's k = 2.5.)
+    config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
     monitor = HealthMonitor(config, MonitorSettings(detectors=("cusum",)), twin=twin)
     feed(monitor, channels)
     assert monitor.alarm is not None

@@ -76,3 +76,36 @@ def test_bad_settings_and_steps_are_named() -> None:
         tracker.step(0.0, 0.01, 1e-5, NOISE**2, 0.0)
     with pytest.raises(ValueError, match="R ="):
         tracker.step(0.0, 0.01, 1e-5, float("nan"), DT)
+
+
+def test_an_error_shared_by_many_blocks_teaches_the_state_what_one_block_would() -> None:
+    # 70 blocks at one operating point, all 2 sigma off (the twin's own error there, not a
+    # drift), with a commissioned unit's tight priors: updated as independent measurements the
+    # friction scale absorbs it; updated as one shared error (R x 100) it moves no further
+    # than one block's evidence allows.
+    settings = TrackerSettings(bias_prior=2e-5, scale_prior=2.5e-3, preload_prior=1.0)
+    torque, sensitivity = 0.014, 1.8e-5
+    model = 0.08 * torque  # N m, the twin's error there
+    offset = 2.0 * model
+    moved = []
+    for shared in (1.0, 100.0):
+        tracker = DriftTracker(settings)
+        for _ in range(70):
+            tracker.step(
+                torque + offset,
+                torque,
+                sensitivity,
+                NOISE**2 + model**2,
+                DT,
+                update_variance=NOISE**2 + shared * model**2,
+            )
+        moved.append(tracker.state[1])
+    white, correlated = moved
+    one_block = DriftTracker(settings)
+    one_block.step(torque + offset, torque, sensitivity, NOISE**2 + model**2, DT)
+    assert white > 20 * correlated > 0.0
+    assert correlated < 2.0 * one_block.state[1]
+    with pytest.raises(ValueError, match="update R"):
+        DriftTracker(TrackerSettings()).step(
+            0.0, 0.01, 1e-5, NOISE**2, DT, update_variance=0.5 * NOISE**2
+        )
