@@ -100,6 +100,10 @@ CHORD_POLISH = 1e-3
 #: below the tolerance (quadratic convergence): its trial point is evaluated without partials,
 #: and they are computed there only if it does not converge after all [-]
 NEWTON_FINAL = 1e-6
+#: a step with old blocks that cuts the worst scaled residual by less than this factor is slow
+#: (linear convergence): the next trial point is evaluated with partials, so that the blocks are
+#: those of the iterate from then on (and of the solution for the next warm solve) [-]
+CHORD_SLOW = 0.01
 
 # Positions in the tuple of scene_arrays(scene) (the scalar parameters of contacts_kernel).
 _I_SCREW_SPEED = 12
@@ -114,6 +118,7 @@ SOLVER_CONSTANTS = (
     CHORD_DECREASE,
     CHORD_POLISH,
     NEWTON_FINAL,
+    CHORD_SLOW,
 )
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
@@ -646,6 +651,7 @@ def newton_kernel(
     jac,
     reuse,
     jac_scales,
+    polished,
     nut,
     weight,
     gravity,
@@ -667,6 +673,9 @@ def newton_kernel(
             ``jac_scales`` (3,): take steps with them while each cuts the squared residual by
             CHORD_DECREASE at least, and compute them afresh when one does not. False: exact
             blocks at every iterate, as the reference.
+        polished: the start is a solution this solver returned (with ``reuse``, polished until
+            a step with old blocks no longer cut the residual): it is accepted at once when
+            below the tolerance (polishing it again would not cut the residual either).
         nut: (B,) int64 nut of each sphere; weight: (B,) spheres it stands for [-].
         gravity: (B, 3) [m/s^2] in Frenet components; loads: (2,) force the spheres must exert
             on each nut along +z [N]; scales: (force [N], moment [N m], nut [N]) scales of the
@@ -719,6 +728,7 @@ def newton_kernel(
         recorded = False
         linearisations = 1
     fresh = not reuse  # jac belongs to the current iterate
+    slow = False  # the last step with old blocks converged slowly: refresh them at the next
     status = STATUS_NOT_CONVERGED
     iterations = NEWTON_MAX_ITER
     worst = np.inf
@@ -727,8 +737,10 @@ def newton_kernel(
         # Steps with old blocks converge linearly: they go on to CHORD_POLISH times the
         # tolerance (a Newton step lands there anyway), as long as each still cuts the residual.
         polishing = reuse and worst < tolerance
-        if worst < (tolerance * CHORD_POLISH if reuse else tolerance) or (
-            polishing and iteration == NEWTON_MAX_ITER
+        if (
+            worst < (tolerance * CHORD_POLISH if reuse else tolerance)
+            or (polishing and iteration == NEWTON_MAX_ITER)
+            or (polished and iteration == 0 and worst < tolerance)
         ):
             status = STATUS_CONVERGED
             iterations = iteration
@@ -766,8 +778,9 @@ def newton_kernel(
                         trial_z[i, r] = z[i, r] + step * dz[i, r]
                 for k in range(2):
                     trial_e[k] = e_nut[k] + step * de[k]
-                # The full step is usually taken: linearise there, unless it is the last one.
-                if attempt == 0 and not reuse and worst >= NEWTON_FINAL:
+                # The full step is usually taken: linearise there, unless it is the last one
+                # (or, reusing blocks, unless the old blocks still converge fast).
+                if attempt == 0 and ((not reuse and worst >= NEWTON_FINAL) or slow):
                     trial_nut = linearise(trial_z, trial_e, *args, trial_res, axial, jac)
                     linearisations += 1
                     factored = False
@@ -797,6 +810,13 @@ def newton_kernel(
                 continue
             # The blocks now belong to the first trial point (reference iteration, taken when it
             # is the new iterate) or to an earlier iterate (reuse, last step).
+            slow = (
+                reuse
+                and accepted
+                and not fresh
+                and not trial_linearised
+                and _worst(trial_res, trial_nut, free) > CHORD_SLOW * worst
+            )
             fresh = accepted and trial_linearised and step == 1.0
             break
         if polishing and not accepted:
@@ -883,6 +903,7 @@ def solve_compiled(
     jacobian: FloatArray,
     reuse: bool,
     jacobian_scales: tuple[float, float, float],
+    polished: bool,
     nut: NDArray[np.int64],
     weight: FloatArray,
     gravity: FloatArray,
@@ -903,6 +924,7 @@ def solve_compiled(
             jacobian,
             reuse,
             jacobian_scales,
+            polished,
             nut,
             weight,
             gravity,

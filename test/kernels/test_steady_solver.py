@@ -86,6 +86,7 @@ def test_frozen_constants_are_the_current_ones() -> None:
         steady_solver.CHORD_DECREASE,
         steady_solver.CHORD_POLISH,
         steady_solver.NEWTON_FINAL,
+        steady_solver.CHORD_SLOW,
     )
     assert compiled_stamp() == DEPENDENCY_STAMP
     assert ensure_fresh_cache() is False  # checked once per process
