@@ -161,16 +161,20 @@ def baseline_model(directory: str, config_path: str, mode: Mode) -> Any:
     """A ``SteadyStateModel`` (default backend) of the package in ``directory``/ballscrew_twin,
     imported as :data:`BASELINE_PACKAGE` (its modules import each other relatively), with its
     own parameters read from the parameter file ``config_path``."""
-    if BASELINE_PACKAGE not in sys.modules:
-        root = Path(directory) / "ballscrew_twin"
+    root = (Path(directory) / "ballscrew_twin").resolve()
+    if not (root / "__init__.py").is_file():
+        raise SystemExit(f"--baseline {directory}: no ballscrew_twin package there")
+    loaded = sys.modules.get(BASELINE_PACKAGE)
+    if loaded is None:
         spec = importlib.util.spec_from_file_location(
             BASELINE_PACKAGE, root / "__init__.py", submodule_search_locations=[str(root)]
         )
-        if spec is None or spec.loader is None or not (root / "__init__.py").is_file():
-            raise SystemExit(f"--baseline {directory}: no ballscrew_twin package there")
+        assert spec is not None and spec.loader is not None  # a file location gives both
         package = importlib.util.module_from_spec(spec)
         sys.modules[BASELINE_PACKAGE] = package
         spec.loader.exec_module(package)
+    elif Path(str(loaded.__file__)).parent != root:
+        raise SystemExit(f"--baseline {directory}: another baseline is loaded in this process")
     params = importlib.import_module(f"{BASELINE_PACKAGE}.params")
     steady = importlib.import_module(f"{BASELINE_PACKAGE}.models.steady")
     return steady.SteadyStateModel(params.load_config(config_path), mode=mode)

@@ -15,7 +15,8 @@ bordered block-diagonal, and :func:`newton_kernel` solves it as such, in one com
   the same of sphere i's axial push on its nut; the cost is linear in the sphere count;
 - the blocks' LU factors and the Schur complements are computed once per set of blocks
   (:func:`factorise`) and serve every step taken with them (:func:`newton_step`): a warm solve
-  reuses the last solve's blocks (chord steps) and factorises them once;
+  reuses the last solve's blocks (chord steps) and factorises them once, and refreshes them at
+  a trial point when the chord steps converge slowly (``CHORD_SLOW``);
 - the rest is the iteration of the readable reference ``SteadyStateModel._newton``: the same
   scaled residuals, the same diagonal shift of the blocks, the same frozen rates at zero speed,
   the same backtracking line search on the squared residual and the same stopping rule;
@@ -671,7 +672,9 @@ def newton_kernel(
             ones computed, in the residual scales ``scales``.
         reuse: ``jac`` holds blocks of a nearby state (a warm start), in the residual scales
             ``jac_scales`` (3,): take steps with them while each cuts the squared residual by
-            CHORD_DECREASE at least, and compute them afresh when one does not. False: exact
+            CHORD_DECREASE at least, and compute them afresh when one does not; after a step
+            that cuts the worst residual less than 1 / CHORD_SLOW-fold, the next trial point is
+            evaluated with partials (its blocks serve the steps after it). False: exact
             blocks at every iterate, as the reference.
         polished: the start is a solution this solver returned (with ``reuse``, polished until
             a step with old blocks no longer cut the residual): it is accepted at once when
@@ -767,6 +770,7 @@ def newton_kernel(
                     nut_res = linearise(z, e_nut, *args, res, axial, jac)
                     linearisations += 1
                     fresh = True
+                    slow = False
                     factored = False
                     continue
                 break
@@ -806,6 +810,7 @@ def newton_kernel(
                 nut_res = linearise(z, e_nut, *args, res, axial, jac)
                 linearisations += 1
                 fresh = True
+                slow = False
                 factored = False
                 continue
             # The blocks now belong to the first trial point (reference iteration, taken when it
