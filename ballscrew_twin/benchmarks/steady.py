@@ -17,24 +17,36 @@ the readable Newton over the compiled contact laws):
   1 rpm, 0.07 K and 17 N), each warm-started from the one before, with all outputs; per solve;
 - warm Newton: the Newton solve alone from the other point's state (no outputs assembled).
 
+With ``--baseline DIR``, the structured solver of another checkout of the package (DIR holds its
+``ballscrew_twin`` folder, e.g. the main branch before a change) is timed beside both, in the same
+run, imported under another name (:func:`baseline_model`).
+
 With ``--agreement N``, also the drag torque of both solvers at N random points of the envelope
 (symmetric mode), each solved cold and along a warm-started path through all of them: which
 agree to 1e-9 relative and where they differ.
 
 Median CPU time of this process (``time.process_time``), the solvers interleaved round by round
-so that a change of the machine's load hits both alike.
+so that a change of the machine's load hits both alike. In each round a solver makes ``--burst``
+consecutive calls of a warm task (default 5), each timed: a call made right after another
+solver's finds the caches filled by that one (measured: a symmetric warm solve of 55 us takes
+134 us right after a solve of the previous solver), which a caller solving point after point
+does not see.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.util
 import itertools
 import math
 import statistics
+import sys
 import time
 from collections.abc import Callable
 from functools import partial
-from typing import Literal
+from pathlib import Path
+from typing import Any, Literal
 
 import numpy as np
 
@@ -44,7 +56,7 @@ from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
 from ..models.contact_forces import evaluate_contacts, make_scene
 from ..models.steady import SteadyStateModel
-from ..params import TwinConfig, load_config
+from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
 
 #: One-line help of this benchmark.
@@ -69,6 +81,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``bench steady``."""
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--repeat", type=int, default=20, help="repetitions of each timing")
+    parser.add_argument(
+        "--burst",
+        type=int,
+        default=5,
+        help="consecutive calls of a warm task per solver and round, each timed (1: every call "
+        "right after another solver's, on caches that solver has filled)",
+    )
+    parser.add_argument(
+        "--baseline",
+        default=None,
+        metavar="DIR",
+        help="also time the structured solver of the package in DIR/ballscrew_twin (another "
+        "checkout, e.g. before a change), interleaved with the others",
+    )
     parser.add_argument(
         "--agreement",
         type=int,
@@ -128,11 +154,47 @@ def _tasks(
     return {"cold": cold, "warm": warm, "warm path": warm_path, "warm Newton": newton}
 
 
+BASELINE_PACKAGE = "ballscrew_twin_baseline"
+
+
+def baseline_model(directory: str, config_path: str, mode: Mode) -> Any:
+    """A ``SteadyStateModel`` (default backend) of the package in ``directory``/ballscrew_twin,
+    imported as :data:`BASELINE_PACKAGE` (its modules import each other relatively), with its
+    own parameters read from the parameter file ``config_path``."""
+    root = (Path(directory) / "ballscrew_twin").resolve()
+    if not (root / "__init__.py").is_file():
+        raise SystemExit(f"--baseline {directory}: no ballscrew_twin package there")
+    loaded = sys.modules.get(BASELINE_PACKAGE)
+    if loaded is None:
+        spec = importlib.util.spec_from_file_location(
+            BASELINE_PACKAGE, root / "__init__.py", submodule_search_locations=[str(root)]
+        )
+        assert spec is not None and spec.loader is not None  # a file location gives both
+        package = importlib.util.module_from_spec(spec)
+        sys.modules[BASELINE_PACKAGE] = package
+        spec.loader.exec_module(package)
+    elif Path(str(loaded.__file__)).parent != root:
+        raise SystemExit(f"--baseline {directory}: another baseline is loaded in this process")
+    params = importlib.import_module(f"{BASELINE_PACKAGE}.params")
+    steady = importlib.import_module(f"{BASELINE_PACKAGE}.models.steady")
+    return steady.SteadyStateModel(params.load_config(config_path), mode=mode)
+
+
 def _solver_lines(
-    config: TwinConfig, mode: Mode, point: OperatingPoint, nearby: OperatingPoint, repeat: int
+    config: TwinConfig,
+    mode: Mode,
+    point: OperatingPoint,
+    nearby: OperatingPoint,
+    repeat: int,
+    burst: int,
+    baseline: Any = None,
 ) -> list[str]:
-    """Cold, warm and warm-Newton times of both solvers, interleaved round by round."""
+    """Cold, warm and warm-Newton times of the solvers (and of ``baseline``, a model of another
+    checkout, when given), interleaved round by round; in each round every solver makes
+    ``burst`` consecutive calls of a warm task, each timed (one of a cold task)."""
     models = {name: SteadyStateModel(config, mode=mode, backend=b) for name, b in SOLVERS}  # type: ignore[arg-type]
+    if baseline is not None:
+        models = {SOLVERS[0][0]: models[SOLVERS[0][0]], "baseline": baseline, **models}
     tasks = {name: _tasks(model, point, nearby) for name, model in models.items()}
     times: dict[tuple[str, str], list[float]] = {}
     for task in TASKS:
@@ -142,16 +204,23 @@ def _solver_lines(
             tasks[name][task]()
         for _ in range(rounds):
             for name in models:
-                start = time.process_time()
-                tasks[name][task]()
-                times.setdefault((name, task), []).append(time.process_time() - start)
+                for _ in range(1 if task == "cold" else burst):
+                    start = time.process_time()
+                    tasks[name][task]()
+                    times.setdefault((name, task), []).append(time.process_time() - start)
     lines = []
     for name in models:
         cells = [f"{task} {statistics.median(times[(name, task)]) * 1e6:8.0f} us" for task in TASKS]
         lines.append(f"  {mode:<9} {name:<10} solver: " + ", ".join(cells))
-    for task in ("warm", "warm path"):
-        old, new = (statistics.median(times[(n, task)]) for n, _ in SOLVERS)
-        lines.append(f"  {mode:<9} {task} x{old / new:.1f} faster with the structured solver")
+    new_name = SOLVERS[-1][0]
+    for task in TASKS[:3]:
+        new = statistics.median(times[(new_name, task)])
+        ratios = [
+            f"x{statistics.median(times[(name, task)]) / new:.1f} faster than the {name}"
+            for name in models
+            if name != new_name
+        ]
+        lines.append(f"  {mode:<9} {task}: the structured solver " + ", ".join(ratios))
     return lines
 
 
@@ -224,7 +293,12 @@ def run(args: argparse.Namespace) -> int:
     for mode in ("symmetric", "full"):
         print(_contact_line(config, mode, point, args.repeat))
     for mode in ("symmetric", "full"):
-        for line in _solver_lines(config, mode, point, nearby, args.repeat):  # type: ignore[arg-type]
+        baseline = None
+        if args.baseline is not None:
+            source = args.config if args.config is not None else str(default_config_path())
+            baseline = baseline_model(args.baseline, source, mode)  # type: ignore[arg-type]
+        lines = _solver_lines(config, mode, point, nearby, args.repeat, args.burst, baseline)  # type: ignore[arg-type]
+        for line in lines:
             print(line)
     print(
         f"  numpy {np.__version__}; goals of issue 14: warm <= 300 us full (50 spheres), "

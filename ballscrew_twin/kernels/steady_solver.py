@@ -15,7 +15,8 @@ bordered block-diagonal, and :func:`newton_kernel` solves it as such, in one com
   the same of sphere i's axial push on its nut; the cost is linear in the sphere count;
 - the blocks' LU factors and the Schur complements are computed once per set of blocks
   (:func:`factorise`) and serve every step taken with them (:func:`newton_step`): a warm solve
-  reuses the last solve's blocks (chord steps) and factorises them once;
+  reuses the last solve's blocks (chord steps) and factorises them once, and refreshes them at
+  a trial point when the chord steps converge slowly (``CHORD_SLOW``);
 - the rest is the iteration of the readable reference ``SteadyStateModel._newton``: the same
   scaled residuals, the same diagonal shift of the blocks, the same frozen rates at zero speed,
   the same backtracking line search on the squared residual and the same stopping rule;
@@ -100,6 +101,10 @@ CHORD_POLISH = 1e-3
 #: below the tolerance (quadratic convergence): its trial point is evaluated without partials,
 #: and they are computed there only if it does not converge after all [-]
 NEWTON_FINAL = 1e-6
+#: a step with old blocks that cuts the worst scaled residual by less than this factor is slow
+#: (linear convergence): the next trial point is evaluated with partials, so that the blocks are
+#: those of the iterate from then on (and of the solution for the next warm solve) [-]
+CHORD_SLOW = 0.01
 
 # Positions in the tuple of scene_arrays(scene) (the scalar parameters of contacts_kernel).
 _I_SCREW_SPEED = 12
@@ -114,6 +119,7 @@ SOLVER_CONSTANTS = (
     CHORD_DECREASE,
     CHORD_POLISH,
     NEWTON_FINAL,
+    CHORD_SLOW,
 )
 
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
@@ -646,6 +652,7 @@ def newton_kernel(
     jac,
     reuse,
     jac_scales,
+    polished,
     nut,
     weight,
     gravity,
@@ -665,8 +672,13 @@ def newton_kernel(
             ones computed, in the residual scales ``scales``.
         reuse: ``jac`` holds blocks of a nearby state (a warm start), in the residual scales
             ``jac_scales`` (3,): take steps with them while each cuts the squared residual by
-            CHORD_DECREASE at least, and compute them afresh when one does not. False: exact
+            CHORD_DECREASE at least, and compute them afresh when one does not; after a step
+            that cuts the worst residual less than 1 / CHORD_SLOW-fold, the next trial point is
+            evaluated with partials (its blocks serve the steps after it). False: exact
             blocks at every iterate, as the reference.
+        polished: the start is a solution this solver returned (with ``reuse``, polished until
+            a step with old blocks no longer cut the residual): it is accepted at once when
+            below the tolerance (polishing it again would not cut the residual either).
         nut: (B,) int64 nut of each sphere; weight: (B,) spheres it stands for [-].
         gravity: (B, 3) [m/s^2] in Frenet components; loads: (2,) force the spheres must exert
             on each nut along +z [N]; scales: (force [N], moment [N m], nut [N]) scales of the
@@ -719,6 +731,7 @@ def newton_kernel(
         recorded = False
         linearisations = 1
     fresh = not reuse  # jac belongs to the current iterate
+    slow = False  # the last step with old blocks converged slowly: refresh them at the next
     status = STATUS_NOT_CONVERGED
     iterations = NEWTON_MAX_ITER
     worst = np.inf
@@ -727,8 +740,10 @@ def newton_kernel(
         # Steps with old blocks converge linearly: they go on to CHORD_POLISH times the
         # tolerance (a Newton step lands there anyway), as long as each still cuts the residual.
         polishing = reuse and worst < tolerance
-        if worst < (tolerance * CHORD_POLISH if reuse else tolerance) or (
-            polishing and iteration == NEWTON_MAX_ITER
+        if (
+            worst < (tolerance * CHORD_POLISH if reuse else tolerance)
+            or (polishing and iteration == NEWTON_MAX_ITER)
+            or (polished and iteration == 0 and worst < tolerance)
         ):
             status = STATUS_CONVERGED
             iterations = iteration
@@ -755,6 +770,7 @@ def newton_kernel(
                     nut_res = linearise(z, e_nut, *args, res, axial, jac)
                     linearisations += 1
                     fresh = True
+                    slow = False
                     factored = False
                     continue
                 break
@@ -766,8 +782,9 @@ def newton_kernel(
                         trial_z[i, r] = z[i, r] + step * dz[i, r]
                 for k in range(2):
                     trial_e[k] = e_nut[k] + step * de[k]
-                # The full step is usually taken: linearise there, unless it is the last one.
-                if attempt == 0 and not reuse and worst >= NEWTON_FINAL:
+                # The full step is usually taken: linearise there, unless it is the last one
+                # (or, reusing blocks, unless the old blocks still converge fast).
+                if attempt == 0 and ((not reuse and worst >= NEWTON_FINAL) or slow):
                     trial_nut = linearise(trial_z, trial_e, *args, trial_res, axial, jac)
                     linearisations += 1
                     factored = False
@@ -793,10 +810,18 @@ def newton_kernel(
                 nut_res = linearise(z, e_nut, *args, res, axial, jac)
                 linearisations += 1
                 fresh = True
+                slow = False
                 factored = False
                 continue
             # The blocks now belong to the first trial point (reference iteration, taken when it
             # is the new iterate) or to an earlier iterate (reuse, last step).
+            slow = (
+                reuse
+                and accepted
+                and not fresh
+                and not trial_linearised
+                and _worst(trial_res, trial_nut, free) > CHORD_SLOW * worst
+            )
             fresh = accepted and trial_linearised and step == 1.0
             break
         if polishing and not accepted:
@@ -883,6 +908,7 @@ def solve_compiled(
     jacobian: FloatArray,
     reuse: bool,
     jacobian_scales: tuple[float, float, float],
+    polished: bool,
     nut: NDArray[np.int64],
     weight: FloatArray,
     gravity: FloatArray,
@@ -903,6 +929,7 @@ def solve_compiled(
             jacobian,
             reuse,
             jacobian_scales,
+            polished,
             nut,
             weight,
             gravity,

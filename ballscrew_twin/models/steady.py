@@ -90,6 +90,9 @@ class SteadyState:
     kinematics: FloatArray  # (B, 4) rad/s
     nut_offset: FloatArray  # (2,) m
     screw_speed: float  # rad/s at which it was solved
+    #: returned by a warm solve of the compiled solver, polished until a step with old Jacobian
+    #: blocks no longer cut its residual: as the start of its own point it needs no polishing
+    polished: bool = False
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,10 @@ class SteadyStateModel:
             from ..kernels.contacts import evaluate_contacts_compiled
 
             self._evaluate = evaluate_contacts_compiled
+        if backend == "compiled":
+            from ..kernels import steady_solver
+
+            self._solver = steady_solver
         if not 0.0 < tolerance < 1e-2:
             raise ValueError(f"tolerance = {tolerance!r} must be in (0, 1e-2)")
         self.config = config
@@ -170,6 +177,8 @@ class SteadyStateModel:
         # Sphere Jacobian blocks of the compiled solver's last solve, with their residual scales.
         self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
         self._scenes: dict[float, ContactScene] = {}
+        # The scenes at a temperature and a speed (the last ones used), as scene() returns them.
+        self._moving_scenes: dict[tuple[float, float], ContactScene] = {}
         self._ball_sets: dict[str, BallSet] = {}
         self._parameters: dict[tuple[float, float], FloatArray] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
@@ -180,6 +189,10 @@ class SteadyStateModel:
         The temperature-dependent part (thermally expanded geometry, lubricant viscosity, Hertz
         moduli) is computed once per temperature and reused: identical to :func:`make_scene`.
         """
+        moving = self._moving_scenes.get((temperature, screw_speed))
+        if moving is not None:
+            self.scene_cache_hits += 1
+            return moving
         base = self._scenes.get(temperature)
         if base is None:
             if len(self._scenes) >= SCENE_CACHE_SIZE:
@@ -188,7 +201,14 @@ class SteadyStateModel:
             self._scenes[temperature] = base
         else:
             self.scene_cache_hits += 1
-        return base if screw_speed == 0.0 else replace(base, screw_speed=screw_speed)
+        if screw_speed == 0.0:
+            return base
+        if len(self._moving_scenes) >= SCENE_CACHE_SIZE:
+            self._moving_scenes.pop(next(iter(self._moving_scenes)))
+        moving = self._moving_scenes[(temperature, screw_speed)] = replace(
+            base, screw_speed=screw_speed
+        )
+        return moving
 
     # ------------------------------------------------------------------ set-up
 
@@ -318,10 +338,10 @@ class SteadyStateModel:
         return ball_res, axial, nut_sum - loads / nut_scale, ev
 
     def _scales(self, scene: ContactScene, loads: FloatArray) -> tuple[float, float]:
-        per_ball = float(np.max(np.abs(loads))) / self.config.screw.balls_per_nut
+        master, slave = loads.tolist()
+        per_ball = max(abs(master), abs(slave)) / self.config.screw.balls_per_nut
         force = max(per_ball, scene.ball_mass * self.config.environment.gravity, 1e-6)
-        geom = scene.geometry
-        return force, force * geom.ball_radius
+        return force, force * scene.geometry.ball_radius
 
     def _unknown_mask(self, scene: ContactScene, count: int) -> NDArray[np.bool_]:
         """Which of the 6 unknowns per sphere are solved: the rates are frozen at zero speed."""
@@ -337,22 +357,24 @@ class SteadyStateModel:
         state: SteadyState,
         loads: FloatArray,
         warm: bool = False,
+        polished: bool = False,
     ) -> tuple[SteadyState, ContactSource, int, float]:
         """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
         scaled residual); SolverError when it does not converge. ``warm``: ``state`` comes from
-        the last solution (the compiled solver may then reuse its Jacobian)."""
+        the last solution (the compiled solver may then reuse its Jacobian); ``polished``: it is
+        the polished solution of this very point (:attr:`SteadyState.polished`)."""
         if self.backend == "compiled":
-            return self._newton_compiled(scene, balls, state, loads, warm)
+            return self._newton_compiled(scene, balls, state, loads, warm, polished)
         return self._newton_readable(scene, balls, state, loads)
 
     def _kernel_parameters(self, scene: ContactScene) -> FloatArray:
         """``scene_arrays(scene)`` as the solver kernel takes it (float64 array), kept per
         temperature and speed like the scenes (they depend on nothing else for this model)."""
-        from ..kernels.contacts import scene_arrays
-
         key = (scene.temperature, scene.screw_speed)
         params = self._parameters.get(key)
         if params is None:
+            from ..kernels.contacts import scene_arrays
+
             if len(self._parameters) >= SCENE_CACHE_SIZE:
                 self._parameters.pop(next(iter(self._parameters)))
             params = self._parameters[key] = np.array(scene_arrays(scene), dtype=np.float64)
@@ -365,16 +387,16 @@ class SteadyStateModel:
         state: SteadyState,
         loads: FloatArray,
         warm: bool,
+        polished: bool,
     ) -> tuple[SteadyState, KernelSolution, int, float]:
         """The iteration of :meth:`_newton_readable`, compiled, with exact per-sphere Jacobian
         blocks (:mod:`ballscrew_twin.kernels.steady_solver`). ``warm``: ``state`` is the last
         solution of this model, or near it, so the Jacobian blocks of the last solve are reused
         while they converge fast (refreshed when they do not)."""
-        from ..kernels import steady_solver as solver
-
+        solver = self._solver
         count = len(balls.nut)
         z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
-        nut_offset = np.array(state.nut_offset, dtype=np.float64)
+        nut_offset = state.nut_offset.copy()
         force_scale, moment_scale = self._scales(scene, loads)
         scales = (force_scale, moment_scale, force_scale * self.config.screw.balls_per_nut)
         stored = self._jacobian
@@ -389,6 +411,7 @@ class SteadyStateModel:
             jacobian,
             reuse,
             old_scales,
+            reuse and polished,
             balls.nut,
             balls.weight,
             balls.gravity,
@@ -412,7 +435,7 @@ class SteadyStateModel:
                 f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
                 f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
             )
-        solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed)
+        solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed, reuse)
         return solved_state, solved, iterations, worst
 
     def _newton_readable(
@@ -570,13 +593,15 @@ class SteadyStateModel:
         start = warm_start if warm_start is not None else self._warm
         if start is not None and start.ball_nb.shape[0] == len(balls.nut):
             predicted = self._predicted(op, len(balls.nut)) if warm_start is None else None
+            # A point among the last two solved starts from its own solution (polished or not).
+            own = any(predicted is solved for _, solved in self._history)
             if predicted is not None:
                 start = predicted
             elif start.screw_speed != op.screw_speed:
                 start = self._rescaled(start, scene, balls, op.screw_speed)
             try:
                 state, ev, iterations, residual = self._newton(
-                    scene, balls, start, loads, warm=True
+                    scene, balls, start, loads, warm=True, polished=own and start.polished
                 )
             except SolverError:
                 state, ev, iterations, residual = self._cold_solve(op, balls, loads)
@@ -611,23 +636,31 @@ class SteadyStateModel:
         ):
             return None
         target = (speed, op.temperature, op.preload, op.axial_load)
-        units = (
-            PREDICTOR_UNITS[0] * abs(q1[0]),
-            PREDICTOR_UNITS[1],
-            PREDICTOR_UNITS[2] * max(q1[2], 10.0),
-            PREDICTOR_UNITS[3] * max(abs(q1[3]), 10.0),
+        if target == q1:  # a point solved last or before: its own solution is the start
+            return last
+        if target == q0:
+            return old
+        u_speed = PREDICTOR_UNITS[0] * abs(q1[0])
+        u_preload = PREDICTOR_UNITS[2] * max(q1[2], 10.0)
+        u_load = PREDICTOR_UNITS[3] * max(abs(q1[3]), 10.0)
+        moved = (
+            (q1[0] - q0[0]) / u_speed,
+            (q1[1] - q0[1]) / PREDICTOR_UNITS[1],
+            (q1[2] - q0[2]) / u_preload,
+            (q1[3] - q0[3]) / u_load,
         )
-        moved = [(b - a) / u for a, b, u in zip(q0, q1, units, strict=True)]
-        wanted = [(t - b) / u for b, t, u in zip(q1, target, units, strict=True)]
-        norm = sum(d * d for d in moved)
+        norm = moved[0] ** 2 + moved[1] ** 2 + moved[2] ** 2 + moved[3] ** 2
         if norm == 0.0:
             return None
-        s = sum(d * w for d, w in zip(moved, wanted, strict=True)) / norm
+        s = (
+            moved[0] * ((speed - q1[0]) / u_speed)
+            + moved[1] * ((op.temperature - q1[1]) / PREDICTOR_UNITS[1])
+            + moved[2] * ((op.preload - q1[2]) / u_preload)
+            + moved[3] * ((op.axial_load - q1[3]) / u_load)
+        ) / norm
         s = min(max(s, PREDICTOR_RANGE[0]), PREDICTOR_RANGE[1])
-        from ..kernels.steady_solver import extrapolate
-
         start = SteadyState(np.empty((count, 2)), np.empty((count, 4)), np.empty(2), speed)
-        extrapolate(
+        self._solver.extrapolate(
             (old.ball_nb, old.kinematics, old.nut_offset, q0[0]),
             (last.ball_nb, last.kinematics, last.nut_offset, q1[0]),
             s,
@@ -651,6 +684,57 @@ class SteadyStateModel:
         return SteadyState(start.ball_nb.copy(), kin, start.nut_offset.copy(), speed)
 
     def _cold_solve(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactSource, int, float]:
+        """Solve from no warm start: :meth:`_cold_solve_direct`, or, with the compiled solver
+        and more than one sphere per nut, from the averaged problem first
+        (:meth:`_solve_from_averaged`) and directly when that fails."""
+        if self.backend == "compiled" and len(balls.nut) > 2:
+            try:
+                return self._solve_from_averaged(op, balls, loads)
+            except SolverError:
+                pass  # the averaged solution is no start for this problem: solve it directly
+        return self._cold_solve_direct(op, balls, loads)
+
+    def _averaged_balls(self, balls: BallSet) -> BallSet:
+        """One sphere per nut standing for all of it, under the mean of its spheres' gravity
+        (in Frenet components): the symmetric problem closest to ``balls`` (on a vertical screw
+        every sphere's gravity is that mean, and the problem is the symmetric one)."""
+        key = f"averaged {len(balls.nut)}"
+        averaged = self._ball_sets.get(key)
+        if averaged is None:
+            nut = np.array([0, 1])
+            weight = np.array([float(np.sum(balls.weight[balls.nut == k])) for k in (0, 1)])
+            gravity = np.stack([np.mean(balls.gravity[balls.nut == k], axis=0) for k in (0, 1)])
+            averaged = BallSet(nut=nut, azimuth=np.zeros(2), weight=weight, gravity=gravity)
+            self._ball_sets[key] = averaged
+        return averaged
+
+    def _solve_from_averaged(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactSource, int, float]:
+        """Cold solve of the averaged problem (:meth:`_averaged_balls`, two spheres), then every
+        sphere warm-started from its nut's sphere, with that sphere's Jacobian block (its nut
+        row scaled to the one sphere it now stands for): the cost of a cold solve of two spheres
+        and a warm solve of all (compiled solver only)."""
+        averaged = self._averaged_balls(balls)
+        state, _, iterations, _ = self._cold_solve_direct(op, averaged, loads)
+        assert self._jacobian is not None  # a cold solve computes the blocks
+        blocks, scales = self._jacobian
+        spread = blocks[balls.nut]  # a copy
+        spread[:, 6, :] *= (balls.weight / averaged.weight[balls.nut])[:, None]
+        self._jacobian = (spread, scales)
+        start = SteadyState(
+            state.ball_nb[balls.nut],
+            state.kinematics[balls.nut],
+            state.nut_offset.copy(),
+            state.screw_speed,
+        )
+        scene = self.scene(op.temperature, op.screw_speed)
+        solved, ev, more, residual = self._newton(scene, balls, start, loads, warm=True)
+        return solved, ev, iterations + more, residual
+
+    def _cold_solve_direct(
         self, op: OperatingPoint, balls: BallSet, loads: FloatArray
     ) -> tuple[SteadyState, ContactSource, int, float]:
         """Static equilibrium first (robust: smooth Hertz only), then the speed.
@@ -755,8 +839,7 @@ class SteadyStateModel:
     ) -> SteadySolution:
         """:meth:`_assemble` from the compiled solver's own summary of the solution (the same
         sums, taken in the kernel) and its per-contact states (views of one array)."""
-        from ..kernels import steady_solver as solver
-
+        solver = self._solver
         summary = solved.summary.tolist()
         speed = op.screw_speed
         if speed == 0.0:
@@ -795,8 +878,6 @@ class SteadyStateModel:
     ) -> ContactStates:
         """:func:`_contact_states` of the compiled solver's state rows (no copies; the index
         arrays, the same for every solve of a mode, are shared and read-only)."""
-        from ..kernels.steady_solver import STATE_ROWS
-
         index = self._contact_index.get(mode)
         if index is None:
             count = len(balls.nut)
@@ -808,7 +889,7 @@ class SteadyStateModel:
             for array in index:
                 array.flags.writeable = False
             self._contact_index[mode] = index
-        rows = dict(zip(STATE_ROWS, solved.states, strict=True))
+        rows = dict(zip(self._solver.STATE_ROWS, solved.states, strict=True))
         return ContactStates(
             sphere=index[0],
             nut=index[1],

@@ -14,6 +14,7 @@ Oracles:
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -86,6 +87,7 @@ def test_frozen_constants_are_the_current_ones() -> None:
         steady_solver.CHORD_DECREASE,
         steady_solver.CHORD_POLISH,
         steady_solver.NEWTON_FINAL,
+        steady_solver.CHORD_SLOW,
     )
     assert compiled_stamp() == DEPENDENCY_STAMP
     assert ensure_fresh_cache() is False  # checked once per process
@@ -336,6 +338,41 @@ def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> N
     expected = per_speed + 0.5 * (per_speed - a.kinematics / first.screw_speed)
     np.testing.assert_allclose(beyond.kinematics, expected * 230.0 * RPM, rtol=1e-12)
     assert model._predicted(operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
+
+
+def test_a_point_solved_again_starts_from_its_own_polished_solution(config: TwinConfig) -> None:
+    """A point among the last two solved starts from its own solution; when a warm solve
+    polished it, no step is taken: the same state and the same outputs, to the last bit."""
+    first, second = operating_point(200.0, 20.0, 1000.0), operating_point(220.0, 22.0, 1100.0)
+    model = SteadyStateModel(config, mode="full")
+    model.solve(first)  # cold: not polished
+    polished = model.solve(second)
+    assert polished.state.polished
+    model.solve(first)
+    again = model.solve(second)
+    assert again.iterations == 0
+    np.testing.assert_array_equal(again.state.ball_nb, polished.state.ball_nb)
+    np.testing.assert_array_equal(again.state.kinematics, polished.state.kinematics)
+    assert again.output.drag_torque == polished.output.drag_torque
+    assert again.output.contacts is not None and polished.output.contacts is not None
+    np.testing.assert_array_equal(
+        again.output.contacts.normal_force, polished.output.contacts.normal_force
+    )
+
+
+def test_full_cold_solve_of_a_horizontal_screw_equals_the_reference(config: TwinConfig) -> None:
+    """On a horizontal screw gravity differs from sphere to sphere: the cold solve starts from
+    the averaged two-sphere problem and must still reach the solution of the readable Newton
+    solving every sphere directly."""
+    horizontal = replace(config, screw=replace(config.screw, orientation="horizontal"))
+    point = operating_point(300.0, 20.0, 800.0, axial_load=200.0)
+    model = SteadyStateModel(horizontal, mode="full")
+    got = model.solve(point)
+    assert "averaged 50" in model._ball_sets  # the averaged start was taken
+    spread = got.state.ball_nb[got.balls.nut == 0, 1]
+    assert np.ptp(spread) > 1e-5 * np.max(np.abs(spread))  # the spheres differ (gravity)
+    reference = SteadyStateModel(horizontal, mode="full", backend="newton").solve(point)
+    assert_same_solution(got, reference)
 
 
 # ----------------------------------------------------------------------------- failures
