@@ -16,11 +16,11 @@ partly corrupt bag plays everything readable and says what it skipped) on its ow
   depth bounds how far a reliable subscriber's DDS layer may lag (what it has not acknowledged
   is resent from there), not how far its callbacks may lag: DDS takes the messages into the
   subscriber's own queue (its depth) at once, and a node starved of CPU works through that
-  queue after the replay has ended (measured: a health node under three busy-looping processes
-  had processed 301 of 4000 torque messages of a 5x replay at its end, at depth 100 too, and
-  the rest within 30 s, none lost). ``--wait-subscribers S`` waits up to S seconds for every
-  played topic to have a subscriber, and then half a second for the subscribers' side of the
-  match, before starting.
+  queue after the replay has ended (measured with ``--depth 100``, a health node beside three
+  busy-looping processes: 301 of the 4000 torque messages of a 5x replay processed when the
+  replay ended, the rest within the next 30 s, none lost). ``--wait-subscribers S`` waits up
+  to S seconds for every played topic to have a subscriber, and then half a second for the
+  subscribers' side of the match, before starting.
 
 Stops at the end of the bag, or cleanly on Ctrl-C / SIGTERM. Every argument after
 ``--ros-args`` goes to ROS unchanged.
