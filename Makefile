@@ -32,11 +32,18 @@ help:
 setup:
 	@bash tools/setup_env.sh
 
+# mypy (one core, ~30 s from a cold cache) runs beside pytest, which uses one core most of the
+# time; its report is printed after pytest's, and either failing fails the target.
 test: setup
 	$(BIN)/ruff check ballscrew_twin test
 	$(BIN)/ruff format --check ballscrew_twin test
-	$(BIN)/mypy ballscrew_twin
-	$(ROS_ENV) $(BIN)/pytest -q
+	@echo "$(BIN)/mypy ballscrew_twin (beside pytest) & $(ROS_ENV) $(BIN)/pytest -q"
+	@report=$$(mktemp); \
+	$(BIN)/mypy ballscrew_twin > "$$report" 2>&1 & checker=$$!; \
+	$(ROS_ENV) $(BIN)/pytest -q; tests=$$?; \
+	wait $$checker; types=$$?; \
+	echo "$(BIN)/mypy ballscrew_twin:"; cat "$$report"; rm -f "$$report"; \
+	exit $$(( tests || types ))
 
 lint: setup
 	$(BIN)/ruff check ballscrew_twin test

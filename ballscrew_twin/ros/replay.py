@@ -12,11 +12,14 @@ partly corrupt bag plays everything readable and says what it skipped) on its ow
   the bag's length plus one mean message interval), header stamps inside messages are the
   recorded ones;
 - publishers are reliable, keep-last ``--depth`` (default 10000: ten seconds of a 1 kHz topic
-  at 1x, two at 5x): both reliable and best-effort (sensor-data) subscribers receive them, and
-  a reliable subscriber that falls behind by less than that loses nothing (a writer keeps only
-  ``depth`` unacknowledged messages: at depth 100 a health node starved of CPU for 20 ms at 5x
-  lost 67 % of the torque in a loaded test run). ``--wait-subscribers S`` waits up to S
-  seconds for every played topic to have a subscriber, and then half a second for the
+  at 1x, two at 5x): both reliable and best-effort (sensor-data) subscribers receive them. The
+  depth bounds how far a reliable subscriber's DDS layer may lag (what it has not acknowledged
+  is resent from there), not how far its callbacks may lag: DDS takes the messages into the
+  subscriber's own queue (its depth) at once, and a node starved of CPU works through that
+  queue after the replay has ended (measured with ``--depth 100``, a health node beside three
+  busy-looping processes: 301 of the 4000 torque messages of a 5x replay processed when the
+  replay ended, the rest within the next 30 s, none lost). ``--wait-subscribers S`` waits up
+  to S seconds for every played topic to have a subscriber, and then half a second for the
   subscribers' side of the match, before starting.
 
 Stops at the end of the bag, or cleanly on Ctrl-C / SIGTERM. Every argument after
