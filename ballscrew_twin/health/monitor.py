@@ -345,6 +345,8 @@ class HealthMonitor:
         self._angle_at: tuple[float, float, float] | None = None
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
+        #: Blocks that share one error of the twin in the tracker's update [-].
+        self._shared_blocks = max(s.drift_error_time / s.residual.block_duration, 1.0)
         block_rate = 1.0 / s.residual.block_duration
         share = s.false_alarm_rate / len(s.detectors)
         self.cusum = Cusum(s.cusum_shift, share, block_rate)
@@ -490,10 +492,13 @@ class HealthMonitor:
         mean_slope = float(np.sum(slope * np.diff(stamps)) / span) if span > 0.0 else 0.0
         return mean_slope * self.gate.settings.gate_angle / LAG_ANGLES_TO_SETTLE
 
-    def transient_variance(self, block: Block, inertia: float, lag: float) -> float:
+    def transient_variance(
+        self, block: Block, inertia: float, lag: float, standstill: float
+    ) -> float:
         """Variance of the twin's block mean from the block's motion [N^2 m^2], before the
-        torque gain: the inertia torque's error, the edge curvature of the speed, and ``lag``
-        [N m], the friction's following error (:meth:`following_error`)."""
+        torque gain: the inertia torque's error, the edge curvature of the speed, ``lag``
+        [N m], the friction's following error (:meth:`following_error`), and ``standstill``
+        [N m], the error near standstill (the drag curve shifted STANDSTILL_SHIFT)."""
         b = self.baseline
         span = block.span
         edge = (
@@ -501,7 +506,7 @@ class HealthMonitor:
             if span > 0.0
             else 0.0
         )
-        return (b.inertia_error * inertia) ** 2 + edge**2 + lag**2
+        return (b.inertia_error * inertia) ** 2 + edge**2 + lag**2 + standstill**2
 
     def block_sigma(self, block: Block, drag: float, transient: float) -> float:
         """1-sigma error of the twin's block mean [N m] without the sensor noise (see
@@ -588,9 +593,7 @@ class HealthMonitor:
         # the lag outlasts the sweep by a block: this block's following error or the last one's
         lag = self.following_error(angle[at], evaluated * factor, block.stamps[at])
         standstill = float(np.mean(np.abs(drags[few] - shifted)))
-        transient = (
-            self.transient_variance(block, inertia, max(lag, self._last_lag)) + standstill**2
-        )
+        transient = self.transient_variance(block, inertia, max(lag, self._last_lag), standstill)
         model_sigma = self.block_sigma(block, drag, transient)
         self._last_lag = lag
         noise_var = sensor_var / n + model_sigma**2
@@ -599,14 +602,13 @@ class HealthMonitor:
         self._last_index = block.index
         prior_state = self.tracker.state
         prior_cov = np.array(self.tracker.kf.P, dtype=float)
-        shared = max(s.drift_error_time / s.residual.block_duration, 1.0)
         step = self.tracker.step(
             measured,
             predicted,
             preload_sensitivity,
             noise_var,
             gap * s.residual.block_duration,
-            update_variance=sensor_var / n + shared * model_sigma**2,
+            update_variance=sensor_var / n + self._shared_blocks * model_sigma**2,
         )
         self._history.append(
             _Record(
