@@ -18,7 +18,8 @@ from three things the monitor does not have:
    characteristic rotation angle phi_c, dT/d|phi| = (T_ss(w) - T) / phi_c, so a reversal
    takes ~3 phi_c of screw rotation to settle.
 3. **A Stribeck rise at low speed**: T_ss + sign(w) T_st exp(-(w / w_st)^2), a breakaway
-   torque T_st (a fraction of the torque at 10 rad/s) that vanishes above a few w_st.
+   torque T_st (a fraction of the unit's torque at 10 rad/s and 20 C, at the instant's
+   contact preload) that vanishes above a few w_st.
 
 The torque sensor adds a gain error and a bias on top (``torque_gain``, ``torque_bias``), and
 the unit's rotating inertia seen by the sensor differs from the nominal screw inertia by
@@ -51,9 +52,16 @@ TABLE_SPEED_MIN = 0.005
 #: Highest tabulated |speed| [rad/s] (3820 rpm).
 TABLE_SPEED_MAX = 400.0
 #: Speed nodes of a unit table, uniform in log |speed| [-].
-TABLE_SPEED_NODES = 25
+TABLE_SPEED_NODES = 49
+#: Spacing of a unit table's temperature nodes, on a lattice fixed in K [K].
+TABLE_TEMPERATURE_STEP = 2.5
+#: Ratio of neighbouring contact-preload nodes of a unit table, on a lattice fixed in
+#: log preload [-].
+TABLE_PRELOAD_RATIO = 1.25
 #: Reference speed of the Stribeck torque's size [rad/s].
 STRIBECK_REFERENCE_SPEED = 10.0
+#: Reference temperature of the Stribeck torque's size [K] (20 C).
+STRIBECK_REFERENCE_TEMPERATURE = 293.15
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -70,7 +78,7 @@ class UnitSpread:
         torque_bias: standard deviation of the torque sensor's bias (normal) [N m].
         inertia: relative half-width of the rotating inertia the sensor sees [-].
         presliding_angle: range (low, high) of the Dahl angle phi_c [rad].
-        stribeck_fraction: range of T_st as a fraction of the torque at 10 rad/s [-].
+        stribeck_fraction: range of T_st as a fraction of the torque at 10 rad/s, 20 C [-].
         stribeck_speed: range of the Stribeck speed w_st [rad/s].
     """
 
@@ -117,7 +125,7 @@ class BenchUnit:
         torque_bias: torque sensor bias [N m].
         inertia_scale: rotating inertia seen by the sensor over the screw's [-].
         presliding_angle: Dahl angle phi_c [rad] (0: no presliding).
-        stribeck_fraction: T_st over |T_ss(10 rad/s)| [-].
+        stribeck_fraction: T_st over |T_ss(10 rad/s, 20 C)| at the contact preload [-].
         stribeck_speed: w_st [rad/s].
     """
 
@@ -204,21 +212,28 @@ def unit_config(config: TwinConfig, unit: BenchUnit) -> TwinConfig:
     )
 
 
-def _span(low: float, high: float, step: float, minimum: int) -> FloatArray:
-    """Nodes covering [low, high] at most ``step`` apart, at least ``minimum`` of them."""
-    count = max(minimum, math.ceil((high - low) / step) + 1)
-    if high <= low:
-        return np.array([low - 0.5 * step, low + 0.5 * step])
-    return np.linspace(low, high, count)
+def lattice_nodes(low: float, high: float, step: float) -> FloatArray:
+    """Nodes of the lattice k * ``step`` (k integer) that enclose [``low``, ``high``] (in the
+    unit of ``step``): at least two, the same nodes for every range that falls between them,
+    so one unit's table is the same function of its inputs whatever recording it was built
+    for."""
+    first = math.floor(low / step)
+    last = max(math.ceil(high / step), first + 1)
+    return np.arange(first, last + 1, dtype=np.float64) * step
 
 
 class UnitTorqueTable:
     """Steady drag torque of one unit (and its model-changing faults) on a grid, interpolated.
 
     The nodes: |speed| uniform in log from :data:`TABLE_SPEED_MIN` to :data:`TABLE_SPEED_MAX`,
-    temperature and contact preload spanning the ranges asked for, and the model-changing
-    fault states given (viscosity, roughness, mu_dry factors: one table each). Every node is a
-    symmetric steady solve of the unit's parameter set, warm-started along the speed axis.
+    temperature and log contact preload on fixed lattices (:func:`lattice_nodes`,
+    :data:`TABLE_TEMPERATURE_STEP`, :data:`TABLE_PRELOAD_RATIO`) enclosing the ranges asked
+    for, and the model-changing fault states given (viscosity, roughness, mu_dry factors: one
+    table each). Every node is a symmetric steady solve of the unit's parameter set,
+    warm-started along the speed axis. Between the nodes the logarithm of the torque is
+    linear in log speed, temperature and log preload (the viscosity is close to exponential
+    in temperature, the torque close to a power of speed and preload), so the table is one
+    smooth-enough function of the unit, not of the recording it was built for.
 
     Args:
         config: the nominal parameter set.
@@ -240,12 +255,17 @@ class UnitTorqueTable:
     ) -> None:
         from ..models.steady import SteadyStateModel
 
+        if min(*temperature_range, *preload_range) <= 0.0:
+            raise ConfigError(
+                f"unit table: temperature range {temperature_range} K and preload range "
+                f"{preload_range} N must be > 0"
+            )
         self.unit = unit
         self.speeds = np.exp(
             np.linspace(math.log(TABLE_SPEED_MIN), math.log(TABLE_SPEED_MAX), TABLE_SPEED_NODES)
         )
-        self.temperatures = _span(*temperature_range, step=10.0, minimum=2)
-        self.preloads = _span(*preload_range, step=400.0, minimum=2)
+        self.temperatures = lattice_nodes(*temperature_range, TABLE_TEMPERATURE_STEP)
+        self.preloads = np.exp(lattice_nodes(*np.log(preload_range), math.log(TABLE_PRELOAD_RATIO)))
         base = unit_config(config, unit)
         keys = {FaultState().model_key: FaultState()}
         for state in fault_states:
@@ -259,29 +279,43 @@ class UnitTorqueTable:
                 for k, preload in enumerate(self.preloads):
                     model.forget_warm_start()
                     for i, speed in enumerate(self.speeds):
-                        op = OperatingPoint(
-                            screw_speed=float(speed),
-                            temperature=float(temperature),
-                            preload=float(preload),
-                        )
-                        values[i, j, k] = model.evaluate(op).drag_torque
-                        self.solves += 1
+                        values[i, j, k] = self._solve(model, speed, temperature, preload)
             self._tables[key] = RegularGridInterpolator(
-                (np.log(self.speeds), self.temperatures, self.preloads),
-                values,
+                (np.log(self.speeds), self.temperatures, np.log(self.preloads)),
+                np.log(values),
                 bounds_error=False,
                 fill_value=None,
             )
-        self._reference = float(
-            abs(
-                self._steady(
-                    np.array([STRIBECK_REFERENCE_SPEED]),
-                    np.array([float(np.mean(temperature_range))]),
-                    np.array([float(np.mean(preload_range))]),
-                    FaultState(),
-                )[0]
-            )
+        # the Stribeck torque's size: the healthy unit at the reference speed and temperature,
+        # at each preload node (a fixed function of the contact preload, like the table)
+        model = SteadyStateModel(base, mode="symmetric")
+        self._stribeck_reference = np.array(
+            [
+                self._solve(model, STRIBECK_REFERENCE_SPEED, STRIBECK_REFERENCE_TEMPERATURE, p)
+                for p in self.preloads
+            ]
         )
+
+    def _solve(self, model: Any, speed: float, temperature: float, preload: float) -> float:
+        """One symmetric steady solve of |T| [N m] (> 0: the table interpolates its log)."""
+        op = OperatingPoint(
+            screw_speed=float(speed), temperature=float(temperature), preload=float(preload)
+        )
+        torque = float(model.evaluate(op).drag_torque)
+        self.solves += 1
+        if not torque > 0.0:
+            raise ConfigError(
+                f"unit table: drag torque {torque!r} N m at {speed:g} rad/s, {temperature:g} K, "
+                f"{preload:g} N is not > 0 (its logarithm is interpolated)"
+            )
+        return torque
+
+    def stribeck_reference(self, contact_preload: FloatArray) -> FloatArray:
+        """|T_ss| of the healthy unit at STRIBECK_REFERENCE_SPEED and
+        STRIBECK_REFERENCE_TEMPERATURE [N m] at ``contact_preload`` [N] (log-log in between
+        the preload nodes, clipped to them)."""
+        p = np.clip(contact_preload, self.preloads[0], self.preloads[-1])
+        return np.exp(np.interp(np.log(p), np.log(self.preloads), np.log(self._stribeck_reference)))
 
     def _steady(
         self, speed: FloatArray, temperature: FloatArray, preload: FloatArray, state: FaultState
@@ -293,7 +327,7 @@ class UnitTorqueTable:
         clipped = np.clip(magnitude, self.speeds[0], self.speeds[-1])
         t = np.clip(temperature, self.temperatures[0], self.temperatures[-1])
         p = np.clip(preload, self.preloads[0], self.preloads[-1])
-        value = table(np.column_stack([np.log(clipped), t, p]))
+        value = np.exp(table(np.column_stack([np.log(clipped), t, np.log(p)])))
         value *= np.minimum(magnitude / self.speeds[0], 1.0)
         return np.asarray(np.sign(speed) * value, dtype=np.float64)
 
@@ -325,7 +359,7 @@ class UnitTorqueTable:
             out += (
                 np.sign(speed)
                 * u.stribeck_fraction
-                * self._reference
+                * self.stribeck_reference(np.asarray(contact_preload, dtype=np.float64))
                 * np.exp(-((speed / u.stribeck_speed) ** 2))
             )
         return out
