@@ -265,7 +265,8 @@ class UnitTorqueTable:
             np.linspace(math.log(TABLE_SPEED_MIN), math.log(TABLE_SPEED_MAX), TABLE_SPEED_NODES)
         )
         self.temperatures = lattice_nodes(*temperature_range, TABLE_TEMPERATURE_STEP)
-        self.preloads = np.exp(lattice_nodes(*np.log(preload_range), math.log(TABLE_PRELOAD_RATIO)))
+        low, high = (math.log(p) for p in preload_range)
+        self.preloads = np.exp(lattice_nodes(low, high, math.log(TABLE_PRELOAD_RATIO)))
         base = unit_config(config, unit)
         keys = {FaultState().model_key: FaultState()}
         for state in fault_states:
