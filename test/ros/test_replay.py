@@ -2,7 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
+import math
+import os
+import signal
+import subprocess
+import sys
 import threading
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -21,7 +28,7 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Temperature
 
 from ballscrew_twin.health.bags import open_raw_bag
-from ballscrew_twin.ros.replay import BagPlayer, ReplayError
+from ballscrew_twin.ros.replay import BagPlayer, ReplayError, run
 
 from .conftest import SpinUntil
 
@@ -204,3 +211,62 @@ def test_invalid_requests_are_refused(bag: Path, ros_context: Context) -> None:
                 BagPlayer(node, raw, topics=["/nope"])
     finally:
         node.destroy_node()
+
+
+#: A reliable torque subscriber in a process of its own; prints how many messages it took.
+STALLED_LISTENER = """
+import signal, rclpy
+from geometry_msgs.msg import WrenchStamped
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+rclpy.init()
+node = rclpy.create_node("stalled_listener")
+got = []
+qos = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
+node.create_subscription(WrenchStamped, "/bench/torque", got.append, qos)
+stop = []
+signal.signal(signal.SIGTERM, lambda *_: stop.append(True))
+print("ready", flush=True)
+while not stop:
+    rclpy.spin_once(node, timeout_sec=0.05)
+print(len(got), flush=True)
+"""
+
+
+def test_drain_waits_until_a_stalled_subscriber_has_every_message(
+    bag: Path, ros_context: Context
+) -> None:
+    """A reliable subscriber whose process is stopped acknowledges nothing: the drain names
+    the topic when its time is up; once the process runs again, the drain ends with every
+    message acknowledged, and the subscriber has all of them."""
+    listener = subprocess.Popen(
+        [sys.executable, "-c", STALLED_LISTENER], stdout=subprocess.PIPE, text=True
+    )
+    node = rclpy.create_node("player", context=ros_context)
+    try:
+        assert listener.stdout is not None and listener.stdout.readline().strip() == "ready"
+        with open_raw_bag(bag) as raw:
+            player = BagPlayer(node, raw, rate=0.0, topics=["/bench/torque"], clock=False)
+            assert player.wait_for_subscribers(10.0, ros_context.ok)
+            listener.send_signal(signal.SIGSTOP)
+            player.play(ros_context.ok)
+            start = time.monotonic()
+            assert player.drain(0.5, ros_context.ok) == ["/bench/torque"]
+            assert time.monotonic() - start >= 0.5
+            assert player.stats.unacknowledged == ["/bench/torque"]
+            listener.send_signal(signal.SIGCONT)
+            assert player.drain(20.0, ros_context.ok) == []
+            assert player.stats.unacknowledged == []
+        listener.send_signal(signal.SIGTERM)
+        assert int(listener.communicate(timeout=20.0)[0].strip()) == TORQUES
+    finally:
+        node.destroy_node()
+        if listener.poll() is None:
+            os.kill(listener.pid, signal.SIGCONT)
+            listener.kill()
+            listener.wait(timeout=10.0)
+
+
+@pytest.mark.parametrize("drain", [math.nan, -1.0, math.inf])
+def test_a_drain_that_is_not_a_time_is_refused(drain: float) -> None:
+    with pytest.raises(ReplayError, match=r"--drain .* must be a finite number >= 0"):
+        run(argparse.Namespace(drain=drain))
