@@ -32,9 +32,11 @@ from pathlib import Path
 
 import pytest
 from ballscrew_twin_msgs.msg import HealthResidual
+from geometry_msgs.msg import WrenchStamped
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from ballscrew_twin.health.bags import read_bench_bag
 from ballscrew_twin.health.detect import (
@@ -58,8 +60,9 @@ ALARM_TOLERANCE = 1e-6
 #: Longest wait for the replay to find its subscribers, and for a whole replay [s].
 WAIT = "20"
 REPLAY_TIMEOUT = 180.0
-#: After the replay has ended, the longest time without a new torque message before the test
-#: counts what arrived [s]: the node works through its queues at its own pace (see above).
+#: After the replay has ended, the longest time in which the node takes no input and no torque
+#: message reaches the test's witness, before the test counts what arrived [s]: the node works
+#: through its queues at its own pace (see above).
 PROGRESS_TIMEOUT = 20.0
 #: Input queues of the node, deeper than a sample bag's torque topic (4000 messages): a node
 #: starved of CPU by a loaded test machine falls behind but loses nothing.
@@ -133,18 +136,29 @@ def test_replayed_sample_gives_the_offline_verdict(
     heard: list[HealthResidual] = []
     listener = Node("listener", context=executor.context)
     listener.create_subscription(HealthResidual, "health", heard.append, 1000)
+    # a witness of what DDS delivers to this process, beside what the node handles
+    witnessed: list[int] = []
+    listener.create_subscription(
+        WrenchStamped,
+        node.get_parameter("torque_topic").value,
+        lambda _: witnessed.append(1),
+        QoSProfile(depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE),
+    )
     executor.add_node(listener)
     # started once the node subscribes: its --wait-subscribers waits for DDS, not for this
     # test's own work (the offline run took over 20 s on a loaded machine, the first case)
     proc = _replay(bag, rate)
     try:
         now = time.monotonic()
-        deadline, progress, count = now + REPLAY_TIMEOUT, now, 0
-        while now < deadline and (proc.poll() is None or count < torque_count):
+        deadline, progress, handled = now + REPLAY_TIMEOUT, now, (0, 0)
+        while now < deadline and (proc.poll() is None or node.received["torque"] < torque_count):
             executor.spin_once(timeout_sec=0.01)
             now = time.monotonic()
-            if node.received["torque"] > count:
-                progress, count = now, node.received["torque"]
+            # progress: any input the node has taken (a block closes, and may be classified
+            # at length, in whichever input's callback completes it) or any delivery
+            latest = (sum(node.received.values()), len(witnessed))
+            if latest != handled:
+                progress, handled = now, latest
             elif proc.poll() is not None and now - progress > PROGRESS_TIMEOUT:
                 break  # the replay ended and nothing more arrives
         idle = time.monotonic() - progress
@@ -156,7 +170,12 @@ def test_replayed_sample_gives_the_offline_verdict(
     assert proc.returncode == 0, output
     assert "not every topic has a subscriber" not in output
     assert "not every reliable subscriber acknowledged" not in output, output
-    assert node.received["torque"] == torque_count, (node.received, f"idle {idle:.1f} s", output)
+    assert node.received["torque"] == torque_count, (
+        node.received,
+        f"delivered to this process: {len(witnessed)}",
+        f"idle {idle:.1f} s",
+        output,
+    )
     assert node.dropped == 0 and node.restarts == 0
 
     assert spin_until(executor, lambda: len(heard) == node.published)

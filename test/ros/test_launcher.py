@@ -18,17 +18,25 @@ from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.ros.launcher import Launcher, LaunchFile, LaunchNode, expand, load_launch_file
 
 #: A process that prints "ready", then waits; on SIGINT it prints "bye" and exits 0 (or the
-#: code given as its argument, or never, with "stubborn").
+#: code given as its argument, or never, with "stubborn"). With a second argument, a file: a
+#: waiting process creates it once its SIGINT handler is in place, a dying one ("dieN") waits
+#: for it before it exits, so that the launcher never stops a process still starting up (a
+#: SIGINT before the handler ends it with the default action: a race on a loaded machine).
 SLEEPER = textwrap.dedent("""
-    import signal, sys, time
+    import os, signal, sys, time
     mode = sys.argv[1] if len(sys.argv) > 1 else "0"
+    flag = sys.argv[2] if len(sys.argv) > 2 else ""
     def stop(*_):
         print("bye", flush=True)
         sys.exit(int(mode))
     signal.signal(signal.SIGINT, signal.SIG_IGN if mode == "stubborn" else stop)
     print("ready", flush=True)
     if mode.startswith("die"):
+        while flag and not os.path.exists(flag):
+            time.sleep(0.01)
         sys.exit(int(mode[3:]))
+    if flag:
+        open(flag, "w").close()
     while True:
         time.sleep(0.05)
 """)
@@ -74,16 +82,21 @@ def test_starts_two_and_stops_them_cleanly() -> None:
     assert all(p.returncode == 0 for p in launcher.processes.values())
 
 
-def test_a_dying_node_stops_the_rest_and_fails_the_launch() -> None:
-    code, launcher, out = _run((_node("ok"), _node("bad", "die3")), stop_after_ready=False)
+def test_a_dying_node_stops_the_rest_and_fails_the_launch(tmp_path: Path) -> None:
+    flag = str(tmp_path / "ok-ready")
+    code, launcher, out = _run(
+        (_node("ok", "0", flag), _node("bad", "die3", flag)), stop_after_ready=False
+    )
     assert code == 1
     assert "bad died with exit code 3" in out.getvalue()
     assert launcher.processes["ok"].returncode == 0  # stopped, not killed
 
 
-def test_required_node_ending_ends_the_launch() -> None:
+def test_required_node_ending_ends_the_launch(tmp_path: Path) -> None:
+    flag = str(tmp_path / "server-ready")
     code, launcher, _ = _run(
-        (_node("server"), _node("client", "die0", required=True)), stop_after_ready=False
+        (_node("server", "0", flag), _node("client", "die0", flag, required=True)),
+        stop_after_ready=False,
     )
     assert code == 0
     assert launcher.processes["server"].returncode == 0
