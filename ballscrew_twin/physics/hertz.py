@@ -295,7 +295,11 @@ def normal_force(
     # at zero rate and magnitude below the elastic force, as min(C_H |rate|, elastic) has, but
     # no kink, which the dynamic model's implicit step needs.
     safe = np.where(elastic > 0.0, elastic, 1.0)
-    damping = np.where(elastic > 0.0, elastic * np.tanh(viscous / safe), 0.0)
+    # an elastic force near the underflow limit (delta below ~1e-211 m) makes the ratio overflow
+    # to +-inf, whose tanh is the saturated +-1 the law asks for: not an error
+    with np.errstate(over="ignore"):
+        ratio = viscous / safe
+    damping = np.where(elastic > 0.0, elastic * np.tanh(ratio), 0.0)
     return _f64(elastic + damping)
 
 

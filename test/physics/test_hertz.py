@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -317,6 +318,19 @@ def test_normal_force_damping_saturates_at_elastic_force() -> None:
     elastic = K_H * delta**1.5
     assert float(hertz.normal_force(delta, 1e3, K_H, B_H)) == pytest.approx(2.0 * elastic)
     assert float(hertz.normal_force(delta, -1e3, K_H, B_H)) == 0.0
+
+
+def test_damping_of_a_vanishing_approach_saturates_without_overflow() -> None:
+    """An approach so small that K_H delta^1.5 is near the underflow limit: C_H rate over it
+    overflows, and the force is still the saturated one, with no floating-point warning (a
+    hypothesis example found the warning)."""
+    delta = np.array([1e-212, 1e-212, 1e-215])
+    rate = np.array([1.0, -1.0, 0.5])
+    elastic = K_H * delta**1.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        force = hertz.normal_force(delta, rate, K_H, B_H)
+    np.testing.assert_array_equal(force, [2.0 * elastic[0], 0.0, 2.0 * elastic[2]])
 
 
 @given(
