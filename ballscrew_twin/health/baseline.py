@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..params import TwinConfig, read_yaml
-from .correction import MIN_SUPPORT, ResidualSurface
+from .correction import ResidualSurface
 
 FloatArray = NDArray[np.float64]
 
@@ -155,15 +155,16 @@ class Baseline:
 
     def error_at(self, speed: float, temperature: float) -> float:
         """e_rel at ``speed`` [rad/s] and ``temperature`` [K]: the band's value (or
-        ``error_relative``), raised towards ``unseen_error`` where the residual surface has
-        thin support (fewer than MIN_SUPPORT blocks: the recording hardly saw that regime)."""
+        ``error_relative``), raised towards ``unseen_error`` by the share of the residual
+        surface's value there that comes from nodes with thin support (fewer than MIN_SUPPORT
+        blocks: regimes the recording hardly saw; :meth:`ResidualSurface.unlearnt_share`)."""
         if len(self.error_bands) != len(ERROR_BAND_EDGES) + 1:
             error = self.error_relative
         else:
             error = self.error_bands[int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))]
         if self.surface is None:
             return error
-        thin = max(1.0 - self.surface.support_at(speed, temperature) / MIN_SUPPORT, 0.0)
+        thin = self.surface.unlearnt_share(speed, temperature)
         return math.hypot(error, thin * self.unseen_error)
 
     def temperature_distance(self, temperature: float) -> float:

@@ -126,6 +126,11 @@ def test_the_surface_scales_the_drag_and_its_support_sets_the_error() -> None:
     # where it was learnt: the band's error; where it never was: the unseen error added
     assert b.error_at(node_speed, 293.15) == b.error_bands[1]
     assert b.error_at(node_speed, 353.15) == pytest.approx(math.hypot(0.02, b.unseen_error))
+    # 80 % of the way from a learnt node (x node 7) to one never taught (x node 8): 80 % of
+    # the value there is the surface's continuation, and so is the unseen error's share
+    toward = SHAPE_REFERENCE_SPEED * 10.0 ** (0.2 * LOG_SPEED_NODES[7] + 0.8 * LOG_SPEED_NODES[8])
+    band = b.error_bands[int(np.searchsorted(ERROR_BAND_EDGES, toward))]
+    assert b.error_at(toward, 293.15) == pytest.approx(math.hypot(band, 0.8 * b.unseen_error))
     assert _fitted().surface_factor(np.array([1.0, 2.0]), 300.0).tolist() == [1.0, 1.0]
 
 

@@ -97,3 +97,24 @@ def test_a_surface_of_the_wrong_shape_or_size_is_refused() -> None:
         ResidualSurface(np.full(SHAPE, np.nan), np.zeros(SHAPE))
     with pytest.raises(ConfigError, match="scale"):
         robust_fit(np.zeros((2, SHAPE[0] * SHAPE[1])), np.zeros(2), 0.0)
+
+
+def test_a_query_between_a_learnt_and_an_unlearnt_node_is_mostly_unlearnt() -> None:
+    """Support at one speed node only (90 blocks at every temperature): a query 80 % of the
+    way to the next, unsupported node interpolates 18 blocks of support (over MIN_SUPPORT)
+    but takes 80 % of its value from a node nothing taught: its unlearnt share is 0.8."""
+    shape = (len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))
+    learnt = LOG_SPEED_NODES.index(0.25)  # 53 rad/s
+    support = np.zeros(shape)
+    support[learnt, :] = 90.0
+    surface = ResidualSurface(np.zeros(shape), support)
+    between = SPEED_REFERENCE * 10 ** (0.25 + 0.8 * 0.25)  # 84.5 rad/s
+    assert surface.support_at(between, 274.45) == pytest.approx(18.0)
+    assert surface.support_at(between, 274.45) > MIN_SUPPORT
+    assert surface.unlearnt_share(between, 274.45) == pytest.approx(0.8)
+    assert surface.unlearnt_share(SPEED_REFERENCE * 10**0.25, 274.45) == pytest.approx(0.0)
+    assert surface.unlearnt_share(300.0, 274.45) == 1.0
+    # a node half-taught (5 of MIN_SUPPORT blocks) counts half
+    support[learnt + 1, :] = 0.5 * MIN_SUPPORT
+    half = ResidualSurface(np.zeros(shape), support)
+    assert half.unlearnt_share(between, 274.45) == pytest.approx(0.8 * 0.5)
