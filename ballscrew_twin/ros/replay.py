@@ -27,7 +27,11 @@ partly corrupt bag plays everything readable and says what it skipped) on its ow
   in a process that was stopped while 2000 messages were published received 102 of them when
   the publisher exited at once, and all 2000 when it drained first (rclpy
   ``Publisher.wait_for_all_acked``); a health node starved of CPU lost the last 5 % of a 5x
-  replay that way (3800 of 4000 torque messages, two test runs and a benchmark on 2 cores).
+  replay that way (3800 of 4000 torque messages, two test runs and a benchmark on 2 cores);
+- while playing, every topic's count of matched subscribers is checked every 0.05 s: a
+  subscriber that goes (or that DDS unmatches) misses what is published meanwhile, and the
+  drain cannot resend it, since it waits only for the subscribers matched at its end. The
+  replay names such topics with their counts (at the start, the fewest).
 
 Stops at the end of the bag, or cleanly on Ctrl-C / SIGTERM. Every argument after
 ``--ros-args`` goes to ROS unchanged.
@@ -57,6 +61,8 @@ MAX_SLEEP = 0.05
 DEFAULT_DRAIN = 10.0
 #: Longest single wait for acknowledgements while draining [s] (a stop request is seen).
 DRAIN_SLICE = 0.25
+#: Period of the check of every topic's subscriber count while playing [s].
+SUBSCRIBER_CHECK = 0.05
 #: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
 #: best-effort subscriber drops what arrives before it has matched the publisher in turn.
 MATCH_SETTLE = 0.5
@@ -87,6 +93,16 @@ class PlayStats:
     stopped: bool = False
     #: topics whose reliable subscribers had not acknowledged everything when the drain ended
     unacknowledged: list[str] = field(default_factory=list)
+    #: per topic, subscribers when the playing started and the fewest seen while playing
+    subscribers: dict[str, tuple[int, int]] = field(default_factory=dict)
+
+    @property
+    def lost_subscribers(self) -> dict[str, tuple[int, int]]:
+        """Topics that had fewer subscribers at some time of the playing than at its start:
+        (at the start, fewest). What was published meanwhile never reached the ones that went
+        (or that DDS unmatched), and the drain cannot resend it: it waits only for the
+        subscribers matched at its end."""
+        return {t: (first, low) for t, (first, low) in self.subscribers.items() if low < first}
 
     @property
     def total(self) -> int:
@@ -197,12 +213,24 @@ class BagPlayer:
                 return
             shift += self.period_ns
 
+    def _count_subscribers(self) -> None:
+        """Fold the topics' subscriber counts now into ``stats.subscribers``."""
+        for topic, publisher in self.publishers.items():
+            count = publisher.get_subscription_count()
+            first, low = self.stats.subscribers.get(topic, (count, count))
+            self.stats.subscribers[topic] = (first, min(low, count))
+
     def play(self, ok: Callable[[], bool]) -> PlayStats:
-        """Publish until the bag ends (or forever with ``loop``) or ``ok()`` turns false."""
+        """Publish until the bag ends (or forever with ``loop``) or ``ok()`` turns false;
+        the topics' subscriber counts are watched meanwhile (``stats.lost_subscribers``)."""
         wall0 = time.monotonic()
-        last_clock_wall = wall0
+        last_clock_wall = last_check = wall0
+        self._count_subscribers()
         start = self.bag.start_ns
         for bag_ns, m in self._messages():
+            if time.monotonic() - last_check >= SUBSCRIBER_CHECK:
+                self._count_subscribers()
+                last_check = time.monotonic()
             if self.rate > 0.0:
                 due = wall0 + (bag_ns - start) * 1e-9 / self.rate
                 while (now := time.monotonic()) < due:
@@ -219,6 +247,7 @@ class BagPlayer:
             self._publish_clock(bag_ns)
             self.publishers[m.topic].publish(m.data)
             self.stats.published[m.topic] += 1
+        self._count_subscribers()
         return self.stats
 
     def drain(self, timeout: float, ok: Callable[[], bool]) -> list[str]:
@@ -310,6 +339,13 @@ def run(args: argparse.Namespace) -> int:
                 flush=True,
             )
             stats = player.play(context.ok)
+            for topic, (first, low) in stats.lost_subscribers.items():
+                print(
+                    f"replay: warning: {topic}: {first} subscriber(s) at the start, {low} at one "
+                    "time; the messages published meanwhile did not reach the ones that went "
+                    "(or that DDS unmatched), and the drain cannot resend them",
+                    file=sys.stderr,
+                )
             if not stats.stopped and player.drain(args.drain, context.ok):
                 print(
                     f"replay: warning: {', '.join(stats.unacknowledged)}: not every reliable "

@@ -322,7 +322,10 @@ def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseli
         node_name="ballscrew_health_restarted",
         parameter_overrides=[Parameter("baseline_file", value=str(out))],
     )
-    assert restarted.monitor.baseline == node.baseline
+    try:
+        assert restarted.monitor.baseline == node.baseline
+    finally:
+        restarted.destroy_node()
 
 
 def test_a_baseline_file_that_is_not_one_stops_the_node_with_its_name(

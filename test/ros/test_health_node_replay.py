@@ -20,6 +20,15 @@ the 2 cores). So the test waits for as long as the node makes progress, not for 
 after the replay's end. Meanwhile /clock stands still and
 the node's watchdog may publish its UNKNOWN (STALE) message among the verdicts; the test tells
 those apart and checks every block's verdict.
+
+The last flakiness had another cause: a health node that an earlier test had left alive (made,
+never destroyed, its context only shut down) was a fourth, best-effort subscriber of the bag's
+topics in this process. With it there, this test's reliable subscribers stopped receiving at
+some time of the replay (5-40 % of the messages missing, none arriving in the next 20 s) while
+the replay's drain reported every message acknowledged: 4 of 8 cases failed in two runs with
+such a node made on purpose, 0 of 8 once the fixture destroyed it. The ROS fixtures now destroy
+every node a test leaves, and this test first checks that no other node subscribes to the
+bag's topics, naming any it finds.
 """
 
 from __future__ import annotations
@@ -145,6 +154,18 @@ def test_replayed_sample_gives_the_offline_verdict(
         QoSProfile(depth=QUEUE_DEPTH, reliability=ReliabilityPolicy.RELIABLE),
     )
     executor.add_node(listener)
+    # nobody else listens: a foreign subscriber (a node another test left alive) has made
+    # this test's reliable subscribers lose messages the replay counted as acknowledged
+    own = {node.get_name(), listener.get_name()}
+    topics = [node.get_parameter(f"{k}_topic").value for k in CHANNELS]
+
+    def others() -> set[str]:
+        infos = (i for t in topics for i in listener.get_subscriptions_info_by_topic(t))
+        return {i.node_name for i in infos} - own
+
+    assert spin_until(executor, lambda: not others(), timeout=10.0), (
+        f"other nodes subscribe to the bag's topics: {sorted(others())}"
+    )
     # started once the node subscribes: its --wait-subscribers waits for DDS, not for this
     # test's own work (the offline run took over 20 s on a loaded machine, the first case)
     proc = _replay(bag, rate)
@@ -170,6 +191,7 @@ def test_replayed_sample_gives_the_offline_verdict(
     assert proc.returncode == 0, output
     assert "not every topic has a subscriber" not in output
     assert "not every reliable subscriber acknowledged" not in output, output
+    assert "subscriber(s) at the start" not in output, output
     assert node.received["torque"] == torque_count, (
         node.received,
         f"delivered to this process: {len(witnessed)}",
