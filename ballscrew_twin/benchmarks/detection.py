@@ -461,6 +461,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
+    """The units and the plan the arguments ask for (``--quick``: units 0 and 1, commissioning
+    120 s, healthy 60 s, one fault run of 30 s); ConfigError for a plan that cannot run."""
+    if args.quick:
+        return range(2), Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
+    plan = Plan(args.commission, args.healthy, args.faults, args.fault_length)
+    if plan.faults < 0 or min(plan.commission, plan.healthy, plan.fault_length) <= 10.0:
+        raise ConfigError("--faults must be >= 0 and every length > 10 s")
+    return _range(args.units), plan
+
+
 def run(args: argparse.Namespace) -> int:
     """Generate, commission, detect, score; print the markdown report (and write it)."""
     from tqdm import tqdm
@@ -470,13 +481,7 @@ def run(args: argparse.Namespace) -> int:
     if args.compare_detectors:
         names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
         settings += (MonitorSettings(detectors=names),)
-    units = range(2) if args.quick else _range(args.units)
-    if args.quick:
-        plan = Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
-    else:
-        plan = Plan(args.commission, args.healthy, args.faults, args.fault_length)
-    if plan.faults < 0 or min(plan.commission, plan.healthy, plan.fault_length) <= 10.0:
-        raise ConfigError("--faults must be >= 0 and every length > 10 s")
+    units, plan = requested_plan(args)
     every: list[list[Run]] = [[] for _ in settings]
     for unit_runs in tqdm(
         run_units(units, plan, config, settings, args.workers),

@@ -91,6 +91,9 @@ SURFACE_INERTIA = 0.3
 #: two cross-validation folds [s].
 SURFACE_SCALE = 0.01
 FOLD_CHUNK = 30.0
+#: Largest unlearnt share (:meth:`ResidualSurface.unlearnt_share`) of the fold's surface at a
+#: held-out block for that block to measure the band error [-].
+LEARNT_SHARE = 0.1
 #: e_J, the inertia torque's relative error: INERTIA_SIGMAS times the fit's relative
 #: uncertainty of J, at least INERTIA_ERROR_FLOOR (training units: the fitted J was off by
 #: up to 3.5 % where the fit claimed 0.45 %, the twin's systematic error leaking into it) [-].
@@ -244,6 +247,26 @@ class SurfaceStudy:
     speeds: FloatArray
     residual: FloatArray
     design: FloatArray
+
+
+def out_of_fold_residuals(study: SurfaceStudy) -> FloatArray:
+    """Relative residual [-] of each block after the residual surface learnt without it: two
+    folds of alternating FOLD_CHUNK-long stretches, each predicted by the surface of the other.
+    NaN where the other fold's surface was not learnt (more than LEARNT_SHARE of its value
+    there comes from nodes that fold did not teach): there the monitor widens its error by
+    the unlearnt share (:meth:`Baseline.error_at`), and the band error must not count the
+    same error again."""
+    folds = np.floor((study.times - study.times[0]) / FOLD_CHUNK).astype(int) % 2
+    out_of_fold = np.full(len(study.residual), np.nan)
+    for k in (0, 1):
+        train, held = folds != k, folds == k
+        if np.count_nonzero(train) >= BAND_BLOCKS and np.any(held):
+            fold_surface = robust_fit(study.design[train], study.residual[train], SURFACE_SCALE)
+            unlearnt = study.design @ np.ravel(fold_surface.thinness)
+            learnt = held & (unlearnt <= LEARNT_SHARE)
+            predicted = study.design[learnt] @ np.ravel(fold_surface.values)
+            out_of_fold[learnt] = study.residual[learnt] - predicted
+    return out_of_fold
 
 
 def _surface_study(twin: UnitTwin, theta: FloatArray, usable: list[Block]) -> SurfaceStudy:
@@ -432,18 +455,7 @@ def commission(
     # (:mod:`.correction`); its error per speed band is measured out of fold (two folds of
     # alternating FOLD_CHUNK-long stretches), so that it is not the in-sample scatter.
     study = _surface_study(twin, theta, usable)
-    folds = np.floor((study.times - study.times[0]) / FOLD_CHUNK).astype(int) % 2
-    out_of_fold = np.full(len(study.residual), np.nan)
-    for k in (0, 1):
-        train, held = folds != k, folds == k
-        if np.count_nonzero(train) >= BAND_BLOCKS and np.any(held):
-            fold_surface = robust_fit(study.design[train], study.residual[train], SURFACE_SCALE)
-            # Only where the fold's surface was learnt: elsewhere the monitor widens its
-            # error by the support (Baseline.error_at), not by the band.
-            learnt = held & (study.design @ np.ravel(fold_surface.support) >= MIN_SUPPORT)
-            out_of_fold[learnt] = study.residual[learnt] - study.design[learnt] @ np.ravel(
-                fold_surface.values
-            )
+    out_of_fold = out_of_fold_residuals(study)
     surface = robust_fit(study.design, study.residual, SURFACE_SCALE)
     # Where the surface was not learnt, the twin is as wrong as the parametric fit alone was
     # at its worst on this unit (training unit 9: 23 % at -10 C and 3 rad/s, a corner the

@@ -145,8 +145,14 @@ class ResidualSurface:
         "learnt", while 80 % of its value is the surface's flat continuation (unit 5022 of
         ``bench detection`` round 6: a commissioning whose cold part ran at 41 rad/s only, a
         later run 7.9 % above the surface at 85 rad/s and 1.3 C, a false alarm)."""
-        thin = np.maximum(1.0 - np.asarray(self.support) / MIN_SUPPORT, 0.0)
-        return float(_bilinear(thin, np.array([speed], dtype=np.float64), temperature)[0])
+        return float(_bilinear(self.thinness, np.array([speed], dtype=np.float64), temperature)[0])
+
+    @property
+    def thinness(self) -> FloatArray:
+        """Each node's thinness max(1 - support / MIN_SUPPORT, 0) [-]: 0 where the recording
+        taught the node, 1 where it did not touch it (a block's unlearnt share is its row of
+        :func:`basis` times these)."""
+        return np.maximum(1.0 - np.asarray(self.support) / MIN_SUPPORT, 0.0)
 
 
 def _bilinear(grid: FloatArray, speed: FloatArray, temperature: float) -> FloatArray:

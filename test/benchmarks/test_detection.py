@@ -10,10 +10,15 @@ to 600 blocks, was two thirds of the time, and the outputs are the same files an
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
+import pytest
+
+from ballscrew_twin.benchmarks import detection
 from ballscrew_twin.cli import main
+from ballscrew_twin.errors import ConfigError
 
 #: Two units, each: commissioning, healthy and one fault recording [s] (see the module doc).
 PLAN = ["--units", "0:2", "--commission", "25", "--healthy", "20", "--faults", "1"]
@@ -33,3 +38,25 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     runs = json.loads((tmp_path / "runs.json").read_text())
     assert runs, "no run recorded"
     assert (tmp_path / "roc.png").stat().st_size > 0
+
+
+def _arguments(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    detection.add_arguments(parser)
+    return parser.parse_args(list(argv))
+
+
+def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
+    units, plan = detection.requested_plan(_arguments("--quick", "--units", "5000:5030"))
+    assert units == range(2)  # --quick overrides --units: a smoke test on training units
+    assert plan == detection.Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
+    units, plan = detection.requested_plan(_arguments(*PLAN))
+    assert units == range(0, 2) and plan == detection.Plan(25.0, 20.0, 1, 60.0)
+
+
+@pytest.mark.parametrize(
+    "argv", [("--faults", "-1"), ("--healthy", "10"), ("--commission", "5"), ("--units", "3:1")]
+)
+def test_a_plan_that_cannot_run_is_refused_with_its_reason(argv: tuple[str, ...]) -> None:
+    with pytest.raises(ConfigError):
+        detection.requested_plan(_arguments(*argv))
