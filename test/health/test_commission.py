@@ -15,20 +15,8 @@ from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import Baseline, load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
-from ballscrew_twin.health.commission import (
-    FOLD_CHUNK,
-    SurfaceStudy,
-    _settling_angle,
-    commission,
-    out_of_fold_residuals,
-)
-from ballscrew_twin.health.correction import (
-    LOG_SPEED_NODES,
-    SPEED_REFERENCE,
-    TEMPERATURE_NODES,
-    ResidualSurface,
-    basis,
-)
+from ballscrew_twin.health.commission import _settling_angle, commission
+from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
 from ballscrew_twin.health.residuals import Block, UnitTwin
 from ballscrew_twin.params import load_config
 
@@ -231,35 +219,3 @@ def test_the_settling_angle_is_where_the_presliding_has_died_out(
     # 2 exp(-a / phi_c) <= 2 x 0.7 %: a >= phi_c ln(143) = 4.96 phi_c, on a 0.1 rad grid
     assert low <= angle <= high
     assert _settling_angle(twin, theta, flat, [], bands, 2.0) == 2.0
-
-
-def test_out_of_fold_error_is_judged_only_where_the_other_fold_taught_the_surface() -> None:
-    """Blocks 80 % of the way from a node both folds taught (a) to one only the first fold
-    taught (b) are not judged when held out of the first fold: 80 % of the second fold's
-    surface there is its flat continuation, which the monitor covers by the unlearnt share.
-    The interpolated support (20 % of a's 150 blocks: 30, over MIN_SUPPORT) had judged them,
-    and their 3 % miss had raised the band error of a regime the twin fits to 0.1 %."""
-    rng = np.random.default_rng(5)
-    temperature = TEMPERATURE_NODES[13]  # 298.15 K, on a node
-    speed_a, speed_b = SPEED_REFERENCE, SPEED_REFERENCE * 10**0.25  # on two neighbouring nodes
-    between = SPEED_REFERENCE * 10**0.2
-    times, speeds, residual = [], [], []
-
-    def blocks(start: float, speed: float, value: float, count: int) -> None:
-        times.extend(start + np.linspace(0.0, 0.9 * FOLD_CHUNK, count))
-        speeds.extend([speed] * count)
-        residual.extend(value + rng.normal(0.0, 1e-3, count))
-
-    # fold 0: [0, 30) s and [60, 90) s; fold 1: [30, 60) s and [90, 120) s
-    for start in (0.0, 30.0, 60.0, 90.0):
-        blocks(start, speed_a, 0.0, 75)
-    blocks(0.0, speed_b, 0.04, 75)  # regime b: first fold only
-    blocks(60.0, between, 0.032, 40)  # 80 % of the way to b: 0.8 x 0.04
-    order = np.argsort(times, kind="stable")
-    t, w, r = (np.asarray(v, dtype=np.float64)[order] for v in (times, speeds, residual))
-    study = SurfaceStudy(t, w, r, basis(w, np.full(len(w), temperature)))
-    judged = out_of_fold_residuals(study)
-    at_a, at_between = np.isclose(w, speed_a), np.isclose(w, between)
-    assert np.all(np.isnan(judged[at_between]))
-    assert np.all(np.isfinite(judged[at_a]))
-    assert np.percentile(np.abs(judged[at_a]), 95) < 0.005
