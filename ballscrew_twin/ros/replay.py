@@ -182,18 +182,22 @@ class BagPlayer:
         span = max(self.bag.end_ns - self.bag.start_ns, 0)
         return span + (span // max(count - 1, 1) if count > 1 else 1_000_000)
 
+    def matched(self) -> bool:
+        """Every played topic has at least one matched subscriber."""
+        return all(p.get_subscription_count() > 0 for p in self.publishers.values())
+
     def wait_for_subscribers(self, timeout: float, ok: Callable[[], bool]) -> bool:
         """Wait up to ``timeout`` [s] for every played topic to have a subscriber, then
         :data:`MATCH_SETTLE` more (the subscriber's side of the match completes after ours)."""
         deadline = time.monotonic() + timeout
         while ok() and time.monotonic() < deadline:
-            if all(p.get_subscription_count() > 0 for p in self.publishers.values()):
+            if self.matched():
                 settled = time.monotonic() + MATCH_SETTLE
                 while ok() and time.monotonic() < settled:
                     time.sleep(MAX_SLEEP)
                 return True
             time.sleep(MAX_SLEEP)
-        return all(p.get_subscription_count() > 0 for p in self.publishers.values())
+        return self.matched()
 
     def _publish_clock(self, bag_ns: int) -> None:
         if self.clock and bag_ns > self._last_clock_ns:

@@ -105,11 +105,6 @@ class Listener:
         self.stamps.append(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec)
 
 
-def _matched(player: BagPlayer) -> bool:
-    """Every played topic has a subscriber."""
-    return all(p.get_subscription_count() > 0 for p in player.publishers.values())
-
-
 def _play_in_thread(player: BagPlayer, ok: Callable[[], bool]) -> threading.Thread:
     thread = threading.Thread(target=player.play, args=(ok,), daemon=True)
     thread.start()
@@ -131,7 +126,7 @@ def test_replay_publishes_every_message_and_the_bag_clock(
     executor.add_node(player_node)
     with open_raw_bag(bag) as raw:
         player = BagPlayer(player_node, raw, rate=4.0)
-        assert spin_until(executor, lambda: _matched(player))
+        assert spin_until(executor, player.matched)
         thread = _play_in_thread(player, ros_context.ok)
         assert spin_until(executor, lambda: len(listener.torque) == TORQUES)
         thread.join(timeout=10.0)
@@ -163,7 +158,7 @@ def test_a_subscriber_that_goes_while_playing_is_reported(
     player_node = rclpy.create_node("player", context=ros_context)
     with open_raw_bag(bag) as raw:
         player = BagPlayer(player_node, raw, rate=1.0)
-        assert spin_until(executor, lambda: _matched(player))
+        assert spin_until(executor, player.matched)
         thread = _play_in_thread(player, ros_context.ok)
         assert spin_until(executor, lambda: len(listener.torque) >= 5)
         executor.remove_node(listener.node)
