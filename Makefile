@@ -32,15 +32,19 @@ help:
 setup:
 	@bash tools/setup_env.sh
 
-# mypy (one core, ~30 s from a cold cache) runs beside pytest, which uses one core most of the
-# time; its report is printed after pytest's, and either failing fails the target.
+# pytest runs in TEST_WORKERS processes (pytest-xdist; a test module stays on one worker, and
+# each worker has a ROS domain of its own, test/conftest.py); mypy (one core, ~30 s from a cold
+# cache) runs beside it. Its report is printed after pytest's, and either failing fails the target.
+TEST_WORKERS ?= 2
+PYTEST := $(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadscope
+
 test: setup
 	$(BIN)/ruff check ballscrew_twin test
 	$(BIN)/ruff format --check ballscrew_twin test
-	@echo "$(BIN)/mypy ballscrew_twin (beside pytest) & $(ROS_ENV) $(BIN)/pytest -q"
+	@echo "$(BIN)/mypy ballscrew_twin (beside pytest) & $(ROS_ENV) $(PYTEST)"
 	@report=$$(mktemp); \
 	$(BIN)/mypy ballscrew_twin > "$$report" 2>&1 & checker=$$!; \
-	$(ROS_ENV) $(BIN)/pytest -q; tests=$$?; \
+	$(ROS_ENV) $(PYTEST); tests=$$?; \
 	wait $$checker; types=$$?; \
 	echo "$(BIN)/mypy ballscrew_twin:"; cat "$$report"; rm -f "$$report"; \
 	exit $$(( tests || types ))
@@ -53,7 +57,7 @@ typecheck: setup
 	$(BIN)/mypy ballscrew_twin
 
 pytest: setup
-	$(ROS_ENV) $(BIN)/pytest -q
+	$(ROS_ENV) $(PYTEST)
 
 demo: setup
 	@$(ROS_ENV) DEMO_DURATION=$(DEMO_DURATION) bash tools/run_demo.sh

@@ -3,8 +3,11 @@ hypothesis profile.
 
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` keeps discovery on loopback, and a ROS domain of
 this run's own (1..100, from the PID) keeps parallel runs apart. Values the user (or the
-Makefile) already set are respected. This module is imported by pytest before any test module,
-hence before rclpy is imported or initialised.
+Makefile) already set are respected. Under pytest-xdist (``make test`` runs two workers) each
+worker moves to a domain of its own, spread over 1..100 from the run's (:func:`worker_domain`),
+so that the nodes of two tests running at once never discover each other. This module is
+imported by pytest in every worker before any test module, hence before rclpy is imported or
+initialised.
 
 Hypothesis: with ``CI=true`` (set by CI services and by ``.ci/run``'s callers) the ``ci`` profile
 is loaded: examples derived from each test's name (derandomize) and no example database, so a
@@ -22,8 +25,24 @@ import pytest
 from hypothesis import settings
 from matplotlib.figure import Figure
 
+
+def worker_domain(run_domain: int, worker: str, workers: int) -> int:
+    """ROS domain [1..100] of xdist worker ``worker`` ("gw0", "gw1", ...) of ``workers`` in a
+    run whose domain is ``run_domain``: the run's domain moved by worker x 100 // workers."""
+    index = int(worker.removeprefix("gw"))
+    return (run_domain - 1 + index * (100 // max(workers, 1))) % 100 + 1
+
+
 os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
 os.environ.setdefault("ROS_DOMAIN_ID", str(os.getpid() % 100 + 1))
+if "PYTEST_XDIST_WORKER" in os.environ:
+    os.environ["ROS_DOMAIN_ID"] = str(
+        worker_domain(
+            int(os.environ["ROS_DOMAIN_ID"]),
+            os.environ["PYTEST_XDIST_WORKER"],
+            int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")),
+        )
+    )
 
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI", "").lower() == "true" else "default")
