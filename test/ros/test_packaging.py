@@ -78,7 +78,11 @@ def test_python_package_manifest() -> None:
         "python3-scipy",
         "python3-yaml",
     }
-    assert {d.name for d in pkg.test_depends} >= {"python3-pytest"}
+    assert {d.name for d in pkg.test_depends} >= {
+        "python3-pytest",
+        "python3-pytest-xdist",
+        "python3-hypothesis",
+    }
     assert pkg.get_build_type() == "ament_python"
 
 
