@@ -27,9 +27,12 @@ from matplotlib.figure import Figure
 
 
 def worker_domain(run_domain: int, worker: str, workers: int) -> int:
-    """ROS domain [1..100] of xdist worker ``worker`` ("gw0", "gw1", ...) of ``workers`` in a
-    run whose domain is ``run_domain``: the run's domain moved by worker x 100 // workers."""
+    """ROS domain of xdist worker ``worker`` ("gw0", "gw1", ...) of ``workers`` in a run whose
+    domain is ``run_domain`` (0..101): the first worker keeps it, worker k moves to the run's
+    domain plus k x 100 // workers, wrapped into 1..100."""
     index = int(worker.removeprefix("gw"))
+    if index == 0:
+        return run_domain
     return (run_domain - 1 + index * (100 // max(workers, 1))) % 100 + 1
 
 
