@@ -3,9 +3,10 @@ hypothesis profile.
 
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`` keeps discovery on loopback, and a ROS domain of
 this run's own (1..100, from the PID) keeps parallel runs apart. Values the user (or the
-Makefile) already set are respected. Under pytest-xdist (``make test`` runs two workers) each
-worker moves to a domain of its own, spread over 1..100 from the run's (:func:`worker_domain`),
-so that the nodes of two tests running at once never discover each other. This module is
+Makefile) already set are respected. Under pytest-xdist (``make test`` runs two workers) the
+first worker keeps the run's domain and every other one moves to a domain of its own in 1..100
+(:func:`worker_domain`), so that the nodes of two tests running at once never discover each
+other. This module is
 imported by pytest in every worker before any test module, hence before rclpy is imported or
 initialised.
 
