@@ -44,7 +44,13 @@ from .classify import (
     classify_ripple,
     defect_orders,
 )
-from .detectors import Cusum, OrderSpectralTest, WindowChiSquare, check_rate
+from .detectors import (
+    Cusum,
+    OrderSpectralTest,
+    WindowChiSquare,
+    check_rate,
+    order_test_weights,
+)
 from .memory import (
     LOUD_SIGMA,
     REPEAT_SHARE,
@@ -120,6 +126,8 @@ class MonitorSettings:
         spectral_window: length of the torque window of the order test [s].
         spectral_period: time between two order tests [s].
         min_revolutions: fewest screw revolutions in a window for the order test [-].
+        spectral_noise_time: span over which the order test estimates the residual's local
+            noise variance, each sample weighted by its inverse [s].
         classification_window: time after the alarm over which the class is refined [s]; the
             longer, the likelier the operating point moves, which separates the classes.
         warn_fraction: statistic / threshold from which the verdict is WARN [-].
@@ -148,6 +156,7 @@ class MonitorSettings:
     spectral_window: float = 4.0
     spectral_period: float = 1.0
     min_revolutions: float = 4.0
+    spectral_noise_time: float = 0.05
     classification_window: float = 8.0
     warn_fraction: float = 0.5
     error_correlation_time: float = 1.0
@@ -164,6 +173,7 @@ class MonitorSettings:
             ("spectral_window", "s"),
             ("spectral_period", "s"),
             ("min_revolutions", "-"),
+            ("spectral_noise_time", "s"),
             ("classification_window", "s"),
             ("error_correlation_time", "s"),
             ("drift_error_time", "s"),
@@ -824,16 +834,17 @@ class HealthMonitor:
             return
         centred = t - t.mean()
         x = x - np.polyval(np.polyfit(centred, x, 1), centred)
-        # A defect's ripple scales with the drag and takes its sign (it opposes the motion):
-        # weighted by the predicted drag, the ripple of strokes in both directions adds up
-        # instead of cancelling (the matched filter of a ripple s |T| sign(w) c(angle)).
-        scale = math.sqrt(float(np.mean(drag**2)))
-        if not scale > 0.0:
+        weights, revolutions = order_test_weights(
+            t, x, angle, drag, step, max(1, round(s.spectral_noise_time / step))
+        )
+        if not revolutions > 0.0:
             self._spectral_stat = 0.0
             return
-        weighted = x * (drag / scale)
+        weighted = x * weights
         weighted -= np.mean(weighted)
-        result = self.spectral.test(weighted, angle, np.array([self.orders[n] for n in names]))
+        result = self.spectral.test(
+            weighted, angle, np.array([self.orders[n] for n in names]), revolutions
+        )
         self._spectral_ratios = dict(zip(names, result.ratios.tolist(), strict=True))
         self._spectral_stat = float(np.max(result.ratios))
         if self._spectral_stat > self.spectral.threshold and "spectral" in s.detectors:

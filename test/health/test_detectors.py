@@ -15,6 +15,9 @@ from ballscrew_twin.health.detectors import (
     WindowChiSquare,
     arl0_from_rate,
     cusum_threshold,
+    effective_revolutions,
+    local_noise_variance,
+    order_test_weights,
     siegmund_arl0,
 )
 
@@ -124,6 +127,80 @@ def test_order_test_finds_a_ripple_that_follows_the_speed() -> None:
     assert result.ratios[0] < test.threshold and result.ratios[2] < test.threshold
     # 2 |X| / N estimates the amplitude (noise contributes ~ 2 / sqrt(N) = 0.07).
     assert result.amplitudes[1] == pytest.approx(amplitude, abs=0.15)
+
+
+def test_effective_revolutions_is_the_span_of_the_angle_that_holds_the_power() -> None:
+    turn = 2.0 * math.pi
+    angle = np.linspace(0.0, 10.0 * turn, 20001)
+    even = np.ones_like(angle)
+    assert effective_revolutions(even, angle) == pytest.approx(10.0, rel=0.01)
+    # nine times the power per radian over the first turn: (9 + 9)^2 / (81 + 9) = 3.6
+    first_turn_loud = np.where(angle < turn, 9.0, 1.0)
+    assert effective_revolutions(first_turn_loud, angle) == pytest.approx(3.6, rel=0.02)
+    # five strokes back and forth over the same two turns resolve two turns, not ten
+    strokes = 2.0 * turn * np.abs(((np.linspace(0.0, 5.0, 20001) + 1.0) % 2.0) - 1.0)
+    assert effective_revolutions(even, strokes) == pytest.approx(2.0, rel=0.02)
+
+
+def test_local_noise_variance_follows_a_loud_stretch() -> None:
+    rng = np.random.default_rng(8)
+    x = rng.standard_normal(4000)
+    x[2000:2400] *= 10.0
+    variance = local_noise_variance(x, 50)
+    assert np.median(variance[:1900]) == pytest.approx(1.0, rel=0.1)
+    assert np.median(variance[2050:2350]) == pytest.approx(100.0, rel=0.15)
+    with pytest.raises(ConfigError, match="width"):
+        local_noise_variance(x, 0)
+
+
+def _slow_then_fast() -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] at 1 kHz and screw angles [rad]: 2 s at 2 rad/s (0.6 turn), then 2 s at
+    60 rad/s (19 turns)."""
+    t = np.arange(4000) / 1000.0
+    w = np.where(t < 2.0, 2.0, 60.0)
+    return t, np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
+
+
+def _weighted(t: np.ndarray, x: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, float]:
+    x = x - x.mean()
+    weights, revolutions = order_test_weights(t, x, angle, np.ones_like(t), 1e-3, 50)
+    y = x * weights
+    return y - y.mean(), revolutions
+
+
+def test_weighted_order_test_keeps_its_false_alarm_rate_through_a_transient() -> None:
+    # noise 20 times louder for 50 ms at the speed step (an inertia transient), on a window
+    # slow for half its samples: p = 0.05 per order still holds
+    test = OrderSpectralTest(false_alarm_rate=0.05 * 3600 * 3, test_rate=1.0, orders_per_test=3)
+    rng = np.random.default_rng(12)
+    t, angle = _slow_then_fast()
+    orders = np.array([4.94, 6.14, 8.14])
+    trials, hits = 400, 0
+    for _ in range(trials):
+        x = rng.standard_normal(len(t))
+        x[1990:2040] *= 20.0
+        y, revolutions = _weighted(t, x, angle)
+        hits += int(np.sum(test.test(y, angle, orders, revolutions).ratios > test.threshold))
+    low, high = binom.interval(0.999, trials * 3, 0.05)
+    assert low <= hits <= high
+
+
+def test_weighted_order_test_finds_a_ripple_a_slow_stretch_hid() -> None:
+    # a ripple of a quarter of the noise at order 6.14 over the whole window: weighted by the
+    # angle each sample stands for, the fast half resolves it; unweighted, the slow half's
+    # 2000 samples over 0.6 turn spill the line onto its neighbours (ratio about 5)
+    test = OrderSpectralTest(false_alarm_rate=0.01, test_rate=1.0, orders_per_test=3)
+    rng = np.random.default_rng(13)
+    t, angle = _slow_then_fast()
+    orders = np.array([4.94, 6.14, 8.14])
+    x = rng.standard_normal(len(t)) + 0.25 * np.cos(6.14 * angle + 1.0)
+    x[1990:2040] += 20.0 * rng.standard_normal(50)
+    y, revolutions = _weighted(t, x, angle)
+    assert revolutions == pytest.approx(19.1, rel=0.05)
+    weighted = test.test(y, angle, orders, revolutions).ratios
+    assert weighted[1] > test.threshold
+    assert weighted[0] < test.threshold and weighted[2] < test.threshold
+    assert test.test(x - x.mean(), angle, orders).ratios[1] < test.threshold
 
 
 @pytest.mark.parametrize(
