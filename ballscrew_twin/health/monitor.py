@@ -21,7 +21,8 @@ Verdicts: UNKNOWN during the warm-up (the sensor noise is learnt then; the data 
 and at standstill, gated blocks or an invalid operating point; OK; WARN when a detector's
 statistic passes ``warn_fraction`` of its threshold; FAULT from the first alarm on (latched,
 the Kalman filter is frozen so that it does not learn the fault). The class is refined for
-``classification_window`` [s] after the alarm and then kept.
+``classification_window`` [s] after the alarm, and on while its confidence is below
+``confident_class`` for up to ``classification_patience`` [s], then kept.
 """
 
 from __future__ import annotations
@@ -130,6 +131,11 @@ class MonitorSettings:
             noise variance, each sample weighted by its inverse [s].
         classification_window: time after the alarm over which the class is refined [s]; the
             longer, the likelier the operating point moves, which separates the classes.
+        classification_patience: longest time after the alarm over which a class named with
+            a confidence below ``confident_class`` is refined further [s] (two classes that
+            change the torque alike at one operating point part when it moves).
+        confident_class: confidence from which a class is kept once ``classification_window``
+            has passed [-].
         warn_fraction: statistic / threshold from which the verdict is WARN [-].
         error_correlation_time: time over which the twin's error stays alike [s]: blocks
             within it count as one piece of evidence for the class posterior.
@@ -158,6 +164,8 @@ class MonitorSettings:
     min_revolutions: float = 4.0
     spectral_noise_time: float = 0.05
     classification_window: float = 8.0
+    classification_patience: float = 30.0
+    confident_class: float = 0.9
     warn_fraction: float = 0.5
     error_correlation_time: float = 1.0
     drift_error_time: float = 10.0
@@ -175,12 +183,18 @@ class MonitorSettings:
             ("min_revolutions", "-"),
             ("spectral_noise_time", "s"),
             ("classification_window", "s"),
+            ("classification_patience", "s"),
+            ("confident_class", "-"),
             ("error_correlation_time", "s"),
             ("drift_error_time", "s"),
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0.0):
                 raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
+        if self.confident_class > 1.0:
+            raise ConfigError(
+                f"health settings: confident_class = {self.confident_class!r} must be <= 1"
+            )
         check_detectors(self.detectors)
         if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
             raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
@@ -692,7 +706,11 @@ class HealthMonitor:
         if self.alarm is not None and not self.alarm.final:
             self.alarm.classification = self._classify()
             self.classifications.append((block.time, self.alarm.classification))
-            if block.stamps[-1] - self.alarm.time >= s.classification_window:
+            elapsed = block.stamps[-1] - self.alarm.time
+            if elapsed >= s.classification_window and (
+                self.alarm.classification.confidence >= s.confident_class
+                or elapsed >= s.classification_patience
+            ):
                 self.alarm.final = True
         return self._sample(block, measured, predicted, residual, normalized, e, stats, op)
 

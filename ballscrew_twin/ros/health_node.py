@@ -221,6 +221,16 @@ class HealthNode(Node):
                 _float("Time after an alarm over which the class is refined [s]", 0.1, 600.0),
             ),
             (
+                "classification_patience",
+                defaults.classification_patience,
+                _float(
+                    "Longest time after an alarm over which an unsure class (confidence < 0.9) "
+                    "is refined [s]",
+                    0.1,
+                    3600.0,
+                ),
+            ),
+            (
                 "baseline_file",
                 "",
                 _string("Baseline of the commissioned unit (YAML); empty: the nominal twin"),
@@ -256,6 +266,7 @@ class HealthNode(Node):
             detectors=self._detectors(),
             warmup=self._float("warmup"),
             classification_window=self._float("classification_window"),
+            classification_patience=self._float("classification_patience"),
         )
         self.config = load_config(self._str("config_file") or None)
         baseline_file = self._str("baseline_file")
