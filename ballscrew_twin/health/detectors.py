@@ -265,7 +265,10 @@ def order_test_weights(
     line onto its neighbours.
     """
     local = local_noise_variance(residual, noise_samples)
-    variance = np.maximum(local, LOUD_VARIANCE * float(np.median(local)))
+    floor = LOUD_VARIANCE * float(np.median(local))
+    if not floor > 0.0:  # a residual flat over half the window: nothing to weigh
+        return np.zeros_like(local), 0.0
+    variance = np.maximum(local, floor)
     gain = drag / variance * angle_swept(time, angle, step)
     scale = math.sqrt(float(np.mean(gain**2)))
     if not scale > 0.0:

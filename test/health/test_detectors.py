@@ -168,6 +168,12 @@ def _weighted(t: np.ndarray, x: np.ndarray, angle: np.ndarray) -> tuple[np.ndarr
     return y - y.mean(), revolutions
 
 
+def test_a_flat_residual_gets_no_weight_instead_of_a_division_by_zero() -> None:
+    t, angle = _slow_then_fast()
+    weights, revolutions = order_test_weights(t, np.zeros_like(t), angle, np.ones_like(t), 1e-3, 50)
+    assert revolutions == 0.0 and not np.any(weights)
+
+
 def test_weighted_order_test_keeps_its_false_alarm_rate_through_a_transient() -> None:
     # noise 20 times louder for 50 ms at the speed step (an inertia transient), on a window
     # slow for half its samples: p = 0.05 per order still holds
