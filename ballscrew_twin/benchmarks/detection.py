@@ -36,8 +36,9 @@ import math
 import multiprocessing
 import sys
 from collections.abc import Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -459,6 +460,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also run a monitor with only these detectors on the same recordings and report "
         "it beside the default (e.g. cusum,spectral: the monitor before the local test)",
     )
+    parser.add_argument(
+        "--compare-setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="also run a monitor with this one numeric setting changed, on the same recordings, "
+        "reported beside the default (repeatable: one monitor each; e.g. "
+        "classification_patience=8)",
+    )
 
 
 def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
@@ -472,15 +482,37 @@ def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
     return _range(args.units), plan
 
 
+def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSettings], ...]:
+    """The extra monitors ``--compare-detectors`` and ``--compare-setting`` ask for, each
+    with the title of its report; ConfigError naming the numeric settings for a name that is
+    not one, or for a value that is not a number."""
+    extra: list[tuple[str, MonitorSettings]] = []
+    if args.compare_detectors:
+        names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
+        extra.append((f"detectors {', '.join(names)} only", MonitorSettings(detectors=names)))
+    defaults = MonitorSettings()
+    numeric = sorted(f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float)
+    for item in args.compare_setting:
+        name, _, text = item.partition("=")
+        name = name.strip()
+        if name not in numeric:
+            raise ConfigError(f"--compare-setting {item!r}: NAME must be one of {numeric}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
+        changed: dict[str, Any] = {name: value}
+        extra.append((f"{name} = {value:g}", replace(defaults, **changed)))
+    return tuple(extra)
+
+
 def run(args: argparse.Namespace) -> int:
     """Generate, commission, detect, score; print the markdown report (and write it)."""
     from tqdm import tqdm
 
     config = load_config(args.config)
-    settings: tuple[MonitorSettings, ...] = (MonitorSettings(),)
-    if args.compare_detectors:
-        names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
-        settings += (MonitorSettings(detectors=names),)
+    extra = comparison_settings(args)
+    settings = (MonitorSettings(), *(each for _, each in extra))
     units, plan = requested_plan(args)
     every: list[list[Run]] = [[] for _ in settings]
     for unit_runs in tqdm(
@@ -493,11 +525,8 @@ def run(args: argparse.Namespace) -> int:
             every[k].extend(each)
     runs = every[0]
     text = report(runs, units, plan, settings[0])
-    for each, other in zip(settings[1:], every[1:], strict=True):
-        text += (
-            f"\n\n### The same recordings, detectors {', '.join(each.detectors)} only\n\n"
-            + report(other, units, plan, each)
-        )
+    for (title, each), other in zip(extra, every[1:], strict=True):
+        text += f"\n\n### The same recordings, {title}\n\n" + report(other, units, plan, each)
     print(text)
     if args.out:
         out = Path(args.out)

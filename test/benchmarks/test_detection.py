@@ -26,15 +26,17 @@ PLAN = ["--units", "0:2", "--commission", "25", "--healthy", "20", "--faults", "
 
 def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -> None:
     argv = ["bench", "detection", *PLAN, "--fault-length", "15", "--out", str(tmp_path)]
-    assert main([*argv, "--compare-detectors", "cusum,spectral"]) == 0
+    compare = ["--compare-detectors", "cusum,spectral", "--compare-setting", "warn_fraction=0.6"]
+    assert main([*argv, *compare]) == 0
     table = (tmp_path / "detection.md").read_text()
     assert "| class |" in table
     # the comparison monitor's report follows, on the same recordings (same hours of data)
-    first, _, second = table.partition("### The same recordings, detectors cusum, spectral only")
+    first, _, rest = table.partition("### The same recordings, detectors cusum, spectral only")
+    second, _, third = rest.partition("### The same recordings, warn_fraction = 0.6")
     header = "| class | severity |"
-    assert second and first.count(header) == second.count(header) == 1
-    hours = [line for line in table.splitlines() if line.startswith("Healthy data:")]
-    assert len(hours) == 2 and hours[0].split(" in ")[0] == hours[1].split(" in ")[0]
+    assert third and first.count(header) == second.count(header) == third.count(header) == 1
+    hours = [line.split(" in ")[0] for line in table.splitlines() if line.startswith("Healthy")]
+    assert len(hours) == 3 and len(set(hours)) == 1
     runs = json.loads((tmp_path / "runs.json").read_text())
     assert runs, "no run recorded"
     assert (tmp_path / "roc.png").stat().st_size > 0
@@ -44,6 +46,18 @@ def _arguments(*argv: str) -> argparse.Namespace:
     parser = argparse.ArgumentParser()
     detection.add_arguments(parser)
     return parser.parse_args(list(argv))
+
+
+def test_a_compared_setting_is_one_numeric_setting_changed() -> None:
+    argv = ("--compare-setting", "classification_patience=8", "--compare-setting", "warmup=2")
+    extra = detection.comparison_settings(_arguments(*argv))
+    assert [title for title, _ in extra] == ["classification_patience = 8", "warmup = 2"]
+    assert extra[0][1].classification_patience == 8.0 and extra[1][1].warmup == 2.0
+    for bad, reason in (("detectors=cusum", "NAME"), ("warmup=soon", "VALUE"), ("x", "NAME")):
+        with pytest.raises(ConfigError, match=reason):
+            detection.comparison_settings(_arguments("--compare-setting", bad))
+    with pytest.raises(ConfigError, match="warmup"):  # the settings' own check
+        detection.comparison_settings(_arguments("--compare-setting", "warmup=-1"))
 
 
 def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
