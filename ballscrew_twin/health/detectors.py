@@ -209,12 +209,18 @@ def local_noise_variance(x: FloatArray, width: int) -> FloatArray:
     return np.asarray((squares[high] - squares[low]) / (high - low))
 
 
+def neighbouring(time: FloatArray, step: float) -> FloatArray:
+    """Whether each pair of consecutive samples at ``time`` [s] are neighbours: at most 1.5
+    ``step`` [s] apart, not across a gap of the window (a gated stretch the angle ran on
+    through)."""
+    return np.asarray(np.diff(time) <= 1.5 * step)
+
+
 def angle_swept(time: FloatArray, angle: FloatArray, step: float) -> FloatArray:
     """Screw angle each sample stands for [rad]: half the angle turned [rad] over each of
-    its intervals to a neighbouring sample. Intervals longer than 1.5 ``step`` [s] (across a
-    gap of the window) stand for nothing."""
-    turned = np.abs(np.diff(angle))
-    turned[np.diff(time) > 1.5 * step] = 0.0
+    its intervals to a neighbouring sample (:func:`neighbouring`; an interval across a gap
+    stands for nothing)."""
+    turned = np.where(neighbouring(time, step), np.abs(np.diff(angle)), 0.0)
     swept = np.zeros(len(angle))
     swept[:-1] += 0.5 * turned
     swept[1:] += 0.5 * turned
@@ -248,7 +254,7 @@ def order_test_weights(
     step: float,
     noise_samples: int,
 ) -> tuple[FloatArray, float]:
-    """Weight of each sample in the order test [1/(N m)] (scaled to a mean square of 1) and
+    """Weight of each sample in the order test [-] (scaled to a mean square of 1) and
     the revolutions the weighted transform resolves [-] (0 when nothing turns).
 
     A defect's ripple s |T| sign(w) c(phi) scales with the drag and takes its sign: weighted

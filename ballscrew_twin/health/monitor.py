@@ -50,6 +50,7 @@ from .detectors import (
     OrderSpectralTest,
     WindowChiSquare,
     check_rate,
+    neighbouring,
     order_test_weights,
 )
 from .memory import (
@@ -838,9 +839,8 @@ class HealthMonitor:
         intervals = np.diff(t)
         step = float(np.median(intervals))
         nyquist = 0.5 / step
-        # fastest rotation between neighbouring samples [rev/s]; the pairs across a gated gap
-        # (the angle runs on through it) are not neighbours
-        adjacent = intervals <= 1.5 * step
+        # fastest rotation between neighbouring samples [rev/s]
+        adjacent = neighbouring(t, step)
         if not np.any(adjacent):
             self._spectral_stat = 0.0
             return
