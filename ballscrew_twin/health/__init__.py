@@ -9,7 +9,7 @@ Modules:
     residuals       -- the twin's prediction at the measured operating point, residuals
     tracker         -- Kalman filter of slow drifts (sensor bias, friction scale, preload)
     detectors       -- CUSUM, chi-square and order-tracked spectral tests, thresholds
-    classify        -- likely fault class from the twin's fault signatures and defect orders
+    classify        -- likely fault class from the twin's fault responses and defect orders
     monitor         -- the pipeline shared by the health node and ``detect``
     detect          -- ``ballscrew-twin detect BAG``: offline verdict, plots, JSON
 

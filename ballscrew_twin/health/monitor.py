@@ -41,6 +41,7 @@ from ..params import TwinConfig
 from .baseline import Baseline
 from .classify import (
     Classification,
+    Response,
     classify_mean_shift,
     classify_ripple,
     defect_orders,
@@ -62,7 +63,7 @@ from .memory import (
     bin_key,
 )
 from .residuals import (
-    SIGNATURE_CHANGES,
+    FAULT_CHANGES,
     Block,
     BlockAligner,
     FloatArray,
@@ -71,7 +72,6 @@ from .residuals import (
     TwinPredictor,
     UnitTwin,
     make_twin_model,
-    nearest_probe,
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
@@ -894,33 +894,24 @@ class HealthMonitor:
             preload.append(-r.operating_point.preload * r.preload_sensitivity)
         gain = self.baseline.torque_gain
 
-        def twin_signature(name: str, probe: float | None) -> FloatArray:
-            return np.array(
-                [gain * self.predictor.signature(name, r.operating_point, probe) for r in records]
-            )
+        def response(name: str) -> Response:
+            # the changed twin at every evaluated severity: the response bends between them
+            _, severities = FAULT_CHANGES[name]
+            changes = [
+                [gain * self.predictor.fault_change(name, r.operating_point, a) for r in records]
+                for a in severities
+            ]
+            return Response(np.array(severities), np.array(changes))
 
-        signatures = {
+        responses: dict[str, FloatArray | Response] = {
             "preload_loss": np.array(preload),
-            **{name: twin_signature(name, None) for name in SIGNATURE_CHANGES},
+            **{name: response(name) for name in FAULT_CHANGES},
         }
-        r_arr, s_arr = np.array(residuals), np.array(sigmas)
         elapsed = np.array([r.time - self.alarm.onset for r in records])
         correlation = self.settings.error_correlation_time / self.settings.residual.block_duration
-        first = classify_mean_shift(r_arr, s_arr, signatures, elapsed, correlation)
-        # The response is not linear in the severity: take the twin's secant again near the
-        # fitted severity of the steady-model signatures, and fit once more.
-        probes = {
-            name: nearest_probe(name, first.severities.get(name, math.nan))
-            for name in SIGNATURE_CHANGES
-        }
-        changed = False
-        for name, probe in probes.items():
-            if probe != SIGNATURE_CHANGES[name][2]:
-                signatures[name] = twin_signature(name, probe)
-                changed = True
-        if not changed:
-            return first
-        return classify_mean_shift(r_arr, s_arr, signatures, elapsed, correlation)
+        return classify_mean_shift(
+            np.array(residuals), np.array(sigmas), responses, elapsed, correlation
+        )
 
 
 def _smooth_acceleration(block: Block) -> FloatArray | float:

@@ -10,6 +10,7 @@ import pytest
 
 from ballscrew_twin.health.classify import (
     MAX_REDUCED_CHI_SQUARE,
+    Response,
     classify_mean_shift,
     classify_ripple,
     defect_orders,
@@ -171,3 +172,62 @@ def test_a_growing_fault_at_one_operating_point_stays_unseparable() -> None:
     residuals = 0.3 * (elapsed / elapsed[-1]) * signatures["lubricant_degradation"]
     result = classify_mean_shift(residuals, np.full(n, 1e-5), signatures, elapsed)
     assert result.confidence < 0.9  # torque alone at one operating point: not separable
+
+
+def test_a_response_is_linear_in_the_severity_between_its_points_and_through_zero() -> None:
+    rng = np.random.default_rng(3)
+    points = np.array([0.1, 0.3, 0.6])
+    changes = rng.normal(0.0, 1e-3, (3, 5))
+    response = Response(points, changes)
+    severity = np.array([0.0, 0.05, 0.3, 0.45, 0.8])
+    change, slope = response.at(severity)
+    for j, a in enumerate(severity):
+        xs, ys = np.concatenate(([0.0], points)), np.concatenate(([0.0], changes[:, j]))
+        if a <= points[-1]:
+            assert change[j] == pytest.approx(np.interp(a, xs, ys), abs=1e-15)
+        else:  # beyond the last point: along the last segment
+            last = (ys[-1] - ys[-2]) / (xs[-1] - xs[-2])
+            assert change[j] == pytest.approx(ys[-1] + last * (a - xs[-1]), abs=1e-15)
+            assert slope[j] == pytest.approx(last)
+    assert slope[1] == pytest.approx(changes[0, 1] / 0.1)
+
+
+def test_a_linear_class_gets_the_closed_form_weighted_least_squares_severity() -> None:
+    signature = np.where(np.arange(30) < 15, -0.01, -0.02)
+    sigma = np.where(np.arange(30) % 2 == 0, 1e-4, 2e-4)
+    residuals = 0.17 * signature + np.random.default_rng(5).normal(0.0, 1e-4, 30)
+    result = classify_mean_shift(residuals, sigma, {"preload_loss": signature})
+    w = 1.0 / sigma**2
+    exact = float(np.sum(w * signature * residuals) / np.sum(w * signature**2))
+    assert result.severities["preload_loss"] == pytest.approx(exact, rel=1e-9)
+    # and its score is the drop of the weighted sum of squares over two
+    rss = float(np.sum(w * (residuals - exact * signature) ** 2))
+    assert result.scores["preload_loss"] == pytest.approx(
+        0.5 * (float(np.sum(w * residuals**2)) - rss), rel=1e-9
+    )
+
+
+def test_a_bending_response_is_fitted_at_the_severity_the_data_call_for() -> None:
+    # A class whose change is quadratic in its severity (rises at low speed, crosses zero
+    # near mid speed as the severity grows, falls at high speed: a viscosity loss), known at
+    # four severities; the truth at 0.4 lies between two of them. The other class is linear
+    # with the first class's secant at 0.3, the shape a one-secant fit would have used.
+    group = np.repeat([0, 1, 2], 20)
+    linear = np.array([1.5e-3, -0.5e-3, -3.0e-3])[group]
+    quadratic = np.array([0.5e-3, 2.0e-3, -1.0e-3])[group]
+
+    def change(a: float) -> np.ndarray:
+        return linear * a + quadratic * a**2
+
+    points = np.array([0.1, 0.3, 0.6, 0.9])
+    responses = {
+        "lubricant_degradation": Response(points, np.array([change(a) for a in points])),
+        "jam_onset": change(0.3) / 0.3,
+    }
+    sigma = np.full(60, 3e-5)
+    residuals = change(0.4) + np.random.default_rng(7).normal(0.0, 3e-5, 60)
+    result = classify_mean_shift(residuals, sigma, responses)
+    assert result.fault_class == "lubricant_degradation"
+    assert result.confidence > 0.99
+    assert result.severities["lubricant_degradation"] == pytest.approx(0.4, rel=0.05)
+    assert result.reduced_chi_square < 2.0
