@@ -894,12 +894,22 @@ class HealthMonitor:
             preload.append(-r.operating_point.preload * r.preload_sensitivity)
         gain = self.baseline.torque_gain
 
+        b = self.baseline
+        # the unit's own operating point: its preload scale and temperature shift
+        ops = [
+            replace(
+                r.operating_point,
+                temperature=r.operating_point.temperature + b.temperature_shift,
+                preload=r.operating_point.preload * b.preload_scale,
+            )
+            for r in records
+        ]
+
         def response(name: str) -> Response:
             # the changed twin at every evaluated severity: the response bends between them
             _, severities = FAULT_CHANGES[name]
             changes = [
-                [gain * self.predictor.fault_change(name, r.operating_point, a) for r in records]
-                for a in severities
+                [gain * self.predictor.fault_change(name, op, a) for op in ops] for a in severities
             ]
             return Response(np.array(severities), np.array(changes))
 

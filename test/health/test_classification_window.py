@@ -4,10 +4,12 @@ operating point stays open until the operating point moves, up to the patience."
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.fault_profiles import FaultedTwin, FaultState
 from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
 from ballscrew_twin.health.residuals import UnitTwin
@@ -70,12 +72,14 @@ def test_an_unsure_class_is_refined_until_the_operating_point_moves() -> None:
     assert hasty.alarm.classification.confidence < 0.9
 
 
-def _viscosity_loss_through_speed_steps():
-    """The twin's unit at 23.8 C and 760 N with, from ONSET on, 40 % of its viscosity lost
-    (ramped in 1 s), at 29.3 rad/s for 4 s, then 10, 68, 174 and 18.6 rad/s (3 s each,
-    0.3 s ramps; dev unit 8016's speeds). The response bends between severities: at
-    29.3 rad/s a 30 % loss does not move the torque (-0.003 mN m) and a 40 % loss raises it
-    by 0.08 mN m; at 18.6 rad/s they raise it by 0.26 and 0.42 mN m."""
+def _viscosity_loss_through_speed_steps(preload_scale: float = 1.0, shift: float = 0.0):
+    """The twin's unit (its contact preload ``preload_scale`` x the load cell's, its
+    temperature ``shift`` [K] above the thermometer's) at 23.8 C and 760 N by those, with,
+    from ONSET on, 40 % of its viscosity lost (ramped in 1 s), at 29.3 rad/s for 4 s, then
+    10, 68, 174 and 18.6 rad/s (3 s each, 0.3 s ramps; dev unit 8016's speeds). The
+    response bends between severities: at 29.3 rad/s (no shift) a 30 % loss does not move
+    the torque (-0.003 mN m) and a 40 % loss raises it by 0.08 mN m; at 18.6 rad/s they
+    raise it by 0.26 and 0.42 mN m."""
     config = load_config(None)
     twin = UnitTwin(config)
     steady = FaultedTwin(config)
@@ -84,7 +88,10 @@ def _viscosity_loss_through_speed_steps():
 
     def ratio(speed: float) -> float:
         op = OperatingPoint(
-            screw_speed=speed, temperature=temperature, preload=preload, axial_load=0.0
+            screw_speed=speed,
+            temperature=temperature + shift,
+            preload=preload * preload_scale,
+            axial_load=0.0,
         )
         return steady.drag_torque(op, thinner) / steady.drag_torque(op, FaultState())
 
@@ -97,7 +104,7 @@ def _viscosity_loss_through_speed_steps():
     speeds = np.geomspace(10.0, 174.0, 40)
     grown = np.clip((t - ONSET) / 1.0, 0.0, 1.0)
     change = 1.0 + grown * (np.interp(w, speeds, [ratio(v) for v in speeds]) - 1.0)
-    drag = twin.drag(w, temperature, preload) * change
+    drag = twin.adjusted(preload_scale, shift).drag(w, temperature, preload) * change
     torque = drag + config.screw.screw_inertia * np.gradient(w, t)
     torque = torque + np.random.default_rng(4).normal(0.0, 2e-4, len(t))
     channels = bench_channels(t, torque, w)
@@ -120,4 +127,19 @@ def test_a_viscosity_loss_is_named_where_its_response_bends() -> None:
     assert alarm.final
     assert alarm.classification.fault_class == "lubricant_degradation"
     assert alarm.classification.confidence >= 0.9
+    assert alarm.classification.severities["lubricant_degradation"] == pytest.approx(0.4, rel=0.15)
+
+
+def test_a_fault_is_judged_at_the_units_own_operating_point() -> None:
+    # A unit with 30 % more contact preload and running 10 K warmer than its load cell and
+    # thermometer say, as commissioning found it: the classes' responses are the twin's at
+    # the unit's operating point, where its viscosity loss acts.
+    config, twin, channels = _viscosity_loss_through_speed_steps(1.3, 10.0)
+    unit = replace(Baseline.nominal(config), preload_scale=1.3, temperature_shift=10.0)
+    monitor = HealthMonitor(config, MonitorSettings(), baseline=unit, twin=twin)
+    feed(monitor, channels)
+    alarm = monitor.alarm
+    assert alarm is not None and alarm.final
+    assert alarm.classification.fault_class == "lubricant_degradation"
+    # judged at the load cell's preload and the thermometer's temperature: 0.22
     assert alarm.classification.severities["lubricant_degradation"] == pytest.approx(0.4, rel=0.15)
