@@ -892,9 +892,8 @@ class HealthMonitor:
             residuals.append(r.measured - expected)
             sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
             preload.append(-r.operating_point.preload * r.preload_sensitivity)
-        gain = self.baseline.torque_gain
-
         b = self.baseline
+        gain = b.torque_gain
         # the unit's own operating point: its preload scale and temperature shift
         ops = [
             replace(

@@ -102,7 +102,7 @@ def debris(config: TwinConfig, rise: float) -> TwinConfig:
 #: the torque's response is far from linear: at 23.8 C, 760 N, 30 rad/s a 30 % viscosity loss
 #: barely moves the torque where a 60 % loss raises it, docs/model.md section 15).
 FAULT_CHANGES: dict[str, tuple[Any, tuple[float, ...]]] = {
-    "lubricant_degradation": (thinner_lubricant, (0.1, 0.3, 0.6, 0.9)),
+    "lubricant_degradation": (thinner_lubricant, (0.1, 0.2, 0.3, 0.45, 0.6, 0.75, 0.9)),
     "jam_onset": (debris, (0.25, 0.5, 1.0, 2.0, 4.0, 8.0)),
 }
 
