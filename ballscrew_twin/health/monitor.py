@@ -395,6 +395,9 @@ class HealthMonitor:
         self._noise_sum = 0.0
         self._noise_count = 0
         self._history: deque[_Record] = deque(maxlen=HISTORY_BLOCKS)
+        #: (class, block time) -> the twin's torque change at each evaluated severity [N m]
+        #: (a block's is asked again at every refinement of the class)
+        self._fault_changes: dict[tuple[str, float], FloatArray] = {}
         self._raw: deque[tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = deque()
         self._next_spectral = -math.inf
         self._spectral_stat = 0.0
@@ -907,10 +910,13 @@ class HealthMonitor:
         def response(name: str) -> Response:
             # the changed twin at every evaluated severity: the response bends between them
             _, severities = FAULT_CHANGES[name]
-            changes = [
-                [gain * self.predictor.fault_change(name, op, a) for op in ops] for a in severities
-            ]
-            return Response(np.array(severities), np.array(changes))
+            for r, op in zip(records, ops, strict=True):
+                if (name, r.time) not in self._fault_changes:
+                    self._fault_changes[(name, r.time)] = np.array(
+                        [gain * self.predictor.fault_change(name, op, a) for a in severities]
+                    )
+            changes = [self._fault_changes[(name, r.time)] for r in records]
+            return Response(np.array(severities), np.array(changes).T)
 
         responses: dict[str, FloatArray | Response] = {
             "preload_loss": np.array(preload),
