@@ -396,7 +396,8 @@ class HealthMonitor:
         self._noise_count = 0
         self._history: deque[_Record] = deque(maxlen=HISTORY_BLOCKS)
         #: (class, block time) -> the twin's torque change at each evaluated severity [N m]
-        #: (a block's is asked again at every refinement of the class)
+        #: (a block's is asked again at every refinement of the class; one alarm per monitor,
+        #: which re-arming replaces, so it holds at most the blocks of one classification)
         self._fault_changes: dict[tuple[str, float], FloatArray] = {}
         self._raw: deque[tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = deque()
         self._next_spectral = -math.inf
