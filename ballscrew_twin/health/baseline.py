@@ -28,7 +28,7 @@ benchmark. Saved as YAML (SI units, every field documented in the file).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +37,7 @@ import yaml
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
+from ..models.base import OperatingPoint
 from ..params import TwinConfig, read_yaml
 from .correction import ResidualSurface
 
@@ -127,6 +128,16 @@ class Baseline:
             raise ConfigError(f"baseline: sensor_noise = {self.sensor_noise!r} N m must be > 0")
         if self.temperature_min > self.temperature_max:
             raise ConfigError("baseline: temperature_min is above temperature_max")
+
+    def unit_point(self, measured: OperatingPoint) -> OperatingPoint:
+        """The unit's own operating point where ``measured`` is read: the load cell's preload
+        [N] x the preload scale, the thermometer's temperature [K] + the temperature shift
+        (where the twin is read for this unit)."""
+        return replace(
+            measured,
+            temperature=measured.temperature + self.temperature_shift,
+            preload=measured.preload * self.preload_scale,
+        )
 
     @classmethod
     def nominal(cls, config: TwinConfig) -> Baseline:

@@ -297,12 +297,14 @@ class _SteadyTwin:
         *,
         preload_factor: float = 1.0,
     ) -> FloatArray:
-        """Drag torque [N m] at each speed [rad/s] (the baseline's temperature shift too)."""
-        temperature = temperature + self.baseline.temperature_shift
-        load = self.baseline.preload_scale * preload_factor * preload
+        """Drag torque [N m] at each speed [rad/s], at the unit's own operating point
+        (:meth:`.Baseline.unit_point`)."""
         out = []
         for w in speed:
-            op = OperatingPoint(screw_speed=float(w), temperature=temperature, preload=load)
+            measured = OperatingPoint(
+                screw_speed=float(w), temperature=temperature, preload=preload_factor * preload
+            )
+            op = self.baseline.unit_point(measured)
             out.append(self.predictor.predict(op).at(op))
         return np.array(out)
 
@@ -896,23 +898,15 @@ class HealthMonitor:
             residuals.append(r.measured - expected)
             sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
             preload.append(-r.operating_point.preload * r.preload_sensitivity)
-        b = self.baseline
-        gain = b.torque_gain
-        # the unit's own operating point: its preload scale and temperature shift
-        ops = [
-            replace(
-                r.operating_point,
-                temperature=r.operating_point.temperature + b.temperature_shift,
-                preload=r.operating_point.preload * b.preload_scale,
-            )
-            for r in records
-        ]
+        gain = self.baseline.torque_gain
 
         def response(name: str) -> Response:
-            # the changed twin at every evaluated severity: the response bends between them
+            # the changed twin at every evaluated severity (the response bends between them),
+            # at the unit's own operating point, as its drag
             _, severities = FAULT_CHANGES[name]
-            for r, op in zip(records, ops, strict=True):
+            for r in records:
                 if (name, r.time) not in self._fault_changes:
+                    op = self.baseline.unit_point(r.operating_point)
                     self._fault_changes[(name, r.time)] = np.array(
                         [gain * self.predictor.fault_change(name, op, a) for a in severities]
                     )

@@ -14,12 +14,27 @@ from ballscrew_twin.health.fault_profiles import FaultedTwin, FaultState
 from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.models.base import OperatingPoint
-from ballscrew_twin.params import load_config
+from ballscrew_twin.params import TwinConfig, load_config
 
 from .synthetic import PRELOAD, TEMPERATURE, bench_channels
 
 ONSET = 20.0  # s
 MOVE = 32.0  # s, when the speed moves
+
+
+def _steady_ratio(
+    config: TwinConfig, fault: FaultState, speeds: np.ndarray, temperature: float, preload: float
+) -> np.ndarray:
+    """The steady model's drag with ``fault`` over its drag without, at each of ``speeds``
+    [rad/s], at ``temperature`` [K] and ``preload`` [N]."""
+    steady = FaultedTwin(config)
+    out = []
+    for speed in speeds:
+        op = OperatingPoint(
+            screw_speed=float(speed), temperature=temperature, preload=preload, axial_load=0.0
+        )
+        out.append(steady.drag_torque(op, fault) / steady.drag_torque(op, FaultState()))
+    return np.array(out)
 
 
 def _jam_then_a_speed_change():
@@ -31,21 +46,13 @@ def _jam_then_a_speed_change():
     Torque meter 1 kHz, 0.2 mN m."""
     config = load_config(None)
     twin = UnitTwin(config)
-    steady = FaultedTwin(config)
     jam = FaultState(dry_friction_factor=1.5, roughness_factor=1.5)
-
-    def ratio(speed: float) -> float:
-        op = OperatingPoint(
-            screw_speed=speed, temperature=TEMPERATURE, preload=PRELOAD, axial_load=0.0
-        )
-        return steady.drag_torque(op, jam) / steady.drag_torque(op, FaultState())
-
     slow, fast = 5.0, 60.0
     t = np.arange(0.0, 50.0, 1e-3)
     w = slow + (fast - slow) * np.clip((t - MOVE) / 0.5, 0.0, 1.0)
     # the ratio on a fine grid of speeds: it is not monotonic in between (+1 % at 30 rad/s)
     speeds = np.geomspace(slow, fast, 40)
-    change = np.interp(w, speeds, [ratio(v) for v in speeds])
+    change = np.interp(w, speeds, _steady_ratio(config, jam, speeds, TEMPERATURE, PRELOAD))
     drag = twin.drag(w, TEMPERATURE, PRELOAD) * np.where(t >= ONSET, change, 1.0)
     torque = drag + config.screw.screw_inertia * np.gradient(w, t)
     torque = torque + np.random.default_rng(3).normal(0.0, 2e-4, len(t))
@@ -82,19 +89,8 @@ def _viscosity_loss_through_speed_steps(preload_scale: float = 1.0, shift: float
     raise it by 0.26 and 0.42 mN m."""
     config = load_config(None)
     twin = UnitTwin(config)
-    steady = FaultedTwin(config)
     thinner = FaultState(viscosity_factor=0.6)
     temperature, preload = 296.95, 760.0
-
-    def ratio(speed: float) -> float:
-        op = OperatingPoint(
-            screw_speed=speed,
-            temperature=temperature + shift,
-            preload=preload * preload_scale,
-            axial_load=0.0,
-        )
-        return steady.drag_torque(op, thinner) / steady.drag_torque(op, FaultState())
-
     t = np.arange(0.0, 40.0, 1e-3)
     levels = [29.3, 10.0, 68.0, 174.0, 18.6]
     w = np.full(len(t), levels[0])
@@ -103,7 +99,8 @@ def _viscosity_loss_through_speed_steps(preload_scale: float = 1.0, shift: float
         w = np.where(t >= start, before + (after - before) * np.clip((t - start) / 0.3, 0, 1), w)
     speeds = np.geomspace(10.0, 174.0, 40)
     grown = np.clip((t - ONSET) / 1.0, 0.0, 1.0)
-    change = 1.0 + grown * (np.interp(w, speeds, [ratio(v) for v in speeds]) - 1.0)
+    ratio = _steady_ratio(config, thinner, speeds, temperature + shift, preload * preload_scale)
+    change = 1.0 + grown * (np.interp(w, speeds, ratio) - 1.0)
     drag = twin.adjusted(preload_scale, shift).drag(w, temperature, preload) * change
     torque = drag + config.screw.screw_inertia * np.gradient(w, t)
     torque = torque + np.random.default_rng(4).normal(0.0, 2e-4, len(t))
