@@ -14,12 +14,15 @@ T_map the real-time map along the measured speeds w_i of the block (:class:`.res
 and compares with the 1-sigma uncertainty
 
     sigma^2 = sigma_s^2 / n + (e_rel |T|)^2 + e_abs^2 + (e_J J dw/dt)^2
-              + (J (c_0 + c_1) / (4 span))^2 + (e_T |T| d_T)^2,
+              + (J (c_0 + c_1) / (4 span))^2 + (e_T |T| d_T)^2
+              + (|dT| / 5 K |T(T_meas) - T(T_edge)|)^2,
 
 the sensor noise of the block mean, the twin's own error after commissioning (relative and
 absolute), the inertia's, the speed interpolation's at the block edges (c_k the second
-differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`) and the growth
-of the error with the distance d_T [K] of the temperature from the commissioned range.
+differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`), the growth
+of the error with the distance d_T [K] of the temperature from the commissioned range, and
+outside that range the part of the twin's change from the nearest commissioned temperature
+T_edge that a fitted shift dT leaves uncertain (:meth:`Baseline.extrapolation_error`).
 :func:`.commission.commission` fits all of them on a healthy recording; without one the nominal
 baseline (:meth:`Baseline.nominal`) is used with the default model error of the accuracy
 benchmark. Saved as YAML (SI units, every field documented in the file).
@@ -49,6 +52,10 @@ BASELINE_VERSION = 1
 SHAPE_REFERENCE_SPEED = 30.0
 #: Edges of the speed bands of the model error [rad/s].
 ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
+#: The temperature shift [K] at which the twin's change of drag from the commissioned range
+#: to a temperature outside it counts as its 1-sigma error there (:meth:`Baseline.
+#: extrapolation_error`); the production spread of the shift (commissioning prior).
+SHIFT_EXTRAPOLATION = 5.0
 
 FIELD_DOCS: dict[str, str] = {
     "config": "screw parameter set the baseline was fitted with (its name)",
@@ -181,6 +188,21 @@ class Baseline:
     def temperature_distance(self, temperature: float) -> float:
         """How far ``temperature`` [K] lies outside the commissioned range [K] (0 inside)."""
         return max(self.temperature_min - temperature, temperature - self.temperature_max, 0.0)
+
+    def nearest_commissioned(self, temperature: float) -> float:
+        """The commissioned temperature nearest ``temperature`` [K] (itself inside) [K]."""
+        return min(max(temperature, self.temperature_min), self.temperature_max)
+
+    def extrapolation_error(self, edge_change: float) -> float:
+        """1-sigma error of the twin outside the commissioned temperatures from its shift
+        [N m]: ``edge_change`` [N m], how much the adjusted twin's drag changes from the
+        nearest commissioned temperature to the block's, times |dT| / SHIFT_EXTRAPOLATION.
+        A shift explains the commissioned torques, but a unit's viscosity, Eyring stress or
+        thermometer all fit that way and part outside the range. Dev units 9013, 5017 and
+        8020, shifts of 10.4, -5.4 and -2.0 K: the twin 24, 28 and 13 % off at 6-7 K below
+        the range, 1.3, 0.9 and 0.44 times the change to the edge; six units with shifts of
+        0.1-2.4 K: within 4 % at speed, 5-19 K below."""
+        return abs(self.temperature_shift) / SHIFT_EXTRAPOLATION * abs(edge_change)
 
     def check_config(self, config: TwinConfig) -> None:
         """ConfigError unless the baseline was fitted with ``config``'s physical values."""

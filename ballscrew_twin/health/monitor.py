@@ -539,15 +539,18 @@ class HealthMonitor:
         )
         return (b.inertia_error * inertia) ** 2 + edge**2 + lag**2 + standstill**2
 
-    def block_sigma(self, block: Block, drag: float, transient: float) -> float:
+    def block_sigma(self, block: Block, drag: float, transient: float, edge_change: float) -> float:
         """1-sigma error of the twin's block mean [N m] without the sensor noise (see
         :mod:`.baseline`): its steady error (band, absolute, outside the commissioned
-        temperatures) and the ``transient`` variance of :meth:`transient_variance`."""
+        temperatures: growing with the distance, and from the shift with ``edge_change``
+        [N m], the drag's change from the nearest commissioned temperature) and the
+        ``transient`` variance of :meth:`transient_variance`."""
         b = self.baseline
         outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
+        shift = b.extrapolation_error(edge_change)
         error = b.error_at(float(np.mean(block.speed)), block.temperature)
         return b.torque_gain * math.sqrt(
-            (error * drag) ** 2 + b.error_absolute**2 + outside**2 + transient
+            (error * drag) ** 2 + b.error_absolute**2 + outside**2 + shift**2 + transient
         )
 
     def _process(self, block: Block) -> HealthSample:
@@ -588,10 +591,18 @@ class HealthMonitor:
             # the drag curve shifted STANDSTILL_SHIFT towards standstill, at the same samples
             toward = block.speed[few] - np.sign(block.speed[few]) * STANDSTILL_SHIFT
             shifted = self.twin.drag(toward, block.temperature, block.preload) * factor[picked]
+            # outside the commissioned temperatures: the drag at the nearest one, same samples
+            edge = b.nearest_commissioned(block.temperature)
+            at_edge = (
+                self.twin.drag(block.speed[few], edge, block.preload) * factor[picked]
+                if edge != block.temperature
+                else drags[few]
+            )
         except BallscrewTwinError as err:  # invalid operating point, solver failure
             return self._unknown(block, f"no prediction: {err}", None)
         drag = float(np.mean(drags))
         heavy = float(np.mean(drags[few]))
+        edge_change = heavy - float(np.mean(at_edge))
         load = max(block.preload, 1e-9)
         preload_sensitivity = (
             b.torque_gain * (heavy - float(np.mean(lighter))) / (PRELOAD_STEP * load)
@@ -625,7 +636,7 @@ class HealthMonitor:
         lag = self.following_error(angle[at], evaluated * factor, block.stamps[at])
         standstill = float(np.mean(np.abs(drags[few] - shifted)))
         transient = self.transient_variance(block, inertia, max(lag, self._last_lag), standstill)
-        model_sigma = self.block_sigma(block, drag, transient)
+        model_sigma = self.block_sigma(block, drag, transient, edge_change)
         self._last_lag = lag
         noise_var = sensor_var / n + model_sigma**2
         normalized = residual / math.sqrt(noise_var)

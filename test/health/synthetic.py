@@ -11,14 +11,17 @@ PRELOAD = 1500.0
 
 
 def bench_channels(
-    t: NDArray[np.float64], torque: NDArray[np.float64], speed: NDArray[np.float64]
+    t: NDArray[np.float64],
+    torque: NDArray[np.float64],
+    speed: NDArray[np.float64],
+    temperature: float = TEMPERATURE,
 ) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """Torque at the instants ``t`` [s] (1 kHz in the tests) [N m]; speed [rad/s] at every 10th
-    instant, preload at every 50th and temperature at every 100th, constant."""
+    instant, preload at every 50th and ``temperature`` [K] at every 100th, constant."""
     ts = t[::10]
     return {
         "torque": (t, torque),
         "speed": (ts, speed[::10]),
-        "temperature": (ts[::10], np.full(len(ts[::10]), TEMPERATURE)),
+        "temperature": (ts[::10], np.full(len(ts[::10]), temperature)),
         "preload": (ts[::5], np.full(len(ts[::5]), PRELOAD)),
     }

@@ -14,6 +14,7 @@ from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import (
     ERROR_BAND_EDGES,
     SHAPE_REFERENCE_SPEED,
+    SHIFT_EXTRAPOLATION,
     Baseline,
     load_baseline,
 )
@@ -149,3 +150,12 @@ def test_saving_creates_the_folder(tmp_path: Path) -> None:
     # The README's `commission ... --out out/unit.yaml` on a fresh clone has no out/ yet.
     file = _fitted().save(tmp_path / "out" / "unit.yaml")
     assert load_baseline(file) == _fitted()
+
+
+def test_the_shift_extrapolation_error_follows_its_definition() -> None:
+    b = _fitted()  # dT = -1.5 K, commissioned 290-300 K
+    assert b.nearest_commissioned(280.0) == 290.0
+    assert b.nearest_commissioned(295.0) == 295.0
+    assert b.nearest_commissioned(310.0) == 300.0
+    assert b.extrapolation_error(-0.004) == pytest.approx(1.5 / SHIFT_EXTRAPOLATION * 0.004)
+    assert replace(b, temperature_shift=0.0).extrapolation_error(0.004) == 0.0

@@ -4,10 +4,12 @@ a prediction that follows the speed inside a block (not the block's mean speed).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from ballscrew_twin.health.baseline import SHIFT_EXTRAPOLATION, Baseline
 from ballscrew_twin.health.monitor import (
     LAG_ANGLES_TO_SETTLE,
     HealthMonitor,
@@ -23,7 +25,7 @@ from ballscrew_twin.health.residuals import (
 from ballscrew_twin.health.units import presliding_reference
 from ballscrew_twin.params import load_config
 
-from .synthetic import bench_channels
+from .synthetic import PRELOAD, bench_channels
 
 
 def _blocks(speed_of, duration: float, settings: ResidualSettings, rate: float = 1000.0):
@@ -140,3 +142,44 @@ def test_following_error_is_the_lag_of_a_friction_trailing_the_rotation() -> Non
     # the same sweep of the drag done with little rotation (into a stop) is far less certain
     slow = monitor.following_error(angle[at] * 0.05, steady[at], t[at])
     assert slow == pytest.approx(20.0 * monitor.following_error(angle[at], steady[at], t[at]))
+
+
+@pytest.mark.parametrize("shift", [0.0, 8.0])
+def test_a_temperature_shift_widens_the_error_outside_the_commissioned_range(
+    shift: float,
+) -> None:
+    # A unit commissioned at 20-30 C with a shift dT, run at 0 C, 10 s at 10 rad/s then
+    # 200 rad/s: its drag is the adjusted twin's at 20 C, the nearest commissioned temperature
+    # (the drag stops following the twin where the commissioning never went; the miss grows
+    # with the speed, so the tracker cannot take it as a bias). With dT = 8 K the monitor's
+    # error there includes |dT| / SHIFT_EXTRAPOLATION times the twin's change to that edge:
+    # the residual stays within 1 / 1.6 of its sigma and nothing alarms. With no shift the
+    # same miss is outside every error the monitor allows for, and it alarms.
+    config = load_config(None)
+    baseline = replace(
+        Baseline.nominal(config),
+        temperature_shift=shift,
+        temperature_min=293.15,
+        temperature_max=303.15,
+        sensor_noise=1e-5,
+    )
+    twin = UnitTwin(config)
+    unit = twin.adjusted(1.0, shift)
+    t = np.arange(0.0, 20.0, 1e-3)
+    w = np.where(t < 10.0, 10.0, 200.0)
+    torque = unit.drag(w, 293.15, PRELOAD)
+    fast = np.array([200.0])
+    assert torque[-1] / unit.drag(fast, 273.15, PRELOAD)[0] < 0.8  # the twin's own change
+    monitor = HealthMonitor(config, MonitorSettings(), baseline=baseline, twin=twin)
+    samples = [
+        s for s in feed(monitor, bench_channels(t, torque, w, 273.15)) if math.isfinite(s.residual)
+    ]
+    assert len(samples) > 150
+    if shift == 0.0:
+        assert monitor.alarm is not None
+    else:
+        assert monitor.alarm is None
+        # (the block across the step carries the step's inertia, which the torque lacks)
+        steady = [s for s in samples if abs(s.time - 10.0) > 0.2]
+        worst = max(abs(s.normalized_residual) for s in steady)
+        assert worst < SHIFT_EXTRAPOLATION / shift
