@@ -56,6 +56,8 @@ ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
 #: to a temperature outside it counts as its 1-sigma error there (:meth:`Baseline.
 #: extrapolation_error`); the production spread of the shift (commissioning prior).
 SHIFT_EXTRAPOLATION = 5.0
+#: Fields that hold one number per speed band (lists in the file).
+TUPLE_FIELDS = ("error_bands", "band_temperature_min", "band_temperature_max")
 
 FIELD_DOCS: dict[str, str] = {
     "config": "screw parameter set the baseline was fitted with (its name)",
@@ -77,6 +79,10 @@ FIELD_DOCS: dict[str, str] = {
     "temperature_error": "e_T, relative error growth per K outside the commissioned range [1/K]",
     "temperature_min": "lowest temperature of the commissioning recording [K]",
     "temperature_max": "highest temperature of the commissioning recording [K]",
+    "band_temperature_min": "lowest temperature commissioned in each speed band of error_bands "
+    "[K] (empty: temperature_min)",
+    "band_temperature_max": "highest temperature commissioned in each speed band [K] (empty: "
+    "temperature_max)",
     "fit_rms": "rms relative block residual of the fit (not scaled) [-]",
     "settling_angle": "screw rotation after a reversal or stop from which the unit's torque is "
     "predicted as well as anywhere, measured at commissioning [rad] (null: the monitor's gate)",
@@ -109,6 +115,8 @@ class Baseline:
     unseen_error: float = 0.03
     temperature_min: float = 0.0
     temperature_max: float = 1.0e4
+    band_temperature_min: tuple[float, ...] = ()
+    band_temperature_max: tuple[float, ...] = ()
     fit_rms: float = math.nan
     blocks: int = 0
     surface: ResidualSurface | None = None
@@ -135,6 +143,17 @@ class Baseline:
             raise ConfigError(f"baseline: sensor_noise = {self.sensor_noise!r} N m must be > 0")
         if self.temperature_min > self.temperature_max:
             raise ConfigError("baseline: temperature_min is above temperature_max")
+        low, high = self.band_temperature_min, self.band_temperature_max
+        if len(low) != len(high) or len(low) not in (0, len(ERROR_BAND_EDGES) + 1):
+            raise ConfigError(
+                "baseline: band_temperature_min and band_temperature_max must both hold one "
+                f"value per speed band ({len(ERROR_BAND_EDGES) + 1}) or be empty"
+            )
+        if any(
+            not (math.isfinite(a) and math.isfinite(b) and a <= b)
+            for a, b in zip(low, high, strict=True)
+        ):
+            raise ConfigError("baseline: a band temperature is not finite or its min is above max")
 
     def unit_point(self, measured: OperatingPoint) -> OperatingPoint:
         """The unit's own operating point where ``measured`` is read: the load cell's preload
@@ -189,14 +208,20 @@ class Baseline:
         """How far ``temperature`` [K] lies outside the commissioned range [K] (0 inside)."""
         return max(self.temperature_min - temperature, temperature - self.temperature_max, 0.0)
 
-    def nearest_commissioned(self, temperature: float) -> float:
-        """The commissioned temperature nearest ``temperature`` [K] (itself inside) [K]."""
-        return min(max(temperature, self.temperature_min), self.temperature_max)
+    def nearest_commissioned(self, temperature: float, speed: float) -> float:
+        """The temperature nearest ``temperature`` [K] that the commissioning saw in the speed
+        band of ``speed`` [rad/s] (the whole recording's range without band ranges) [K]."""
+        low, high = self.temperature_min, self.temperature_max
+        if self.band_temperature_min:
+            band = int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))
+            low, high = self.band_temperature_min[band], self.band_temperature_max[band]
+        return min(max(temperature, low), high)
 
     def extrapolation_error(self, edge_change: float) -> float:
-        """1-sigma error of the twin outside the commissioned temperatures from its shift
-        [N m]: ``edge_change`` [N m], how much the adjusted twin's drag changes from the
-        nearest commissioned temperature to the block's, times |dT| / SHIFT_EXTRAPOLATION.
+        """1-sigma error of the twin outside the temperatures commissioned at the block's
+        speed from its shift [N m]: ``edge_change`` [N m], how much the adjusted twin's drag
+        changes from the nearest such temperature (:meth:`nearest_commissioned`) to the
+        block's, times |dT| / SHIFT_EXTRAPOLATION.
         A shift explains the commissioned torques, but a unit's viscosity, Eyring stress or
         thermometer all fit that way and part outside the range. Dev units 9013, 5017 and
         8020, shifts of 10.4, -5.4 and -2.0 K: the twin 24, 28 and 13 % off at 6-7 K below
@@ -222,7 +247,8 @@ class Baseline:
         ]
         lines += [f"#   {name}: {doc}" for name, doc in FIELD_DOCS.items()]
         body = {"format": BASELINE_VERSION, **asdict(self)}
-        body["error_bands"] = list(self.error_bands)
+        for name in TUPLE_FIELDS:
+            body[name] = list(getattr(self, name))
         if self.surface is not None:
             body["surface"] = {
                 "values": self.surface.values.tolist(),
@@ -259,11 +285,11 @@ def baseline_from_mapping(data: Any, source: str) -> Baseline:
         if name in ("config", "fingerprint", "source"):
             if not isinstance(value, str):
                 raise ConfigError(f"{source}: {name} must be a string")
-        elif name == "error_bands":
+        elif name in TUPLE_FIELDS:
             if not isinstance(value, list) or not all(
                 isinstance(v, int | float) and not isinstance(v, bool) for v in value
             ):
-                raise ConfigError(f"{source}: error_bands must be a list of numbers")
+                raise ConfigError(f"{source}: {name} must be a list of numbers")
             values[name] = tuple(float(v) for v in value)
         elif name == "surface":
             values[name] = _surface_from(value, source)

@@ -484,6 +484,15 @@ def commission(
     noise = math.sqrt(float(np.median(variances))) if variances else None
     mean_n = float(np.mean([b.samples for b in fit_blocks]))
     temperatures = [b.temperature for b in usable]
+    # the temperatures seen in each speed band (a band never seen: the whole recording's)
+    seen = np.array(temperatures)
+    in_band = np.searchsorted(ERROR_BAND_EDGES, [abs(float(np.mean(b.speed))) for b in usable])
+    band_ranges = [
+        (float(np.min(seen[in_band == k])), float(np.max(seen[in_band == k])))
+        if np.any(in_band == k)
+        else (float(np.min(seen)), float(np.max(seen)))
+        for k in range(len(ERROR_BAND_EDGES) + 1)
+    ]
     baseline = Baseline(
         config=config.name,
         fingerprint=config_fingerprint(config),
@@ -505,6 +514,8 @@ def commission(
         temperature_error=TEMPERATURE_ERROR,
         temperature_min=float(min(temperatures)),
         temperature_max=float(max(temperatures)),
+        band_temperature_min=tuple(low for low, _ in band_ranges),
+        band_temperature_max=tuple(high for _, high in band_ranges),
         fit_rms=float(np.sqrt(np.mean(((measured - predicted) / scale) ** 2))),
         blocks=len(fit_blocks),
         surface=surface,

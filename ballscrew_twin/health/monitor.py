@@ -591,8 +591,8 @@ class HealthMonitor:
             # the drag curve shifted STANDSTILL_SHIFT towards standstill, at the same samples
             toward = block.speed[few] - np.sign(block.speed[few]) * STANDSTILL_SHIFT
             shifted = self.twin.drag(toward, block.temperature, block.preload) * factor[picked]
-            # outside the commissioned temperatures: the drag at the nearest one, same samples
-            edge = b.nearest_commissioned(block.temperature)
+            # outside the temperatures commissioned at this speed: the drag at the nearest one
+            edge = b.nearest_commissioned(block.temperature, speed)
             at_edge = (
                 self.twin.drag(block.speed[few], edge, block.preload) * factor[picked]
                 if edge != block.temperature

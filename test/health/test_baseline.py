@@ -37,6 +37,8 @@ def _fitted() -> Baseline:
         error_bands=(0.03, 0.02, 0.01, 0.008, 0.012, 0.015),
         temperature_min=290.0,
         temperature_max=300.0,
+        band_temperature_min=(290.0, 290.0, 292.0, 295.0, 296.0, 300.0),
+        band_temperature_max=(300.0, 300.0, 299.0, 299.0, 300.0, 300.0),
         fit_rms=0.009,
         blocks=512,
     )
@@ -57,6 +59,8 @@ def test_a_baseline_survives_its_file(tmp_path: Path) -> None:
         ("error_bands: [0.01, x]", "error_bands"),
         ("colour: blue", "colour"),
         ("format: 7", "format"),
+        ("band_temperature_min: [290.0]", "band_temperature_min"),
+        ("band_temperature_max: [280, 280, 280, 280, 280, 280]", "min is above max"),
     ],
 )
 def test_a_bad_field_is_named(tmp_path: Path, text: str, field: str) -> None:
@@ -153,9 +157,18 @@ def test_saving_creates_the_folder(tmp_path: Path) -> None:
 
 
 def test_the_shift_extrapolation_error_follows_its_definition() -> None:
-    b = _fitted()  # dT = -1.5 K, commissioned 290-300 K
-    assert b.nearest_commissioned(280.0) == 290.0
-    assert b.nearest_commissioned(295.0) == 295.0
-    assert b.nearest_commissioned(310.0) == 300.0
+    b = replace(_fitted(), band_temperature_min=(), band_temperature_max=())  # dT = -1.5 K
+    assert b.nearest_commissioned(280.0, 50.0) == 290.0
+    assert b.nearest_commissioned(295.0, -50.0) == 295.0
+    assert b.nearest_commissioned(310.0, 500.0) == 300.0
+    # with band ranges, the band of |speed|: 50 rad/s is in the fourth (30-100 rad/s)
+    banded = replace(
+        b,
+        band_temperature_min=(290.0, 290.0, 290.0, 296.0, 290.0, 290.0),
+        band_temperature_max=(300.0, 300.0, 300.0, 298.0, 300.0, 300.0),
+    )
+    assert banded.nearest_commissioned(293.0, -50.0) == 296.0
+    assert banded.nearest_commissioned(299.0, 50.0) == 298.0
+    assert banded.nearest_commissioned(293.0, 5.0) == 293.0
     assert b.extrapolation_error(-0.004) == pytest.approx(1.5 / SHIFT_EXTRAPOLATION * 0.004)
     assert replace(b, temperature_shift=0.0).extrapolation_error(0.004) == 0.0

@@ -13,7 +13,7 @@ import pytest
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.health.baseline import Baseline, load_baseline
+from ballscrew_twin.health.baseline import ERROR_BAND_EDGES, Baseline, load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.health.commission import _settling_angle, commission
 from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
@@ -89,6 +89,24 @@ def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
     assert fitted.sensor_noise == pytest.approx(1e-4, rel=0.2)
     # a data set the model explains leaves an error at the floor of the map itself
     assert fitted.error_relative == pytest.approx(0.007, abs=1e-3)
+
+
+def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
+    fitted: Baseline,
+) -> None:
+    # The recording warms linearly from 15 to 30 C over 280 s and holds 60 and 40 rad/s
+    # (band 30-100 rad/s) at 40-60, 100-120, 180-200 and 240-260 s, 150 and 300 rad/s (band
+    # 100-300 rad/s) at 60-100 and 200-240 s: each band's range is that of its holds.
+    def warmed(t: float) -> float:
+        return 288.15 + 15.0 * t / 280.0
+
+    band = ERROR_BAND_EDGES.index(30.0) + 1
+    assert fitted.band_temperature_min[band] == pytest.approx(warmed(40.0), abs=0.3)
+    assert fitted.band_temperature_max[band] == pytest.approx(warmed(260.0), abs=0.3)
+    assert fitted.band_temperature_min[band + 1] == pytest.approx(warmed(60.0), abs=0.3)
+    assert fitted.band_temperature_max[band + 1] == pytest.approx(warmed(240.0), abs=0.3)
+    assert min(fitted.band_temperature_min) == fitted.temperature_min
+    assert max(fitted.band_temperature_max) == fitted.temperature_max
 
 
 def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> None:
