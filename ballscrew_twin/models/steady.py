@@ -10,6 +10,11 @@ The drag torque is the dissipated power divided by the screw speed, so the torqu
 nut against gravity is removed as the paper does; the direct sum of the moments on the screw is
 kept as ``screw_torque_direct`` for the power balance check.
 
+Where the equations have several solutions (light preload, cold or fast: a sphere can roll,
+skid or travel with one groove), the model returns the start-up state, reached by raising the
+speed slowly from rest at the point's temperature and loads, whatever was solved before
+(``branch="start-up"``; docs/model.md section 7a).
+
 When all spheres of a nut are equivalent (vertical screw, no per-sphere difference) one sphere
 stands for all of them (symmetric mode); otherwise every sphere is solved (full mode) with one
 Newton iteration over all of them at once.
