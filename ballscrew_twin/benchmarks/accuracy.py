@@ -344,9 +344,9 @@ def run_low_preload(
     config: TwinConfig, table: SteadyMap, quick: bool, progress: bool
 ) -> tuple[list[Row], list[Row]]:
     """Part 1b: the real-time model at 0-200 N against the symmetric steady model, each point
-    solved cold (the steady model's own branch where it has several) at the reference
-    tolerance; per-point rows and one summary row per preload band, its note naming the worst
-    point and the points the steady model could not solve."""
+    solved cold (the model's branch where it has several: the start-up state, docs/model.md
+    "One branch") at the reference tolerance; per-point rows and one summary row per preload
+    band, its note naming the worst point and the points the steady model could not solve."""
     from tqdm import tqdm
 
     preloads = LOW_PRELOADS[::4] if quick else LOW_PRELOADS

@@ -2,7 +2,9 @@
 
 Each model is driven through a fixed set of command sequences (cases) at the node's 1 kHz tick,
 always through :class:`~ballscrew_twin.models.validity.ValidatedModel`: steps and reversals of
-speed (through zero), zero and beyond-range preload, preload steps, speeds up to and beyond the
+speed (through zero), zero and beyond-range preload, 0-200 N at cold, warm and hot temperature
+and low to high speed (the light-preload envelope, where the steady state has several
+solutions: docs/model.md, "One branch"), preload steps, speeds up to and beyond the
 critical speed, temperatures from -60 to 150 C (the envelope is -40..100 C), axial loads beyond
 the envelope, and a long run at a constant command (drift). The dynamic model runs short
 scenarios with one sphere per nut (:mod:`~ballscrew_twin.models.simulation`) at the corners of
@@ -52,6 +54,7 @@ from ..models.validity import (
     clamp_operating_point,
 )
 from ..params import TwinConfig, load_config
+from .accuracy import LOW_PRELOADS
 
 #: One-line help of this benchmark.
 DESCRIPTION = "stability stress test: every model through adversarial but physical commands"
@@ -151,6 +154,16 @@ def cases(config: TwinConfig, ticks: int, long_ticks: int) -> list[Case]:
                 [_op(rpm, c, 0.0) for c in (-20.0, 20.0, 60.0) for rpm in (100.0, 1000.0, 4000.0)],
                 ticks,
             ),
+        ),
+        Case(
+            "low_preload",
+            "0-200 N (12 preloads) at 130/1350/3900 rpm and -20/20/60 C, one point a tick",
+            [
+                _op(rpm, c, f)
+                for c in (-20.0, 20.0, 60.0)
+                for rpm in (130.0, 1350.0, 3900.0)
+                for f in LOW_PRELOADS
+            ],
         ),
         Case(
             "preload_steps",

@@ -6,7 +6,8 @@ mode (symmetric: one sphere per nut; full: all 50) and each solver, the structur
 solver (``backend="compiled"``, the package's) beside the previous one (``backend="newton"``:
 the readable Newton over the compiled contact laws):
 
-- cold: ``solve`` with no warm start (static stage, then the speed);
+- cold: ``solve`` with no warm start (the start-up path from 1 rpm, docs/model.md "One
+  branch");
 - warm: ``solve`` at 20 C / 100 rpm / 1500 N and 21 C / 110 rpm / 1550 N alternately, each
   warm-started from the other, with all outputs (torques, per-contact states); per solve. The
   structured solver extrapolates its warm start from its last two solutions, which here are
@@ -14,7 +15,10 @@ the readable Newton over the compiled contact laws):
   this task measures a repeated solve, and the next one a new point each time;
 - warm path: ``solve`` along a path of new points (:func:`path_point`: speed, temperature and
   preload as slow sines of incommensurate periods around the two points above, steps of up to
-  1 rpm, 0.07 K and 17 N), each warm-started from the one before, with all outputs; per solve;
+  1 rpm, 0.07 K and 17 N), each warm-started from the one before, with all outputs; per solve.
+  The package's model returns the start-up state at every point (``branch="start-up"``), so a
+  point of another temperature or preload is solved cold; the structured solver is also timed
+  with ``branch="path"`` (a warm solve keeps its start's state while it moves continuously);
 - warm Newton: the Newton solve alone from the other point's state (no outputs assembled).
 
 With ``--baseline DIR``, the structured solver of another checkout of the package (DIR holds its
@@ -63,6 +67,8 @@ from ..timing import cpu_time
 DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solves, both solvers)"
 
 SOLVERS = (("previous", "newton"), ("structured", "compiled"))
+#: Label of the structured solver with ``branch="path"`` (warm solves keep their start's state).
+PATH_BRANCH = "path-branch"
 Mode = Literal["symmetric", "full"]
 TASKS = ("cold", "warm", "warm path", "warm Newton")
 
@@ -193,6 +199,10 @@ def _solver_lines(
     checkout, when given), interleaved round by round; in each round every solver makes
     ``burst`` consecutive calls of a warm task, each timed (one of a cold task)."""
     models = {name: SteadyStateModel(config, mode=mode, backend=b) for name, b in SOLVERS}  # type: ignore[arg-type]
+    models = {
+        **models,
+        PATH_BRANCH: SteadyStateModel(config, mode=mode, branch="path"),
+    }
     if baseline is not None:
         models = {SOLVERS[0][0]: models[SOLVERS[0][0]], "baseline": baseline, **models}
     tasks = {name: _tasks(model, point, nearby) for name, model in models.items()}
@@ -212,7 +222,7 @@ def _solver_lines(
     for name in models:
         cells = [f"{task} {statistics.median(times[(name, task)]) * 1e6:8.0f} us" for task in TASKS]
         lines.append(f"  {mode:<9} {name:<10} solver: " + ", ".join(cells))
-    new_name = SOLVERS[-1][0]
+    new_name = SOLVERS[-1][0]  # the package's model
     for task in TASKS[:3]:
         new = statistics.median(times[(new_name, task)])
         ratios = [

@@ -661,6 +661,7 @@ def newton_kernel(
     inertial_terms,
     tolerance,
     scene,
+    max_iterations,
 ):
     """Damped Newton iteration of the steady state from (z, e_nut), updated in place, and what
     the solution implies.
@@ -683,7 +684,9 @@ def newton_kernel(
         gravity: (B, 3) [m/s^2] in Frenet components; loads: (2,) force the spheres must exert
             on each nut along +z [N]; scales: (force [N], moment [N m], nut [N]) scales of the
             residual rows; inertial_terms: see :func:`sphere_balance`; tolerance: on the worst
-            scaled residual [-]; scene: ``scene_arrays(scene)`` as a float64 array.
+            scaled residual [-]; scene: ``scene_arrays(scene)`` as a float64 array;
+            max_iterations: Newton iterations before giving up (NEWTON_MAX_ITER for a solve, fewer
+            for a step of the start-up path).
 
     Returns:
         (iterations, worst scaled residual [-], status (STATUS_*), Jacobian evaluations,
@@ -733,22 +736,22 @@ def newton_kernel(
     fresh = not reuse  # jac belongs to the current iterate
     slow = False  # the last step with old blocks converged slowly: refresh them at the next
     status = STATUS_NOT_CONVERGED
-    iterations = NEWTON_MAX_ITER
+    iterations = max_iterations
     worst = np.inf
-    for iteration in range(NEWTON_MAX_ITER + 1):
+    for iteration in range(max_iterations + 1):
         worst = _worst(res, nut_res, free)
         # Steps with old blocks converge linearly: they go on to CHORD_POLISH times the
         # tolerance (a Newton step lands there anyway), as long as each still cuts the residual.
         polishing = reuse and worst < tolerance
         if (
             worst < (tolerance * CHORD_POLISH if reuse else tolerance)
-            or (polishing and iteration == NEWTON_MAX_ITER)
+            or (polishing and iteration == max_iterations)
             or (polished and iteration == 0 and worst < tolerance)
         ):
             status = STATUS_CONVERGED
             iterations = iteration
             break
-        if iteration == NEWTON_MAX_ITER:
+        if iteration == max_iterations:
             break
         if not fresh and not reuse:
             nut_res = linearise(z, e_nut, *args, res, axial, jac)
@@ -917,6 +920,7 @@ def solve_compiled(
     inertial_terms: bool,
     tolerance: float,
     scene: FloatArray,
+    max_iterations: int,
 ) -> KernelSolution:
     """Run :func:`newton_kernel` (``z`` (B, 6), ``nut_offset`` (2,) and ``jacobian``
     (B, 7, 7) updated in place; arguments as there)."""
@@ -938,5 +942,6 @@ def solve_compiled(
             inertial_terms,
             tolerance,
             scene,
+            max_iterations,
         )
     )

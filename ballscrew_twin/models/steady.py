@@ -10,6 +10,11 @@ The drag torque is the dissipated power divided by the screw speed, so the torqu
 nut against gravity is removed as the paper does; the direct sum of the moments on the screw is
 kept as ``screw_torque_direct`` for the power balance check.
 
+Where the equations have several solutions (light preload, cold or fast: a sphere can roll,
+skid or travel with one groove), the model returns the start-up state, reached by raising the
+speed slowly from rest at the point's temperature and loads, whatever was solved before
+(``branch="start-up"``; docs/model.md section 7a).
+
 When all spheres of a nut are equivalent (vertical screw, no per-sphere difference) one sphere
 stands for all of them (symmetric mode); otherwise every sphere is solved (full mode) with one
 Newton iteration over all of them at once.
@@ -43,6 +48,7 @@ if TYPE_CHECKING:
 FloatArray = NDArray[np.float64]
 Mode = Literal["auto", "symmetric", "full"]
 Backend = Literal["compiled", "newton", "reference"]
+Branch = Literal["start-up", "path"]
 
 NEWTON_MAX_ITER = 80
 LINE_SEARCH_STEPS = 12
@@ -54,6 +60,25 @@ CONTINUATION_SCHEDULES = (
     (0.05, 0.2, 0.5, 1.0),
     (0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0),
 )
+#: Start-up path of a cold solve (docs/model.md, "One branch"): the steady state is the one
+#: reached by raising the speed quasi-statically from this speed [rad/s] (1 rpm), where the
+#: direct cold solve is the start-up branch (measured on 80 lines, -40..100 C, 0..2000 N).
+STARTUP_SPEED = 2.0 * math.pi / 60.0
+#: Largest and smallest speed ratio of one step of the start-up path [-]; the ratio grows by
+#: STARTUP_GROWTH after an accepted step and is halved (its excess over 1) after a rejected one.
+STARTUP_MAX_RATIO = 2.0
+STARTUP_MIN_RATIO = 1.001
+STARTUP_GROWTH = 1.5
+#: A step of the start-up path is rejected when any rate of a sphere over the screw speed
+#: changes by more than this, relative to 1 + its size (a jump to another branch) [-].
+BRANCH_JUMP = 0.05
+#: A step of the start-up path that needs more Newton iterations is retried shorter [-].
+STARTUP_MAX_ITER = 20
+#: A cold solve whose speed continuation fails at the preload continues along the preload:
+#: from a point this much heavier [N], solved cold, down to the preload in
+#: PRELOAD_CONTINUATION_STEPS steps uniform in sqrt(preload) (docs/model.md, "One branch").
+PRELOAD_CONTINUATION_LIFT = 300.0
+PRELOAD_CONTINUATION_STEPS = 40
 POSITION_STEP = 1e-10  # m, finite-difference step of the ball and nut offsets
 KINEMATIC_STEP_REL = 1e-7  # finite-difference step of the rates, relative to the screw speed
 #: Speeds below this are solved as standstill [rad/s] (1e-5 rpm: no ball screw runs there, and
@@ -137,6 +162,15 @@ class SteadyStateModel:
         inertial_terms: keep the centrifugal force and the gyroscopic moment of each sphere in
             its balance (default). ``False`` drops both (:func:`inertial_actions`): a reduction
             whose drag error grows with the speed, measured by ``ballscrew-twin bench skips``.
+        branch: which steady state a warm-started solve returns where there are several
+            (docs/model.md, "One branch"). ``"start-up"`` (default): always the cold solve's,
+            the state reached by starting up from rest at the point's temperature and loads
+            (:meth:`_startup_continuation`), whatever was solved before; a warm solve is kept
+            only when it is a step of that start-up (same temperature and loads, speed of the
+            same sign and not lower, :func:`continues_branch`), otherwise the point is solved
+            cold. ``"path"``: a warm solve keeps the branch of its start while it moves
+            continuously (:func:`continues_branch`; otherwise cold): the quasi-static history
+            of the commanded path, which can differ from the start-up state (hysteresis).
     """
 
     def __init__(
@@ -146,7 +180,11 @@ class SteadyStateModel:
         tolerance: float = 1e-10,
         backend: Backend = "compiled",
         inertial_terms: bool = True,
+        branch: Branch = "start-up",
     ) -> None:
+        if branch not in ("start-up", "path"):
+            raise ValueError(f"branch = {branch!r} must be start-up or path")
+        self.branch = branch
         if mode not in ("auto", "symmetric", "full"):
             raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
         if backend not in ("compiled", "newton", "reference"):
@@ -169,6 +207,8 @@ class SteadyStateModel:
         self.inertial_terms = bool(inertial_terms)
         self.name = "steady" if self.inertial_terms else "steady-no-inertia"
         self._warm: SteadyState | None = None
+        # The operating quantities of _warm (temperature [K], preload [N], axial load [N]).
+        self._warm_loads: tuple[float, float, float] | None = None
         # The last two solutions of the compiled solver with their operating quantities (speed
         # [rad/s], temperature [K], preload [N], axial load [N]), oldest first: the predictor.
         self._history: list[tuple[tuple[float, float, float, float], SteadyState]] = []
@@ -358,14 +398,16 @@ class SteadyStateModel:
         loads: FloatArray,
         warm: bool = False,
         polished: bool = False,
+        max_iterations: int = NEWTON_MAX_ITER,
     ) -> tuple[SteadyState, ContactSource, int, float]:
         """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
-        scaled residual); SolverError when it does not converge. ``warm``: ``state`` comes from
-        the last solution (the compiled solver may then reuse its Jacobian); ``polished``: it is
-        the polished solution of this very point (:attr:`SteadyState.polished`)."""
+        scaled residual); SolverError when it does not converge in ``max_iterations``.
+        ``warm``: ``state`` comes from the last solution (the compiled solver may then reuse its
+        Jacobian); ``polished``: it is the polished solution of this very point
+        (:attr:`SteadyState.polished`)."""
         if self.backend == "compiled":
-            return self._newton_compiled(scene, balls, state, loads, warm, polished)
-        return self._newton_readable(scene, balls, state, loads)
+            return self._newton_compiled(scene, balls, state, loads, warm, polished, max_iterations)
+        return self._newton_readable(scene, balls, state, loads, max_iterations)
 
     def _kernel_parameters(self, scene: ContactScene) -> FloatArray:
         """``scene_arrays(scene)`` as the solver kernel takes it (float64 array), kept per
@@ -388,6 +430,7 @@ class SteadyStateModel:
         loads: FloatArray,
         warm: bool,
         polished: bool,
+        max_iterations: int,
     ) -> tuple[SteadyState, KernelSolution, int, float]:
         """The iteration of :meth:`_newton_readable`, compiled, with exact per-sphere Jacobian
         blocks (:mod:`ballscrew_twin.kernels.steady_solver`). ``warm``: ``state`` is the last
@@ -420,6 +463,7 @@ class SteadyStateModel:
             self.inertial_terms,
             self.tolerance,
             self._kernel_parameters(scene),
+            max_iterations,
         )
         self._jacobian = (jacobian, scales) if solved.linearisations or reuse else None
         iterations, worst, status = solved.iterations, solved.residual, solved.status
@@ -432,14 +476,19 @@ class SteadyStateModel:
             )
         if status != solver.STATUS_CONVERGED:
             raise SolverError(
-                f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
+                f"steady state did not converge in {max_iterations} iterations "
                 f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
             )
         solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed, reuse)
         return solved_state, solved, iterations, worst
 
     def _newton_readable(
-        self, scene: ContactScene, balls: BallSet, state: SteadyState, loads: FloatArray
+        self,
+        scene: ContactScene,
+        balls: BallSet,
+        state: SteadyState,
+        loads: FloatArray,
+        max_iterations: int,
     ) -> tuple[SteadyState, ContactSource, int, float]:
         count = len(balls.nut)
         mask = self._unknown_mask(scene, count)
@@ -459,7 +508,7 @@ class SteadyStateModel:
 
         z = pack(state)
         e = state.nut_offset.copy()
-        for iteration in range(1, NEWTON_MAX_ITER + 1):
+        for iteration in range(1, max_iterations + 1):
             res_b = np.where(mask, ball_res, 0.0)
             worst = float(max(np.max(np.abs(res_b)), np.max(np.abs(nut_res))))
             if worst < self.tolerance:
@@ -514,9 +563,9 @@ class SteadyStateModel:
             ball_res, nut_res, ev = rb, rn, ev_t
         worst = float(max(np.max(np.abs(np.where(mask, ball_res, 0.0))), np.max(np.abs(nut_res))))
         if worst < self.tolerance:  # the last update converged
-            return unpack(z, e), ev, NEWTON_MAX_ITER, worst
+            return unpack(z, e), ev, max_iterations, worst
         raise SolverError(
-            f"steady state did not converge in {NEWTON_MAX_ITER} iterations "
+            f"steady state did not converge in {max_iterations} iterations "
             f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
         )
 
@@ -590,11 +639,12 @@ class SteadyStateModel:
         scene = self.scene(op.temperature, op.screw_speed)
         balls = self.ball_set(mode)
         loads = self.nut_axial_loads(op)
-        start = warm_start if warm_start is not None else self._warm
-        if start is not None and start.ball_nb.shape[0] == len(balls.nut):
+        previous = warm_start if warm_start is not None else self._warm
+        if previous is not None and previous.ball_nb.shape[0] == len(balls.nut):
             predicted = self._predicted(op, len(balls.nut)) if warm_start is None else None
             # A point among the last two solved starts from its own solution (polished or not).
             own = any(predicted is solved for _, solved in self._history)
+            start = previous
             if predicted is not None:
                 start = predicted
             elif start.screw_speed != op.screw_speed:
@@ -604,14 +654,43 @@ class SteadyStateModel:
                     scene, balls, start, loads, warm=True, polished=own and start.polished
                 )
             except SolverError:
+                state = previous  # not a solution of op: solved cold below
+            # One branch (docs/model.md): a warm solve that failed or left the model's branch
+            # is replaced by the cold solve (the start-up path); a point solved again from its
+            # own solution stays where it was solved.
+            if state is previous or not (
+                own or self._keeps_branch(op, previous, state, warm_start)
+            ):
                 state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         else:
             state, ev, iterations, residual = self._cold_solve(op, balls, loads)
         self._warm = state
+        self._warm_loads = (op.temperature, op.preload, op.axial_load)
         if self.backend == "compiled":
             quantities = (op.screw_speed, op.temperature, op.preload, op.axial_load)
             self._history = [*self._history[-1:], (quantities, state)]
         return self._assemble(op, mode, scene, balls, state, ev, iterations, residual)
+
+    def _keeps_branch(
+        self,
+        op: OperatingPoint,
+        previous: SteadyState,
+        solved: SteadyState,
+        warm_start: SteadyState | None,
+    ) -> bool:
+        """A warm solve ``solved`` at ``op`` from ``previous`` is on the model's branch
+        (:attr:`branch`): continuous (:func:`continues_branch`) and, for ``"start-up"``, a step
+        of the start-up path (standstill, or the temperature and loads of ``previous``, the last
+        solution, at a speed of its sign and not lower; a caller's ``warm_start`` is not)."""
+        if not continues_branch(previous, solved):
+            return False
+        if self.branch == "path" or op.screw_speed == 0.0:
+            return True
+        return (
+            warm_start is None
+            and self._warm_loads == (op.temperature, op.preload, op.axial_load)
+            and abs(op.screw_speed) >= abs(previous.screw_speed)
+        )
 
     def _predicted(self, op: OperatingPoint, count: int) -> SteadyState | None:
         """Warm start extrapolated from the last two solutions (compiled solver), or None.
@@ -737,6 +816,137 @@ class SteadyStateModel:
     def _cold_solve_direct(
         self, op: OperatingPoint, balls: BallSet, loads: FloatArray
     ) -> tuple[SteadyState, ContactSource, int, float]:
+        """The start-up path (:meth:`_startup_continuation`); where it fails, the static
+        equilibrium and then the speed (:meth:`_speed_continuation`); where that fails too,
+        along the preload from a heavier point (:meth:`_preload_continuation`). All are fixed
+        paths: the result depends on the operating point alone."""
+        try:
+            return self._startup_continuation(op, balls, loads)
+        except SolverError:
+            pass
+        try:
+            return self._speed_continuation(op, balls, loads)
+        except SolverError as err:
+            if op.screw_speed == 0.0:
+                raise
+            try:
+                return self._preload_continuation(op, balls, loads)
+            except SolverError:
+                raise err from None
+
+    def _startup_continuation(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactSource, int, float]:
+        """The steady state reached by quasi-static start-up: solved cold at
+        :data:`STARTUP_SPEED` (of ``op``'s sign), then the speed raised in steps to ``op``'s,
+        each warm-started from the last with the rates scaled by the speed. A step whose rates
+        over the speed move by more than :data:`BRANCH_JUMP` (:func:`rate_change`) or that does
+        not converge is retried shorter (:meth:`_startup_step`). Where none down to
+        :data:`STARTUP_MIN_RATIO` does, longer steps are tried (ratio excess times 4 each) and
+        the first that converges is taken: across a point the solver cannot converge at (a
+        sphere at zero entrainment on one groove, where the film laws have an infinite slope)
+        or, if its rates jump, to where the branch ends (a real screw jumps there too).
+        Raises SolverError when no step up to :data:`STARTUP_MAX_RATIO` converges. At or below
+        the start-up speed: :meth:`_speed_continuation`."""
+        target = abs(op.screw_speed)
+        if target <= STARTUP_SPEED:
+            return self._speed_continuation(op, balls, loads)
+        sign = math.copysign(1.0, op.screw_speed)
+        state, ev, total, residual = self._speed_continuation(
+            replace(op, screw_speed=sign * STARTUP_SPEED), balls, loads
+        )
+        speed = STARTUP_SPEED
+        ratio = STARTUP_MAX_RATIO
+        previous: SteadyState | None = None
+        while speed < target:
+            step = self._startup_step(op, balls, loads, (previous, state), speed, ratio)
+            if step is None:  # no step converges on the branch: the longest converged one
+                ratio = STARTUP_MIN_RATIO
+                while step is None:
+                    ratio = 1.0 + 4.0 * (ratio - 1.0)
+                    if ratio > STARTUP_MAX_RATIO:
+                        raise SolverError(
+                            f"steady state: start-up path stopped at {sign * speed:.6g} rad/s"
+                        )
+                    step = self._startup_step(
+                        op, balls, loads, (previous, state), speed, ratio, jump=True
+                    )
+            solved, ev, iterations, residual = step[0]
+            total += iterations
+            previous, state, speed, ratio = state, solved, step[1], step[2]
+            ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
+        return state, ev, total, residual
+
+    def _startup_step(
+        self,
+        op: OperatingPoint,
+        balls: BallSet,
+        loads: FloatArray,
+        path: tuple[SteadyState | None, SteadyState],
+        speed: float,
+        ratio: float,
+        jump: bool = False,
+    ) -> tuple[tuple[SteadyState, ContactSource, int, float], float, float] | None:
+        """One step of :meth:`_startup_continuation` from the last state of ``path`` (the one
+        before it, or None, and the last) at |speed| [rad/s]: the longest speed ratio from
+        ``ratio`` down (its excess halved each time) to :data:`STARTUP_MIN_RATIO` whose solve,
+        started from :func:`secant_start`, converges with a :func:`rate_change` within
+        :data:`BRANCH_JUMP` (``jump``: ``ratio`` alone, any rate change). Returns (solve,
+        |speed| reached, ratio) or None."""
+        sign = math.copysign(1.0, op.screw_speed)
+        target = abs(op.screw_speed)
+        previous, state = path
+        while True:
+            step_speed = min(speed * ratio, target)
+            scene = self.scene(op.temperature, sign * step_speed)
+            if previous is None:
+                start = self._rescaled(state, scene, balls, sign * step_speed)
+            else:
+                start = secant_start(previous, state, sign * step_speed)
+            try:
+                solve = self._newton(
+                    scene, balls, start, loads, warm=True, max_iterations=STARTUP_MAX_ITER
+                )
+            except SolverError:
+                solve = None
+            if solve is not None and (jump or rate_change(state, solve[0]) <= BRANCH_JUMP):
+                return solve, step_speed, ratio
+            if jump or ratio <= STARTUP_MIN_RATIO:
+                return None
+            ratio = max(1.0 + 0.5 * (ratio - 1.0), STARTUP_MIN_RATIO)
+
+    def _preload_continuation(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactSource, int, float]:
+        """Cold solve at ``op`` with :data:`PRELOAD_CONTINUATION_LIFT` more preload [N]
+        (:meth:`_speed_continuation`), then down to ``op``'s preload in
+        :data:`PRELOAD_CONTINUATION_STEPS` steps uniform in sqrt(preload), each warm-started
+        from the previous one (same speed and temperature) and, where that fails, solved by
+        :meth:`_speed_continuation`; ``loads`` are ``op``'s."""
+        heavy = replace(op, preload=op.preload + PRELOAD_CONTINUATION_LIFT)
+        state, ev, total, residual = self._speed_continuation(
+            heavy, balls, self.nut_axial_loads(heavy)
+        )
+        scene = self.scene(op.temperature, op.screw_speed)
+        roots = np.linspace(
+            math.sqrt(heavy.preload), math.sqrt(op.preload), PRELOAD_CONTINUATION_STEPS + 1
+        )
+        for k, root in enumerate(roots[1:].tolist()):
+            last = k == PRELOAD_CONTINUATION_STEPS - 1
+            step_op = op if last else replace(op, preload=root * root)
+            step_loads = loads if last else self.nut_axial_loads(step_op)
+            try:
+                state, ev, iterations, residual = self._newton(scene, balls, state, step_loads)
+            except SolverError:
+                state, ev, iterations, residual = self._speed_continuation(
+                    step_op, balls, step_loads
+                )
+            total += iterations
+        return state, ev, total, residual
+
+    def _speed_continuation(
+        self, op: OperatingPoint, balls: BallSet, loads: FloatArray
+    ) -> tuple[SteadyState, ContactSource, int, float]:
         """Static equilibrium first (robust: smooth Hertz only), then the speed.
 
         If the direct step to full speed fails, the speed is raised in stages (continuation,
@@ -766,6 +976,7 @@ class SteadyStateModel:
     def forget_warm_start(self) -> None:
         """Make the next solve start cold (used by benchmarks and after a scene change)."""
         self._warm = None
+        self._warm_loads = None
         self._jacobian = None
         self._history = []
 
@@ -992,6 +1203,43 @@ def inertial_actions(
     omega_abs = kinematics[:, 1:4] + scene.screw_speed * zhat
     gyroscopic = orbit_rate[:, None] * np.cross(zhat, scene.ball_inertia * omega_abs)
     return np.asarray(centrifugal), np.asarray(gyroscopic)
+
+
+def secant_start(previous: SteadyState, last: SteadyState, speed: float) -> SteadyState:
+    """Start at ``speed`` [rad/s] on the line through two solutions at speeds of its sign, in
+    log |speed|: offsets [m] and rates over the speed [-] moved beyond ``last`` by the step
+    between the two times log(speed / last speed) / log(last speed / previous speed), that
+    factor limited to [0, 2] (the rates then times ``speed``)."""
+    span = math.log(last.screw_speed / previous.screw_speed)
+    factor = min(max(math.log(speed / last.screw_speed) / span, 0.0), 2.0)
+    rates = last.kinematics / last.screw_speed
+    rates = rates + factor * (rates - previous.kinematics / previous.screw_speed)
+    return SteadyState(
+        last.ball_nb + factor * (last.ball_nb - previous.ball_nb),
+        rates * speed,
+        last.nut_offset + factor * (last.nut_offset - previous.nut_offset),
+        speed,
+    )
+
+
+def continues_branch(previous: SteadyState, solved: SteadyState) -> bool:
+    """``solved``, warm-started from ``previous``, is on its branch: at standstill (one static
+    equilibrium), or at a speed of the same sign with no :func:`rate_change` beyond
+    :data:`BRANCH_JUMP`."""
+    if solved.screw_speed == 0.0:
+        return True
+    if previous.screw_speed * solved.screw_speed <= 0.0:
+        return False
+    return rate_change(previous, solved) <= BRANCH_JUMP
+
+
+def rate_change(old: SteadyState, new: SteadyState) -> float:
+    """Largest change of a sphere's rate over the screw speed between two solutions at speeds
+    of one sign, each relative to 1 + its old size [-] (orbital rate and angular velocity:
+    about 0.5 and 6 times the screw speed when rolling)."""
+    before = old.kinematics / old.screw_speed
+    after = new.kinematics / new.screw_speed
+    return float(np.max(np.abs(after - before) / (1.0 + np.abs(before))))
 
 
 def _contact_states(balls: BallSet, ev: ContactEvaluation) -> ContactStates:

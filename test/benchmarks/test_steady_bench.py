@@ -21,6 +21,7 @@ def test_both_solvers_are_printed_with_their_agreement(capsys: pytest.CaptureFix
     for mode in ("symmetric", "full"):
         assert f"{mode:<9} previous   solver: cold" in text
         assert f"{mode:<9} structured solver: cold" in text
+        assert f"{mode:<9} {steady.PATH_BRANCH} solver: cold" in text
     assert "cold: 3 points, 3 solved by both, 3 equal to 1e-9" in text
     assert "warm path: 3 points" in text
 
@@ -31,9 +32,9 @@ def test_a_baseline_model_is_timed_beside_the_solvers() -> None:
     lines = steady._solver_lines(
         config, "symmetric", path_point(0), path_point(1), repeat=1, burst=2, baseline=baseline
     )
-    names = [line.split()[1] for line in lines[:3]]
-    assert names == ["previous", "baseline", "structured"]
-    assert "faster than the previous, x" in lines[3] and "than the baseline" in lines[3]
+    names = [line.split()[1] for line in lines[:4]]
+    assert names == ["previous", "baseline", "structured", steady.PATH_BRANCH]
+    assert "faster than the previous, x" in lines[4] and "than the baseline" in lines[4]
 
 
 def test_the_baseline_package_is_imported_under_its_own_name() -> None:
