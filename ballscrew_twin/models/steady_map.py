@@ -414,8 +414,10 @@ def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
 def _solve_line(line: _Line) -> _LineResult:
     """Standstill, then the speeds in ascending order, each warm-started from the last.
 
-    A node the warm-started solver misses is retried cold (the steady model then runs its own
-    speed continuation); if that fails too the node stays NaN and is flagged.
+    A node the warm-started solve misses is solved cold by the steady model itself (its
+    start-up path and fallbacks, a function of the node alone: docs/model.md 7a); if that
+    fails too the node stays NaN and is flagged (not solved cold a second time, which would
+    repeat the same path).
     """
     model, grid = _WORKER["model"], _WORKER["grid"]
     assert isinstance(model, SteadyStateModel) and isinstance(grid, MapGrid)
@@ -435,11 +437,8 @@ def _solve_line(line: _Line) -> _LineResult:
             values = node_values(model, op)
         except SolverError:
             model.forget_warm_start()
-            try:
-                values = node_values(model, op)
-            except SolverError:
-                failed[i] = True
-                continue
+            failed[i] = True
+            continue
         torque[i], contacts[i] = values.torque, values.contacts
     return _LineResult(line, torque, contacts, failed, static)
 
