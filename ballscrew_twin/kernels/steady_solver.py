@@ -622,7 +622,8 @@ def summarise(z, nut, weight, gravity, scene, active, out):
 
 @njit(cache=True, error_model="numpy")
 def extrapolate(old, last, fraction, speed, ball_nb, kinematics, nut_offset):
-    """Warm start on the line through two solutions (``SteadyStateModel._predicted``).
+    """Warm start on the line through two solutions (``SteadyStateModel._predicted``); the
+    compiled form of :func:`ballscrew_twin.models.steady.along_line`.
 
     Args:
         old, last: (ball_nb (B, 2) [m], kinematics (B, 4) [rad/s], nut_offset (2,) [m], screw

@@ -1205,21 +1205,28 @@ def inertial_actions(
     return np.asarray(centrifugal), np.asarray(gyroscopic)
 
 
-def secant_start(previous: SteadyState, last: SteadyState, speed: float) -> SteadyState:
-    """Start at ``speed`` [rad/s] on the line through two solutions at speeds of its sign, in
-    log |speed|: offsets [m] and rates over the speed [-] moved beyond ``last`` by the step
-    between the two times log(speed / last speed) / log(last speed / previous speed), that
-    factor limited to [0, 2] (the rates then times ``speed``)."""
-    span = math.log(last.screw_speed / previous.screw_speed)
-    factor = min(max(math.log(speed / last.screw_speed) / span, 0.0), 2.0)
+def along_line(old: SteadyState, last: SteadyState, fraction: float, speed: float) -> SteadyState:
+    """Start at ``speed`` [rad/s] on the line through two solutions at speeds of its sign:
+    offsets [m] and rates over the speed [-] (the rolling pattern) moved beyond ``last`` by
+    ``fraction`` [-] times their step from ``old``, the rates then times ``speed``. The readable
+    form of :func:`~ballscrew_twin.kernels.steady_solver.extrapolate`."""
     rates = last.kinematics / last.screw_speed
-    rates = rates + factor * (rates - previous.kinematics / previous.screw_speed)
+    rates = rates + fraction * (rates - old.kinematics / old.screw_speed)
     return SteadyState(
-        last.ball_nb + factor * (last.ball_nb - previous.ball_nb),
+        last.ball_nb + fraction * (last.ball_nb - old.ball_nb),
         rates * speed,
-        last.nut_offset + factor * (last.nut_offset - previous.nut_offset),
+        last.nut_offset + fraction * (last.nut_offset - old.nut_offset),
         speed,
     )
+
+
+def secant_start(previous: SteadyState, last: SteadyState, speed: float) -> SteadyState:
+    """Start at ``speed`` [rad/s] on the line through two solutions at speeds of its sign, in
+    log |speed| (:func:`along_line`): the fraction log(speed / last speed) / log(last speed /
+    previous speed), limited to [0, 2]."""
+    span = math.log(last.screw_speed / previous.screw_speed)
+    fraction = min(max(math.log(speed / last.screw_speed) / span, 0.0), 2.0)
+    return along_line(previous, last, fraction, speed)
 
 
 def continues_branch(previous: SteadyState, solved: SteadyState) -> bool:

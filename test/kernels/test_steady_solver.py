@@ -340,6 +340,31 @@ def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> N
     assert model._predicted(operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
 
 
+def test_the_compiled_extrapolation_is_the_readable_line(config: TwinConfig) -> None:
+    """``steady_solver.extrapolate`` (the warm-start predictor) against ``steady.along_line``
+    (the start-up path's secant) on two full-mode solutions, beyond, between and before."""
+    model = SteadyStateModel(config, mode="full")
+    a = model.solve(operating_point(200.0, 20.0, 1000.0)).state
+    b = model.solve(operating_point(220.0, 22.0, 1100.0)).state
+    count = a.ball_nb.shape[0]
+    for fraction in (-1.0, 0.3, 2.0):
+        speed = 240.0 * RPM
+        readable = steady.along_line(a, b, fraction, speed)
+        start = SteadyState(np.empty((count, 2)), np.empty((count, 4)), np.empty(2), speed)
+        steady_solver.extrapolate(
+            (a.ball_nb, a.kinematics, a.nut_offset, a.screw_speed),
+            (b.ball_nb, b.kinematics, b.nut_offset, b.screw_speed),
+            fraction,
+            speed,
+            start.ball_nb,
+            start.kinematics,
+            start.nut_offset,
+        )
+        np.testing.assert_allclose(start.ball_nb, readable.ball_nb, rtol=1e-14, atol=1e-22)
+        np.testing.assert_allclose(start.kinematics, readable.kinematics, rtol=1e-14, atol=1e-12)
+        np.testing.assert_allclose(start.nut_offset, readable.nut_offset, rtol=1e-14, atol=1e-22)
+
+
 def test_a_point_solved_again_starts_from_its_own_polished_solution(config: TwinConfig) -> None:
     """A point among the last two solved starts from its own solution; when a warm solve
     polished it, no step is taken: the same state and the same outputs, to the last bit."""
