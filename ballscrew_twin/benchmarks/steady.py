@@ -199,10 +199,7 @@ def _solver_lines(
     checkout, when given), interleaved round by round; in each round every solver makes
     ``burst`` consecutive calls of a warm task, each timed (one of a cold task)."""
     models = {name: SteadyStateModel(config, mode=mode, backend=b) for name, b in SOLVERS}  # type: ignore[arg-type]
-    models = {
-        **models,
-        PATH_BRANCH: SteadyStateModel(config, mode=mode, branch="path"),
-    }
+    models[PATH_BRANCH] = SteadyStateModel(config, mode=mode, branch="path")
     if baseline is not None:
         models = {SOLVERS[0][0]: models[SOLVERS[0][0]], "baseline": baseline, **models}
     tasks = {name: _tasks(model, point, nearby) for name, model in models.items()}
