@@ -154,14 +154,26 @@ class ResidualMemory:
         relative ``residual`` [-] and own ``variance`` [-] at ``key``; None while the bin has
         fewer than MIN_COUNT blocks, was last updated more than MEMORY_AGE ago or lies more
         than TEMPERATURE_SPAN away."""
+        found = self.reference(key, time, temperature, speed)
+        if found is None:
+            return None
+        mean, spread = found
+        return (residual - mean) / math.sqrt(variance + spread)
+
+    def reference(
+        self, key: BinKey, time: float, temperature: float, speed: float
+    ) -> tuple[float, float] | None:
+        """The bin's reference for a block at ``time`` [s], ``temperature`` [K] and mean
+        ``speed`` [rad/s]: its mean relative residual m [-] and the variance of that
+        reference at the block, v_m / n + FLOOR^2 + (s_w dln w)^2 + (s_T dT)^2 [-] (the block's
+        own variance is the caller's); None when :meth:`innovation` would be None."""
         b = self._bins.get(key)
         if b is None or not b.fresh(time, temperature) or b.count < MIN_COUNT:
             return None
         apart = (SPEED_SLOPE * (math.log(abs(speed)) - b.log_speed)) ** 2 + (
             TEMPERATURE_SLOPE * (temperature - b.temperature)
         ) ** 2
-        total = variance + b.variance / b.count + self.floor**2 + apart
-        return (residual - b.mean) / math.sqrt(total)
+        return b.mean, b.variance / b.count + self.floor**2 + apart
 
     def update(
         self,

@@ -279,6 +279,10 @@ class _Record:
     noise_variance: float
     state: FloatArray
     covariance: FloatArray
+    #: The block against this run's memory of its bin (:meth:`HealthMonitor._local`): its
+    #: residual less the bin's healthy residual [N m] and that difference's variance
+    #: [N^2 m^2]; None where the bin was no reference.
+    local: tuple[float, float] | None = None
 
 
 class _SteadyTwin:
@@ -652,6 +656,8 @@ class HealthMonitor:
             gap * s.residual.block_duration,
             update_variance=sensor_var / n + self._shared_blocks * model_sigma**2,
         )
+        own = b.torque_gain * math.sqrt(transient)
+        local, local_change = self._local(block, speed, residual, drag, own, sensor_var / n)
         self._history.append(
             _Record(
                 block.time,
@@ -662,6 +668,7 @@ class HealthMonitor:
                 noise_var,
                 prior_state,
                 prior_cov,
+                local_change,
             )
         )
         # per sample, the inertia torque of the motion too (a quadratic of the speed over the
@@ -671,8 +678,6 @@ class HealthMonitor:
         expected = b.torque_gain * (drags + b.inertia * _smooth_acceleration(block)) + b.torque_bias
         self._buffer_raw(block, block.torque - expected, angle, drags)
         e = step.normalized
-        own = b.torque_gain * math.sqrt(transient)
-        local = self._local(block, speed, residual, drag, own, sensor_var / n)
         if in_warmup:
             return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
 
@@ -740,27 +745,34 @@ class HealthMonitor:
         drag: float,
         own: float,
         sensor_variance: float,
-    ) -> float | None:
+    ) -> tuple[float | None, tuple[float, float] | None]:
         """Innovation of the block against this run's memory of its operating point and
-        motion (:mod:`.memory`), None when the block is mostly inertia or lag (``own``, the
-        transient sigma [N m], beyond LOUD_SIGMA of the drag), is within SETTLING_FACTOR gate
-        angles of a reversal, or its bin is new; a healthy block updates its bin."""
+        motion (:mod:`.memory`), and the block's residual less its bin's healthy residual
+        [N m] with that difference's variance [N^2 m^2]; (None, None) when the block is mostly
+        inertia or lag (``own``, the transient sigma [N m], beyond LOUD_SIGMA of the drag), is
+        within SETTLING_FACTOR gate angles of a reversal, or its bin is new. A healthy block
+        updates its bin."""
         scale = self.baseline.torque_gain * abs(drag)
         change = block.mean_acceleration * block.span
         key = bin_key(speed, block.temperature, block.preload, change)
         if key is None or scale <= 0.0:
-            return None
+            return None, None
         if self.gate.block_travel < SETTLING_FACTOR * self.gate.settings.gate_angle:
-            return None
+            return None, None
         if own > LOUD_SIGMA * scale:
-            return None
+            return None, None
         variance = (sensor_variance + (REPEAT_SHARE * own) ** 2) / scale**2
         relative = residual / (self.baseline.torque_gain * drag)
         where = (block.time, block.temperature, speed)
         z = self.memory.innovation(key, relative, variance, *where)
+        found = self.memory.reference(key, *where)
         if self.alarm is None and (z is None or abs(z) < UPDATE_GATE):
             self.memory.update(key, relative, variance, *where)
-        return z
+        if found is None:
+            return z, None
+        mean, spread = found
+        torque = self.baseline.torque_gain * drag
+        return z, ((relative - mean) * torque, (variance + spread) * torque**2)
 
     def _sample(
         self,
@@ -904,10 +916,16 @@ class HealthMonitor:
         base = records[0]
         residuals, sigmas, preload = [], [], []
         for r in records:
-            expected = self.tracker.expected(r.predicted, r.preload_sensitivity, base.state)
-            h = np.array([1.0, r.predicted, r.preload_sensitivity])
-            residuals.append(r.measured - expected)
-            sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
+            if r.local is not None:
+                # the change since this run's healthy past at the same operating point: free
+                # of the twin's own error there, which would bend the classes' fits
+                residuals.append(r.local[0])
+                sigmas.append(math.sqrt(r.local[1]))
+            else:
+                expected = self.tracker.expected(r.predicted, r.preload_sensitivity, base.state)
+                h = np.array([1.0, r.predicted, r.preload_sensitivity])
+                residuals.append(r.measured - expected)
+                sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
             preload.append(-r.operating_point.preload * r.preload_sensitivity)
         gain = self.baseline.torque_gain
 

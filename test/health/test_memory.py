@@ -63,6 +63,12 @@ def test_innovation_waits_for_the_bin_then_follows_its_formula() -> None:
         floored.update(key, 0.02, variance, 0.0, 300.0, 50.0)
     z = floored.innovation(key, 0.03, variance, 0.0, 300.0, 50.0)
     assert z == pytest.approx(0.01 / math.sqrt(variance + variance / n + 0.003**2), rel=1e-12)
+    # the reference the classifier takes: the mean and the variance besides the block's own
+    reference = floored.reference(key, 0.0, 300.0, 50.0)
+    assert reference is not None
+    assert reference[0] == pytest.approx(0.02, rel=1e-12)
+    assert reference[1] == pytest.approx(variance / n + 0.003**2, rel=1e-12)
+    assert floored.reference(key, MEMORY_AGE + 0.1, 300.0, 50.0) is None
 
 
 def test_a_bin_starts_from_the_median_of_its_untested_blocks() -> None:
