@@ -10,7 +10,7 @@ DEMO_DURATION ?= 10
 
 # DDS stays on this machine unless the caller says otherwise: loopback discovery only, and a
 # domain of our own per make invocation (1..100, from the PID) so parallel runs do not meet.
-# `?=` keeps values the user already exported (see README, "Using on a real bench network").
+# `?=` keeps values the user already exported (see docs/setup.md, "Using on a real bench network").
 ROS_AUTOMATIC_DISCOVERY_RANGE ?= LOCALHOST
 ifeq ($(origin ROS_DOMAIN_ID),undefined)
 ROS_DOMAIN_ID := $(shell echo $$(( $$$$ % 100 + 1 )))

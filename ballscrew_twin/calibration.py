@@ -5,7 +5,7 @@ Targets are operating points with a drag torque:
 - by default the paper's statement (section 3) that at 100 rpm its drag torque matches Eq. 52
   with mu_lit = 0.002 at 20 C and 60 C;
 - a user's CSV with columns ``speed_rpm, temperature_C, preload_N, torque_Nm``;
-- a bench bag (the bench-bag schema of the README, topics as ``detect`` takes them, read by
+- a bench bag (the bench-bag schema of docs/bench_data.md, topics as ``detect`` takes them, read by
   :func:`ballscrew_twin.health.bags.read_bench_bag`): its steady segments, found by
   :func:`steady_segments`, each one target (mean torque, speed, temperature and load-cell
   preload over the segment).

@@ -171,7 +171,7 @@ def test_calibrates_from_a_bench_bag_with_plot_and_targets(
     printed = capsys.readouterr()
     assert "steady segment(s)" in printed.err and f"wrote {png}" in printed.err
     summary = json.loads(printed.out)  # stdout: the JSON only
-    # the sample bag: 100 and 200 rpm at 1500 N, 20 -> 22 C (README, committed samples)
+    # the sample bag: 100 and 200 rpm at 1500 N, 20 -> 22 C (docs/bench_data.md, committed samples)
     speeds = {round(t["speed_rad_s"] / RPM) for t in summary["targets"]}
     assert speeds == {100, 200} and len(summary["targets"]) >= 3
     assert all(t["preload_N"] == pytest.approx(1500.0, abs=5.0) for t in summary["targets"])

@@ -151,7 +151,7 @@ def test_a_malformed_surface_is_named(tmp_path: Path, text: str) -> None:
 
 
 def test_saving_creates_the_folder(tmp_path: Path) -> None:
-    # The README's `commission ... --out out/unit.yaml` on a fresh clone has no out/ yet.
+    # docs/health.md's `commission ... --out out/unit.yaml` on a fresh clone has no out/ yet.
     file = _fitted().save(tmp_path / "out" / "unit.yaml")
     assert load_baseline(file) == _fitted()
 
