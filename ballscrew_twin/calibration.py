@@ -41,7 +41,6 @@ import yaml
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
-from .cli import CELSIUS_ZERO, RPM
 from .errors import BallscrewTwinError, ConfigError
 from .health.bags import BenchRecording, BenchTopics, read_bench_bag
 from .health.detect import add_topic_arguments
@@ -50,6 +49,7 @@ from .models.catalog import CatalogModel
 from .models.steady import SteadyState, SteadyStateModel
 from .models.validity import ValidityEnvelope, kelvin_from_command_line, refuse_outside
 from .params import ContactLaw, Lubricant, TwinConfig, config_from_mapping, load_config
+from .units import CELSIUS_ZERO, RPM
 
 #: parameter name -> (section, dataclass) that holds it
 FITTABLE: dict[str, tuple[str, type]] = {

@@ -19,15 +19,14 @@ from typing import Any
 from .errors import BallscrewTwinError
 from .models.base import OperatingPoint, TwinOutput
 from .models.validity import (
-    CELSIUS_ZERO,
     ValidatedModel,
     ValidityEnvelope,
     kelvin_from_command_line,
 )
 from .params import TwinConfig, load_config
+from .units import CELSIUS_ZERO, RPM
 
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
-__all__ = ["CELSIUS_ZERO", "RPM", "build_model", "main"]
+__all__ = ["build_model", "main"]
 
 #: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args);
 #: ``module:name`` takes them from the object ``name`` of the module instead.

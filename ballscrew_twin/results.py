@@ -31,7 +31,7 @@ import numpy as np
 from .errors import BallscrewTwinError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation import MECHANISMS, SimulationResult
-from .models.validity import CELSIUS_ZERO
+from .units import CELSIUS_ZERO
 
 #: Folder of the message definitions (repository layout).
 MSG_DIR = Path(__file__).resolve().parents[1] / "msg_defs" / "msg"

@@ -33,13 +33,12 @@ from .models.base import OperatingPoint
 from .models.faults import Faults, faults_from_mapping
 from .models.scenario import smooth_step
 from .params import Orientation, path_beside, read_yaml
+from .units import CELSIUS_ZERO, RPM
 
 FloatArray = NDArray[np.float64]
 Output = Literal["drag", "per_nut", "per_sphere"]
 OUTPUTS: tuple[str, ...] = get_args(Output)
 QUANTITIES = ("speed", "temperature", "preload", "axial_load")
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm, for hints only
-CELSIUS_ZERO = 273.15  # K, for hints only
 
 #: quantity -> (unit, lowest, highest allowed value at any time)
 LIMITS: dict[str, tuple[str, float, float]] = {

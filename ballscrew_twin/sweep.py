@@ -52,11 +52,12 @@ from typing import Any
 import numpy as np
 
 from . import __version__
-from .cli import RPM, build_model
+from .cli import build_model
 from .errors import BallscrewTwinError, ConfigError
 from .models.base import MECHANISMS, OperatingPoint
 from .models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
 from .params import TwinConfig, config_from_mapping, load_config
+from .units import RPM
 
 #: Models a sweep can evaluate (names of :func:`ballscrew_twin.cli.build_model`).
 MODELS = ("catalog", "zhou", "steady")

@@ -20,13 +20,14 @@ from ballscrew_twin.calibration import (
     with_parameters,
     write_config,
 )
-from ballscrew_twin.cli import RPM, main
+from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.bags import BenchRecording, Series
 from ballscrew_twin.health.bench_data import SAMPLE_DIR as SAMPLES
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.params import load_config
+from ballscrew_twin.units import RPM
 
 
 def test_recovers_the_eyring_stress_that_made_the_data(tmp_path: Path) -> None:

@@ -16,10 +16,10 @@ from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.validity import (
     DEFAULT_MIN_TEMPERATURE,
     ValidityEnvelope,
-    celsius_to_kelvin,
     clamp_operating_point,
 )
 from ballscrew_twin.params import load_config
+from ballscrew_twin.units import celsius_to_kelvin
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -49,8 +49,9 @@ from ..models.base import OperatingPoint, QuasiStaticModel, TwinOutput
 from ..models.catalog import CatalogModel
 from ..models.realtime import RealTimeModel
 from ..models.steady import SteadyStateModel
-from ..models.steady_map import CELSIUS_ZERO, RPM, MapError, SteadyMap, load_map
+from ..models.steady_map import MapError, SteadyMap, load_map
 from ..params import TwinConfig, load_config
+from ..units import CELSIUS_ZERO, RPM
 
 #: One-line help of this benchmark.
 DESCRIPTION = "work-precision: run time against error of every model (CSV, PNG, markdown)"

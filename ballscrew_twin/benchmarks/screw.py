@@ -41,8 +41,9 @@ from ..errors import SolverError
 from ..models.base import OperatingPoint, TwinOutput
 from ..models.realtime import RealTimeModel
 from ..models.steady import SteadyStateModel
-from ..models.steady_map import RPM, SteadyMap, cached_map_path, find_map, grid_for, load_map
+from ..models.steady_map import SteadyMap, cached_map_path, find_map, grid_for, load_map
 from ..params import TwinConfig, load_config
+from ..units import RPM
 from .accuracy import errors
 
 #: One-line help of this benchmark.

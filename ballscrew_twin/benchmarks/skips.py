@@ -52,10 +52,9 @@ from ..models.catalog import CatalogModel
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
+from ..units import CELSIUS_ZERO, RPM
 
 DESCRIPTION = "measured error bounds of the fidelity skip rules (writes fidelity_bounds.yaml)"
-RPM = 2.0 * math.pi / 60.0
-CELSIUS_ZERO = 273.15
 RULES = (
     "symmetric_vertical",
     "symmetric_horizontal",

@@ -40,7 +40,6 @@ from typing import Any
 
 import numpy as np
 
-from ..cli import CELSIUS_ZERO, RPM
 from ..errors import BallscrewTwinError, SolverError
 from ..models.base import OperatingPoint, QuasiStaticModel, TimeSteppingModel, TwinOutput
 from ..models.catalog import CatalogModel
@@ -54,6 +53,7 @@ from ..models.validity import (
     clamp_operating_point,
 )
 from ..params import TwinConfig, load_config
+from ..units import CELSIUS_ZERO, RPM
 from .accuracy import LOW_PRELOADS
 
 #: One-line help of this benchmark.

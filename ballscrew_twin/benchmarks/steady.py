@@ -54,7 +54,6 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..cli import CELSIUS_ZERO, RPM
 from ..errors import SolverError
 from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
@@ -62,6 +61,7 @@ from ..models.contact_forces import evaluate_contacts, make_scene
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
+from ..units import CELSIUS_ZERO, RPM
 
 #: One-line help of this benchmark.
 DESCRIPTION = "cost of the steady-state model (contact laws, cold and warm solves, both solvers)"

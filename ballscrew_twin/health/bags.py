@@ -49,11 +49,10 @@ import yaml
 from numpy.typing import NDArray
 
 from ..errors import BallscrewTwinError
+from ..units import CELSIUS_ZERO
 
 FloatArray = NDArray[np.float64]
 
-#: Offset between the Celsius and kelvin scales [K].
-CELSIUS_ZERO = 273.15
 #: Key of the ground truth (a JSON string) in the bag's ``metadata.yaml`` ``custom_data``.
 TRUTH_KEY = "ballscrew_twin.truth"
 #: Suffix of the ground-truth side file next to the bag folder.

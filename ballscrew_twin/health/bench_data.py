@@ -41,7 +41,8 @@ from numpy.typing import NDArray
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
-from .bags import CELSIUS_ZERO, TRUTH_KEY, BagError, BenchTopics, read_bench_bag, truth_path
+from ..units import CELSIUS_ZERO
+from .bags import TRUTH_KEY, BagError, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
 from .duty_cycles import Trajectory
 from .fault_profiles import (

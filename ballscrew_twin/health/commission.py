@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 from ..errors import BallscrewTwinError, ConfigError
 from ..models.steady_map import config_fingerprint
 from ..params import TwinConfig, load_config
+from ..units import CELSIUS_ZERO
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
     LOG_SPEED_NODES,
@@ -612,7 +613,7 @@ def _draw_surface(fig: Any, surface: ResidualSurface) -> None:
     fig.subplots_adjust(bottom=0.3)
     ax = fig.add_axes((0.1, 0.04, 0.72, 0.18))
     speeds = SPEED_REFERENCE * 10.0 ** np.array(LOG_SPEED_NODES) * 60.0 / (2.0 * math.pi)
-    celsius = np.array(TEMPERATURE_NODES) - 273.15
+    celsius = np.array(TEMPERATURE_NODES) - CELSIUS_ZERO
     image = ax.pcolormesh(
         speeds, celsius, surface.values.T * 100.0, cmap="coolwarm", vmin=-5.0, vmax=5.0
     )

@@ -26,11 +26,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
+from ..units import CELSIUS_ZERO, RPM
 
 FloatArray = NDArray[np.float64]
 
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
-CELSIUS_ZERO = 273.15  # K
 #: Kinds of segment.
 SEGMENT_KINDS = ("sine", "trapezoid", "steps", "reversal")
 #: Range of the peak speed of a segment [rpm], drawn log-uniformly.

@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from ..errors import SolverError
 from ..params import TwinConfig
 from ..physics import geometry, hertz
+from ..units import RPM
 from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
 from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, make_scene
 
@@ -63,7 +64,7 @@ CONTINUATION_SCHEDULES = (
 #: Start-up path of a cold solve (docs/model.md, "One branch"): the steady state is the one
 #: reached by raising the speed quasi-statically from this speed [rad/s] (1 rpm), where the
 #: direct cold solve is the start-up branch (measured on 80 lines, -40..100 C, 0..2000 N).
-STARTUP_SPEED = 2.0 * math.pi / 60.0
+STARTUP_SPEED = 1.0 * RPM
 #: Largest and smallest speed ratio of one step of the start-up path [-]; the ratio grows by
 #: STARTUP_GROWTH after an accepted step and is halved (its excess over 1) after a rejected one.
 STARTUP_MAX_RATIO = 2.0

@@ -59,6 +59,7 @@ from numpy.typing import NDArray
 
 from ..errors import BallscrewTwinError, SolverError
 from ..params import TwinConfig, load_config
+from ..units import CELSIUS_ZERO, RPM
 from .base import MECHANISMS, OperatingPoint
 from .steady import SteadyStateModel
 
@@ -72,8 +73,6 @@ DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map
 MAP_TOLERANCE = 1e-9
 #: Torque scale of the asinh transform of the nut torque [N m] (linear below, log above).
 TORQUE_SCALE = 1e-6
-RPM = 2.0 * math.pi / 60.0  # rad/s per rpm
-CELSIUS_ZERO = 273.15  # K
 #: Contact quantities tabulated per half groove (names of :class:`~.base.ContactStates`);
 #: ``in_contact`` is tabulated as 0/1 and read back as "interpolated value > 0.5".
 CONTACT_FIELDS: tuple[str, ...] = (

@@ -17,13 +17,13 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, fields, replace
-from decimal import Decimal
 from typing import Any
 
 import numpy as np
 
 from ..errors import ConfigError, OperatingPointError, SolverError
 from ..params import TwinConfig
+from ..units import CELSIUS_ZERO, celsius_to_kelvin
 from .base import OperatingPoint, SteadyStateModel, TimeSteppingModel, TwinOutput
 
 #: Lower temperature bound [K] (-40 C): coldest temperature of the steady model's property test
@@ -41,8 +41,6 @@ DEFAULT_MAX_AXIAL_LOAD = 5000.0
 #: Relative distance beyond a bound still counted as on it [-]: -40 C entered as
 #: -40 + 273.15 = 233.14999999999998 K is not a clamp worth a warning.
 BOUND_TOLERANCE = 1e-9
-#: Offset between the Celsius and kelvin scales [K] (conversions at the command-line edge).
-CELSIUS_ZERO = 273.15
 #: Fingerprint of the table whose low-preload error was measured: the packaged table of the
 #: paper screw (``models/steady_map.py``, ``data/steady_map.npz``).
 MEASURED_TABLE_FINGERPRINT = "d0618dc8a021d7fa17062e0409ac84e8e3ee509ec91faee02c8fce1404c13707"
@@ -217,18 +215,6 @@ def refuse_outside(
             f"{where}: outside the validity envelope (docs/model.md section 13): "
             + "; ".join(problems)
         )
-
-
-def celsius_to_kelvin(celsius: float) -> float:
-    """A temperature in degrees Celsius in kelvin [K], the float nearest the exact decimal sum.
-
-    ``celsius + 273.15`` rounds twice (273.15 has no exact binary value): -40 C gives
-    233.14999999999998 K, below a bound written as 233.15 K. Adding the shortest decimal
-    forms exactly and rounding once gives 233.15 K, the same float as the literal.
-    """
-    if not math.isfinite(celsius):
-        return celsius + CELSIUS_ZERO
-    return float(Decimal(repr(float(celsius))) + Decimal(repr(CELSIUS_ZERO)))
 
 
 def kelvin_from_command_line(

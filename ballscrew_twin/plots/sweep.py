@@ -23,11 +23,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from ..models.validity import CELSIUS_ZERO
+from ..units import CELSIUS_ZERO, RPM
 from .save import save_png
 
 FloatArray = NDArray[np.float64]
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
 #: Most panels drawn for the combinations of the dimensions beyond the second.
 MAX_PANELS = 12
 #: Cells per axis of the heat map of random draws.
@@ -52,7 +51,7 @@ class SweptDimension(Protocol):
 def display(name: str, unit: str) -> tuple[str, Callable[[FloatArray], FloatArray]]:
     """Axis label and SI -> shown conversion of a dimension."""
     if name == "screw_speed":
-        return "screw speed [rpm]", lambda v: v / RAD_S_PER_RPM
+        return "screw speed [rpm]", lambda v: v / RPM
     if name == "temperature":
         return "temperature [°C]", lambda v: v - CELSIUS_ZERO
     return f"{name.replace('_', ' ')} [{unit}]", lambda v: v

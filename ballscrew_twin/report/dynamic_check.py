@@ -25,13 +25,12 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from ..cli import RPM
 from ..models.base import OperatingPoint
 from ..models.scenario import Scenario
 from ..models.simulation import SimulationResult, build_config, simulate
 from ..models.steady import SteadyStateModel
-from ..models.validity import celsius_to_kelvin
 from ..params import TwinConfig, load_config
+from ..units import RPM, celsius_to_kelvin
 from .paper import MASTER_NUT, contact_side
 
 #: The operating points of the check: 20 C, 1500 N (paper screw, all its spheres) [C, N, rpm].

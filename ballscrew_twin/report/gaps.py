@@ -44,15 +44,14 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from ..calibration import with_parameters
-from ..cli import RPM
 from ..errors import SolverError
 from ..models import contact_forces
 from ..models.base import MECHANISMS, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyStateModel
-from ..models.validity import celsius_to_kelvin
 from ..params import TwinConfig, load_config
 from ..physics import film, geometry, lubricant, rolling, traction
+from ..units import RPM, celsius_to_kelvin
 from .paper import MASTER_NUT, MU_LIT, contact_side
 
 FloatArray = NDArray[np.float64]

@@ -37,13 +37,14 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from tqdm import tqdm
 
-from ..cli import CELSIUS_ZERO, HALF_GROOVES, RPM
+from ..cli import HALF_GROOVES
 from ..errors import SolverError
 from ..models.base import ContactStates, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyState, SteadyStateModel
-from ..models.validity import ValidityEnvelope, celsius_to_kelvin, refuse_outside
+from ..models.validity import ValidityEnvelope, refuse_outside
 from ..params import TwinConfig, load_config
+from ..units import CELSIUS_ZERO, RPM, celsius_to_kelvin
 
 Side = Literal["screw", "nut"]
 #: One CSV row: column name -> value (SI units, NaN where the solve failed).

@@ -1,0 +1,27 @@
+"""Units at the edges: the rpm and degrees Celsius of command lines, catalogues and ROS
+messages, converted to the SI the code uses inside (rad/s, K).
+
+One definition of each, imported wherever a conversion is made.
+"""
+
+from __future__ import annotations
+
+import math
+from decimal import Decimal
+
+#: rad/s per rpm: a speed in rpm times RPM is in rad/s.
+RPM = 2.0 * math.pi / 60.0
+#: The kelvin temperature of 0 degrees Celsius [K].
+CELSIUS_ZERO = 273.15
+
+
+def celsius_to_kelvin(celsius: float) -> float:
+    """A temperature in degrees Celsius in kelvin [K], the float nearest the exact decimal sum.
+
+    ``celsius + 273.15`` rounds twice (273.15 has no exact binary value): -40 C gives
+    233.14999999999998 K, below a bound written as 233.15 K. Adding the shortest decimal
+    forms exactly and rounding once gives 233.15 K, the same float as the literal.
+    """
+    if not math.isfinite(celsius):
+        return celsius + CELSIUS_ZERO
+    return float(Decimal(repr(float(celsius))) + Decimal(repr(CELSIUS_ZERO)))
