@@ -15,3 +15,31 @@ class OperatingPointError(BallscrewTwinError, ValueError):
 
 class SolverError(BallscrewTwinError, RuntimeError):
     """A numerical solve did not converge; the message says which and why."""
+
+
+class MapError(BallscrewTwinError, ValueError):
+    """A steady map is invalid: missing, corrupt, of another format or another parameter set."""
+
+
+class SampleError(BallscrewTwinError, ValueError):
+    """A bench sample is not finite."""
+
+
+class StampOrderError(SampleError):
+    """A sample's stamp is earlier than the last one of its signal (clock jump, restart)."""
+
+
+class BagError(BallscrewTwinError, ValueError):
+    """A bag cannot be read or lacks what is needed; the message names the path and the topic."""
+
+
+class SweepError(BallscrewTwinError, ValueError):
+    """A sweep specification is invalid, or the cluster cannot be reached."""
+
+
+class ResultsError(BallscrewTwinError):
+    """An output could not be written (missing message definitions, unwritable path, ...)."""
+
+
+class NonFiniteOutputError(SolverError):
+    """A model returned a NaN or infinite number; the message names the quantity."""

@@ -15,6 +15,7 @@ import sys
 import time
 from pathlib import Path
 
+from .errors import MapError
 from .models import steady_map
 from .params import load_config
 
@@ -58,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"table for {config.source}: {search.path}")
         return 0
     if args.workers < 1:
-        raise steady_map.MapError(f"--workers = {args.workers} must be >= 1")
+        raise MapError(f"--workers = {args.workers} must be >= 1")
     grid = steady_map.grid_for(config, preview=args.preview)
     out = Path(args.out) if args.out else steady_map.cached_map_path(config, grid)
     if out.is_file() and not args.force and not args.out:

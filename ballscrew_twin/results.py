@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import BallscrewTwinError
+from .errors import BallscrewTwinError, ResultsError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation import MECHANISMS, SimulationResult
 from .units import CELSIUS_ZERO
@@ -40,10 +40,6 @@ DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
 FRAME_ID = "screw"
 FIDELITY = "dynamic"
-
-
-class ResultsError(BallscrewTwinError):
-    """An output could not be written (missing message definitions, unwritable path, ...)."""
 
 
 def _columns(result: SimulationResult) -> list[tuple[str, np.ndarray]]:

@@ -53,7 +53,7 @@ import numpy as np
 
 from . import __version__
 from .cli import build_model
-from .errors import BallscrewTwinError, ConfigError
+from .errors import ConfigError, SweepError
 from .models.base import MECHANISMS, OperatingPoint
 from .models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
 from .params import TwinConfig, config_from_mapping, load_config
@@ -89,10 +89,6 @@ RESULT_COLUMNS = (
     "notes",
     "error",
 )
-
-
-class SweepError(BallscrewTwinError, ValueError):
-    """A sweep specification is invalid, or the cluster cannot be reached."""
 
 
 # ---------------------------------------------------------------------------------------------

@@ -13,10 +13,9 @@ import pytest
 from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
-from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.errors import ConfigError, SweepError
 from ballscrew_twin.params import load_config
 from ballscrew_twin.sweep import (
-    SweepError,
     SweepTask,
     evaluate_point,
     grid_points,

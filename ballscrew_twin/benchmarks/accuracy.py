@@ -44,12 +44,12 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import SolverError
+from ..errors import MapError, SolverError
 from ..models.base import OperatingPoint, QuasiStaticModel, TwinOutput
 from ..models.catalog import CatalogModel
 from ..models.realtime import RealTimeModel
 from ..models.steady import SteadyStateModel
-from ..models.steady_map import MapError, SteadyMap, load_map
+from ..models.steady_map import SteadyMap, load_map
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO, RPM
 

@@ -40,18 +40,13 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import BallscrewTwinError, SolverError
+from ..errors import BallscrewTwinError, NonFiniteOutputError, SolverError
 from ..models.base import OperatingPoint, QuasiStaticModel, TimeSteppingModel, TwinOutput
 from ..models.catalog import CatalogModel
 from ..models.scenario import Scenario
 from ..models.simulation import simulate
 from ..models.steady import SteadyStateModel
-from ..models.validity import (
-    NonFiniteOutputError,
-    ValidatedModel,
-    ValidityEnvelope,
-    clamp_operating_point,
-)
+from ..models.validity import ValidatedModel, ValidityEnvelope, clamp_operating_point
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO, RPM
 from .accuracy import LOW_PRELOADS

@@ -48,7 +48,7 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from ..errors import BallscrewTwinError
+from ..errors import BagError
 from ..units import CELSIUS_ZERO
 
 FloatArray = NDArray[np.float64]
@@ -75,10 +75,6 @@ ACCEPTED_TYPES: dict[str, tuple[str, ...]] = {
 CHANNELS = ("torque", "speed", "angle", "temperature", "preload")
 #: Unit of each channel's values.
 UNITS = {"torque": "N m", "speed": "rad/s", "angle": "rad", "temperature": "K", "preload": "N"}
-
-
-class BagError(BallscrewTwinError, ValueError):
-    """A bag cannot be read or lacks what is needed; the message names the path and the topic."""
 
 
 class _UnreadableError(Exception):

@@ -38,11 +38,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import ConfigError
+from ..errors import BagError, ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO
-from .bags import TRUTH_KEY, BagError, BenchTopics, read_bench_bag, truth_path
+from .bags import TRUTH_KEY, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
 from .duty_cycles import Trajectory
 from .fault_profiles import (

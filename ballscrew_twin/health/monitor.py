@@ -34,9 +34,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..errors import BallscrewTwinError, ConfigError
+from ..errors import BallscrewTwinError, ConfigError, MapError
 from ..models.base import OperatingPoint
-from ..models.steady_map import MapError
 from ..params import TwinConfig
 from .baseline import Baseline
 from .classify import (

@@ -32,7 +32,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import BallscrewTwinError, ConfigError, OperatingPointError
+from ..errors import (
+    ConfigError,
+    OperatingPointError,
+    SampleError,
+    StampOrderError,
+)
 from ..models.base import OperatingPoint, SteadyStateModel
 from ..params import TwinConfig
 
@@ -44,14 +49,6 @@ PRELOAD_PROBE = 0.05
 SPEED_PROBE = 0.05
 #: Temperature step of the finite-difference sensitivity d T / d theta [K].
 TEMPERATURE_PROBE = 2.0
-
-
-class SampleError(BallscrewTwinError, ValueError):
-    """A bench sample is not finite."""
-
-
-class StampOrderError(SampleError):
-    """A sample's stamp is earlier than the last one of its signal (clock jump, restart)."""
 
 
 def make_twin_model(config: TwinConfig) -> SteadyStateModel:

@@ -147,13 +147,13 @@ class DriftTracker:
                 neighbours (see the module docstring).
         """
         if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"tracker step: dt = {dt!r} s must be finite and > 0")
+            raise ConfigError(f"tracker step: dt = {dt!r} s must be finite and > 0")
         if not (math.isfinite(noise_variance) and noise_variance > 0.0):
-            raise ValueError(f"tracker step: R = {noise_variance!r} N m^2 must be > 0")
+            raise ConfigError(f"tracker step: R = {noise_variance!r} N m^2 must be > 0")
         if update_variance is None:
             update_variance = noise_variance
         if not (math.isfinite(update_variance) and update_variance >= noise_variance):
-            raise ValueError(
+            raise ConfigError(
                 f"tracker step: update R = {update_variance!r} N m^2 must be >= R = "
                 f"{noise_variance!r} N m^2"
             )

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
+from ..errors import ConfigError
 from ..params import TwinConfig
 from .base import OperatingPoint, TorqueBreakdown, TwinOutput
 
@@ -79,9 +80,9 @@ class CatalogModel:
         formula: Literal["zhou", "literature"] = "zhou",
     ) -> None:
         if not (math.isfinite(mu_lit) and 0.0 <= mu_lit < 1.0):
-            raise ValueError(f"mu_lit = {mu_lit!r} must be in [0, 1)")
+            raise ConfigError(f"mu_lit = {mu_lit!r} must be in [0, 1)")
         if formula not in ("zhou", "literature"):
-            raise ValueError(f"formula = {formula!r} must be 'zhou' or 'literature'")
+            raise ConfigError(f"formula = {formula!r} must be 'zhou' or 'literature'")
         self.config = config
         self.mu_lit = mu_lit
         self.formula = formula

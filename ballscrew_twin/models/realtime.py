@@ -29,13 +29,13 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..errors import ConfigError, MapError
 from ..params import TwinConfig
 from .base import MECHANISMS, ContactStates, FloatArray, OperatingPoint, TorqueBreakdown, TwinOutput
 from .steady_map import (
     CONTACT_FIELDS,
     HALF_GROOVES,
     NUTS,
-    MapError,
     SteadyMap,
     config_fingerprint,
     equivalent_preloads,
@@ -111,7 +111,7 @@ class RealTimeModel:
         ``contacts=False``: the output's ``contacts`` is None (torques unchanged, less work).
         """
         if not (math.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt = {dt!r} s must be a finite number > 0")
+            raise ConfigError(f"dt = {dt!r} s must be a finite number > 0")
         return self.evaluate(op, contacts)
 
     def evaluate(self, op: OperatingPoint, contacts: bool = True) -> TwinOutput:

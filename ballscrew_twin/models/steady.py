@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Literal, Union
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import SolverError
+from ..errors import ConfigError, SolverError
 from ..params import TwinConfig
 from ..physics import geometry, hertz
 from ..units import RPM
@@ -184,12 +184,12 @@ class SteadyStateModel:
         branch: Branch = "start-up",
     ) -> None:
         if branch not in ("start-up", "path"):
-            raise ValueError(f"branch = {branch!r} must be start-up or path")
+            raise ConfigError(f"branch = {branch!r} must be start-up or path")
         self.branch = branch
         if mode not in ("auto", "symmetric", "full"):
-            raise ValueError(f"mode = {mode!r} must be auto, symmetric or full")
+            raise ConfigError(f"mode = {mode!r} must be auto, symmetric or full")
         if backend not in ("compiled", "newton", "reference"):
-            raise ValueError(f"backend = {backend!r} must be compiled, newton or reference")
+            raise ConfigError(f"backend = {backend!r} must be compiled, newton or reference")
         self.backend = backend
         self._evaluate = evaluate_contacts
         if backend != "reference":
@@ -201,7 +201,7 @@ class SteadyStateModel:
 
             self._solver = steady_solver
         if not 0.0 < tolerance < 1e-2:
-            raise ValueError(f"tolerance = {tolerance!r} must be in (0, 1e-2)")
+            raise ConfigError(f"tolerance = {tolerance!r} must be in (0, 1e-2)")
         self.config = config
         self.mode = mode
         self.tolerance = tolerance

@@ -57,7 +57,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from ..errors import BallscrewTwinError, SolverError
+from ..errors import BallscrewTwinError, MapError, SolverError
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO, RPM
 from .base import MECHANISMS, OperatingPoint
@@ -117,10 +117,6 @@ PREVIEW_NODES = (9, 7, 9)
 WORKER_NICENESS = 10
 #: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
 CACHE_FOLDER = "ballscrew_twin"
-
-
-class MapError(BallscrewTwinError, ValueError):
-    """A steady map is invalid: missing, corrupt, of another format or another parameter set."""
 
 
 def config_fingerprint(config: TwinConfig) -> str:

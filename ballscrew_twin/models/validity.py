@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ConfigError, OperatingPointError, SolverError
+from ..errors import ConfigError, NonFiniteOutputError, OperatingPointError
 from ..params import TwinConfig
 from ..units import CELSIUS_ZERO, celsius_to_kelvin
 from .base import OperatingPoint, SteadyStateModel, TimeSteppingModel, TwinOutput
@@ -58,10 +58,6 @@ REALTIME_LOW_PRELOAD_ERRORS = (
 )
 #: Name of the real-time table model (``RealTimeModel.name``).
 REALTIME_MODEL_NAME = "realtime_map"
-
-
-class NonFiniteOutputError(SolverError):
-    """A model returned a NaN or infinite number; the message names the quantity."""
 
 
 def _bound(unit: str, doc: str, *, default: float | None = None) -> Any:

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import gamma, gammaincc
 
+from ..errors import ConfigError
 from ..params import Lubricant
 
 FloatArray = NDArray[np.float64]
@@ -124,7 +125,7 @@ def film_pressure_viscosity(
     if definition == "asymptotic":
         upper_gamma = gammaincc(1.0 / z, a) * gamma(1.0 / z)
         return np.asarray(ROELANDS_PRESSURE_SCALE * z * a ** (1.0 / z) * np.exp(-a) / upper_gamma)
-    raise ValueError(f"definition = {definition!r} must be initial or asymptotic")
+    raise ConfigError(f"definition = {definition!r} must be initial or asymptotic")
 
 
 def density(lub: Lubricant, pressure: ArrayLike, temperature: ArrayLike) -> FloatArray:

@@ -25,6 +25,7 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
+from ..errors import ConfigError
 from ..models.base import OperatingPoint
 from ..models.scenario import Scenario
 from ..models.simulation import SimulationResult, build_config, simulate
@@ -161,7 +162,7 @@ def richardson(values: Sequence[float]) -> tuple[float, float]:
     2 f(h) - f(2h)) and the observed order log2((f(4h) - f(2h)) / (f(2h) - f(h))) (NaN with
     fewer than three steps or a non-monotone sequence) [-]."""
     if len(values) < 2:
-        raise ValueError("extrapolation needs at least two time steps")
+        raise ConfigError("extrapolation needs at least two time steps")
     limit = 2.0 * values[-1] - values[-2]
     order = math.nan
     if len(values) >= 3:

@@ -44,7 +44,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 
 from ..calibration import with_parameters
-from ..errors import SolverError
+from ..errors import ConfigError, SolverError
 from ..models import contact_forces
 from ..models.base import MECHANISMS, OperatingPoint
 from ..models.catalog import CatalogModel
@@ -256,7 +256,7 @@ def variant_laws(name: str, config: TwinConfig) -> Iterator[None]:
     parts = name.split("+")
     unknown = [part for part in parts if part not in VARIANTS]
     if unknown:
-        raise ValueError(f"unknown variant {unknown[0]!r}; choose from {sorted(VARIANTS)}")
+        raise ConfigError(f"unknown variant {unknown[0]!r}; choose from {sorted(VARIANTS)}")
     with contextlib.ExitStack() as stack:
         for part in parts:
             for module, attribute, law in VARIANTS[part][1](config):

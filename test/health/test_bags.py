@@ -15,9 +15,9 @@ import pytest
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from ballscrew_twin.errors import BagError
 from ballscrew_twin.health.bags import (
     TRUTH_KEY,
-    BagError,
     BenchTopics,
     open_raw_bag,
     read_bench_bag,

@@ -8,14 +8,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.errors import ConfigError, SampleError, StampOrderError
 from ballscrew_twin.health.residuals import (
     Block,
     BlockAligner,
     ResidualSettings,
-    SampleError,
     SlowSignal,
-    StampOrderError,
     TwinPredictor,
     within_block_variance,
 )

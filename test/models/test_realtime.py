@@ -8,11 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from ballscrew_twin.errors import OperatingPointError
+from ballscrew_twin.errors import MapError, OperatingPointError
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint, TimeSteppingModel, TwinOutput
 from ballscrew_twin.models.realtime import RealTimeModel
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.models.steady_map import MapError, load_map
+from ballscrew_twin.models.steady_map import load_map
 from ballscrew_twin.params import TwinConfig, load_config
 
 RPM = 2.0 * math.pi / 60.0

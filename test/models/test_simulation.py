@@ -18,14 +18,13 @@ import numpy as np
 import pytest
 import yaml
 
-from ballscrew_twin.errors import ConfigError, SolverError
+from ballscrew_twin.errors import ConfigError, ResultsError, SolverError
 from ballscrew_twin.models import dynamic
 from ballscrew_twin.models.scenario import Scenario
 from ballscrew_twin.models.simulation import MECHANISMS, SimulationResult, simulate
 from ballscrew_twin.results import (
     CONTACT_TOPIC,
     DRAG_TOPIC,
-    ResultsError,
     make_typestore,
     plot_result,
     write_bag,

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from ballscrew_twin.errors import MapError
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
@@ -137,29 +138,29 @@ def test_save_load_roundtrip_and_bad_files(tmp_path: Path) -> None:
     assert loaded.grid == GRID and loaded.fingerprint == "synthetic"
     query = (300 * RPM, 310.0, (500.0, 900.0))
     np.testing.assert_allclose(loaded.sample(*query).torque, table.sample(*query).torque, rtol=1e-6)
-    with pytest.raises(sm.MapError, match=r"missing\.npz"):
+    with pytest.raises(MapError, match=r"missing\.npz"):
         sm.load_map(tmp_path / "missing.npz")
     corrupt = tmp_path / "corrupt.npz"
     corrupt.write_bytes(b"not a zip file")
-    with pytest.raises(sm.MapError, match=r"corrupt\.npz"):
+    with pytest.raises(MapError, match=r"corrupt\.npz"):
         sm.load_map(corrupt)
     with np.load(path) as data:
         content = dict(data)
     content["format_version"] = np.array(99)
     np.savez(tmp_path / "future.npz", **content)
-    with pytest.raises(sm.MapError, match="format_version"):
+    with pytest.raises(MapError, match="format_version"):
         sm.load_map(tmp_path / "future.npz")
     content["format_version"] = np.array(sm.FORMAT_VERSION)
     content["torque"] = content["torque"][:, :3]
     np.savez(tmp_path / "short.npz", **content)
-    with pytest.raises(sm.MapError, match="torque has shape"):
+    with pytest.raises(MapError, match="torque has shape"):
         sm.load_map(tmp_path / "short.npz")
 
 
 def test_grid_validation() -> None:
-    with pytest.raises(sm.MapError, match="speed_min"):
+    with pytest.raises(MapError, match="speed_min"):
         replace(GRID, speed_min=-1.0)
-    with pytest.raises(sm.MapError, match="odd"):
+    with pytest.raises(MapError, match="odd"):
         replace(GRID, preload_nodes=6).check_buildable()
     assert sm.MapGrid.from_array(GRID.as_array()) == GRID
 
@@ -178,7 +179,7 @@ def test_failed_nodes_take_the_nearest_solved_speed_or_line() -> None:
     assert np.array_equal(filled[1, :3, 1], table[1, :3, 0])
     assert filled[1, 3, 1] == table[1, 2, 0]  # that line's own failed node, filled first
     failed[1, :, 0] = True
-    with pytest.raises(sm.MapError, match="every speed"):
+    with pytest.raises(MapError, match="every speed"):
         sm._fill_failed(table.copy(), failed)
 
 

@@ -11,14 +11,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ballscrew_twin.errors import ConfigError, OperatingPointError
+from ballscrew_twin.errors import ConfigError, NonFiniteOutputError, OperatingPointError
 from ballscrew_twin.models.base import OperatingPoint, QuasiStaticModel, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.models.realtime import RealTimeModel
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.validity import (
     REALTIME_LOW_PRELOAD_ERRORS,
-    NonFiniteOutputError,
     ValidatedModel,
     ValidityEnvelope,
     all_finite,
