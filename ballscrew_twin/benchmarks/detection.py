@@ -1,9 +1,10 @@
 """``ballscrew-twin bench detection``: the health monitor on real duty cycles of real units.
 
 Evaluation data must not be the model under test. Every run here is made by a **drawn unit**
-(:mod:`ballscrew_twin.health.units`: its own preload, viscosity, mu_dry and Eyring stress within
-the production spreads, a torque sensor with gain and bias, its own inertia, Dahl presliding
-through reversals and a Stribeck rise at low speed) driven through a **random EMA duty cycle**
+(:mod:`ballscrew_twin.health.bench_units`: its own preload, viscosity, mu_dry and Eyring
+stress within the production spreads, a torque sensor with gain and bias, its own inertia,
+Dahl presliding through reversals and a Stribeck rise at low speed) driven through a
+**random EMA duty cycle**
 (:mod:`ballscrew_twin.health.duty_cycles`: sinusoidal position commands at 0.2-5 Hz,
 trapezoidal moves with dwells, speed steps up to 3000 rpm, slow reversals; ambient or cold
 start from -20 C), while the monitor predicts with the nominal real-time map commissioned to the
@@ -44,6 +45,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
+from ..health.bench_units import draw_unit
 from ..health.classify import FAULT_CLASSES
 from ..health.commission import commission
 from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
@@ -51,7 +53,6 @@ from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import DETECTORS, HealthMonitor, MonitorSettings, feed
 from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
-from ..health.units import draw_unit
 from ..params import TwinConfig, load_config
 
 #: One-line help of this benchmark.

@@ -44,6 +44,7 @@ from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO
 from .bags import TRUTH_KEY, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
+from .bench_units import BenchUnit, UnitTorqueTable, presliding_reference
 from .duty_cycles import Trajectory
 from .fault_profiles import (
     FaultedTwin,
@@ -64,7 +65,6 @@ from .sensors import (
     sample_times,
     speed_with_ripple,
 )
-from .units import BenchUnit, UnitTorqueTable, presliding_reference
 
 FloatArray = NDArray[np.float64]
 
@@ -768,8 +768,8 @@ def _fault_argument(text: str) -> FaultSpec:
 
 def _unit_bag(args: argparse.Namespace) -> BenchData:
     """``bench-data unit``: a drawn unit through a random duty cycle, written as a bag."""
+    from .bench_units import draw_unit
     from .duty_cycles import COMMISSIONING_WARMUP, draw_trajectory
-    from .units import draw_unit
 
     cold = {"ambient": False, "cold-start": True, "random": None, "warm-up": True}
     trajectory = draw_trajectory(

@@ -1,6 +1,6 @@
 """Compiled Dahl presliding lag of the bench-unit generator (numba).
 
-The compiled twin of :func:`ballscrew_twin.health.units.presliding_reference` (read it first):
+The compiled twin of :func:`ballscrew_twin.health.bench_units.presliding_reference` (read it first):
 the same recurrence, T_k = T_ss,k + (T_k-1 - T_ss,k) exp(-|phi_k - phi_k-1| / phi_c), as one
 loop. Why: a generated hour at 200 Hz is 720 000 steps, ~1 s in Python, ~5 ms here;
 test/kernels/test_presliding_kernel.py holds the two equal.

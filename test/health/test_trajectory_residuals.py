@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.health.baseline import SHIFT_EXTRAPOLATION, Baseline
+from ballscrew_twin.health.bench_units import presliding_reference
 from ballscrew_twin.health.monitor import (
     LAG_ANGLES_TO_SETTLE,
     HealthMonitor,
@@ -22,7 +23,6 @@ from ballscrew_twin.health.residuals import (
     ReversalGate,
     UnitTwin,
 )
-from ballscrew_twin.health.units import presliding_reference
 from ballscrew_twin.params import load_config
 
 from .synthetic import PRELOAD, bench_channels
@@ -113,7 +113,7 @@ def test_prediction_follows_the_speed_inside_the_block() -> None:
 
 def test_following_error_is_the_lag_of_a_friction_trailing_the_rotation() -> None:
     # Oracle: a first-order (Dahl) lag over the angle, integrated exactly step by step by the
-    # bench units' own reference (health/units.py), with the lag angle the monitor assumes
+    # bench units' own reference (health/bench_units.py), with the lag angle the monitor assumes
     # (the gate angle over LAG_ANGLES_TO_SETTLE). Along a 1 Hz sine of 40..160 rad/s (no
     # reversal, ~10 rad per block) the unit trails the quasi-static drag by phi_l dT/dphi, and
     # the monitor's estimate, from the twin at the block's evaluated samples alone, matches

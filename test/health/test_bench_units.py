@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.health.units import (
+from ballscrew_twin.health.bench_units import (
     TABLE_PRELOAD_RATIO,
     BenchUnit,
     UnitSpread,
