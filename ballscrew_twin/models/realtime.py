@@ -60,7 +60,7 @@ class RealTimeModel:
 
     Raises:
         MapError: the map is missing or corrupt, or was built for other physical parameters
-            (rebuild it with ``python -m ballscrew_twin.models.steady_map build``).
+            (rebuild it with ``ballscrew-twin map build``).
     """
 
     def __init__(
@@ -70,8 +70,8 @@ class RealTimeModel:
         if table.fingerprint != config_fingerprint(config):
             raise MapError(
                 f"steady map built for other parameters than {config.name!r} "
-                "(fingerprints differ): rebuild it with 'python -m "
-                "ballscrew_twin.models.steady_map build --config YOUR.yaml --out FILE'"
+                "(fingerprints differ): build its table with 'ballscrew-twin map build "
+                "--config YOUR.yaml'"
             )
         self.config = config
         self.map = table

@@ -27,8 +27,8 @@ continuation, are filled from their nearest solved neighbour in speed (a line so
 speed: the nearest such line in preload) and flagged; a sample that leans on a filled node
 says so.
 
-Build the committed table with ``python -m ballscrew_twin.models.steady_map build --out
-ballscrew_twin/data/steady_map.npz`` (progress bar; 2 worker processes by default).
+Build the committed table with ``ballscrew-twin map build --out
+ballscrew_twin/data/steady_map.npz --force`` (progress bar; 2 worker processes by default).
 
 Any other screw: ``ballscrew-twin map build --config YOUR.yaml`` builds the table of
 :func:`grid_for` that screw into the user cache (:func:`cache_dir`, never the package), under
@@ -39,7 +39,6 @@ refused. A table is only ever used for the parameter set it was built for (its f
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import math
 import multiprocessing
@@ -48,7 +47,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
@@ -57,8 +56,8 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from ..errors import BallscrewTwinError, MapError, SolverError
-from ..params import TwinConfig, load_config
+from ..errors import MapError, SolverError
+from ..params import TwinConfig
 from ..units import CELSIUS_ZERO, RPM
 from .base import MECHANISMS, OperatingPoint
 from .steady import SteadyStateModel
@@ -1003,47 +1002,3 @@ def load_map(path: str | Path | None = None) -> SteadyMap:
         raise MapError(f"{file}: {err}") from err
     except (OSError, KeyError, ValueError, TypeError, EOFError) as err:
         raise MapError(f"{file}: not a readable steady map ({err})") from err
-
-
-# ---------------------------------------------------------------------------------------------
-# Command line: python -m ballscrew_twin.models.steady_map build --out FILE
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``build``: solve a grid with the steady model and save the map."""
-    parser = argparse.ArgumentParser(
-        prog="python -m ballscrew_twin.models.steady_map",
-        description="tabulate the steady-state model for the real-time model",
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
-    build = sub.add_parser("build", help="solve the grid with the steady model and save it")
-    build.add_argument("--out", required=True, help="output .npz file")
-    build.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
-    build.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
-    defaults = MapGrid()
-    build.add_argument("--speed-nodes", type=int, default=defaults.speed_nodes, help="odd")
-    build.add_argument("--temperature-nodes", type=int, default=defaults.temperature_nodes)
-    build.add_argument("--preload-nodes", type=int, default=defaults.preload_nodes, help="odd")
-    args = parser.parse_args(argv)
-    try:
-        grid = replace(
-            defaults,
-            speed_nodes=args.speed_nodes,
-            temperature_nodes=args.temperature_nodes,
-            preload_nodes=args.preload_nodes,
-        )
-        steady_map = build_map(load_config(args.config), grid, workers=args.workers)
-        steady_map.save(args.out)
-    except BallscrewTwinError as err:
-        print(f"error: {err}", file=sys.stderr)
-        return 1
-    filled = int(steady_map.filled.sum())
-    print(
-        f"wrote {args.out}: {steady_map.node_count} nodes, {filled} filled from a neighbour "
-        "(steady solver failed there)"
-    )
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

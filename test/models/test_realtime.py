@@ -124,7 +124,7 @@ def test_bad_input_is_named(model: RealTimeModel, config: TwinConfig) -> None:
     other = replace(
         config, screw=replace(config.screw, ball_roughness=2 * config.screw.ball_roughness)
     )
-    with pytest.raises(MapError, match="rebuild"):
+    with pytest.raises(MapError, match="ballscrew-twin map build --config"):
         RealTimeModel(other, load_map())
 
 
