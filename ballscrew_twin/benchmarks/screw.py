@@ -114,16 +114,16 @@ def run_node(config_file: str, workers: int, settle: float) -> dict[str, Any]:
 
     def table_in_use() -> bool:
         now = time.monotonic() - start
-        if "first tick" not in marks and node.published_count:
+        if "first tick" not in marks and node.totals.published:
             marks["first tick"] = now
         ready = not (node.tables.preview or node.tables.building)
-        if "full table" not in marks and node.published_count and ready:
+        if "full table" not in marks and node.totals.published and ready:
             marks["full table"] = now
-            contacts = node.contact_count
+            contacts = node.totals.contacts
             during.extend(node.latency_log or [])
             node.latency_log = []
             marks["contacts before"] = contacts
-        if "full table" in marks and node.contact_count > marks["contacts before"]:
+        if "full table" in marks and node.totals.contacts > marks["contacts before"]:
             marks["first contacts"] = now
             return True
         return now > BUILD_TIMEOUT
@@ -137,8 +137,8 @@ def run_node(config_file: str, workers: int, settle: float) -> dict[str, Any]:
         "marks": marks,
         "during": _on_time(during),
         "after": _on_time(after),
-        "model": node.choice.model.name,
-        "reason": node.choice.reason,
+        "model": node.models.choice.model.name,
+        "reason": node.models.choice.reason,
         "table": node.tables.source,
     }
     executor.shutdown()
