@@ -206,8 +206,8 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     prepare_process(int(params.get("thread_priority", 0)))  # as twin_node's main does
     start = time.monotonic()
     spin(executor, until=lambda: time.monotonic() - start > WARMUP)
-    node.latency_log = []
-    start_totals = dataclasses.replace(node.totals)
+    node.ticks.latency_log = []
+    start_totals = dataclasses.replace(node.ticks.totals)
     conn.send(MEASURING)  # the commander counts received messages from here
     cpu0, wall0 = time.process_time(), time.monotonic()
     spin(executor, until=lambda: time.monotonic() - wall0 > measure)
@@ -216,11 +216,11 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
         {
             "model": node.models.choice.model.name,
             "tick_source": node.tick_source,
-            "latencies": np.asarray(node.latency_log, dtype=np.int64),
-            "skipped": node.totals.skipped - start_totals.skipped,
+            "latencies": np.asarray(node.ticks.latency_log, dtype=np.int64),
+            "skipped": node.ticks.totals.skipped - start_totals.skipped,
             "cpu_share": cpu / wall,
-            "published": node.totals.published - start_totals.published,
-            "contacts": node.totals.contacts - start_totals.contacts,
+            "published": node.ticks.totals.published - start_totals.published,
+            "contacts": node.ticks.totals.contacts - start_totals.contacts,
             "duration": wall,
         }
     )

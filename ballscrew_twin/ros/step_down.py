@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .tick_window import TickWindow
+from .tick_counts import TickWindow
 
 #: Windows (of one simulated second) in a row in which the model's mean step time exceeds the
 #: step budget before ``fidelity: auto`` steps down [-].

@@ -15,7 +15,7 @@ import numpy as np
 from .diagnostics import OK, STALE, WARN, Check
 from .fidelity import ModelChoice
 from .inputs import InputChannel
-from .tick_window import TickTotals, TickWindow
+from .tick_counts import TickTotals, TickWindow
 
 #: Substrings of model notes that are validity warnings (outside the validated envelope).
 VALIDITY_WORDS = ("validity:", "outside", "clamped", "blended", "failed", "not converged")

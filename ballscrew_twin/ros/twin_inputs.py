@@ -38,9 +38,10 @@ class TwinInputs:
     """The four inputs of the twin node, subscribed on ``node`` as its parameters say.
 
     Args:
-        node: the node (parameters ``initial_*``, ``*_topic``, ``*_type``, ``speed_joint``,
-            ``input_qos``, ``max_stamp_age``; declared).
-        limits: plausibility limits of the inputs.
+        node: the node (parameters ``limits.*``, ``initial_*``, ``*_topic``, ``*_type``,
+            ``speed_joint``, ``input_qos``, ``max_stamp_age``; declared).
+        critical_speed: the screw's critical speed, the speed limit unless
+            ``limits.max_screw_speed`` is set [rad/s].
         lock: held while a value is taken (the ticks read them on a thread of their own).
         now_ns: the node's clock [ns].
         warn: ``warn(key, text)`` logs a warning, throttled per key.
@@ -52,13 +53,24 @@ class TwinInputs:
     def __init__(
         self,
         node: Node,
-        limits: InputLimits,
+        critical_speed: float,
         lock: threading.Lock,
         now_ns: Callable[[], int],
         warn: Callable[[str, str], None],
     ) -> None:
         self._node = node
-        self.limits = limits
+        limit = {
+            name: float(node.get_parameter(f"limits.{name}").value)
+            for name in (
+                "max_screw_speed",
+                "min_temperature",
+                "max_temperature",
+                "max_preload",
+                "max_axial_load",
+            )
+        }
+        limit["max_screw_speed"] = limit["max_screw_speed"] or critical_speed
+        self.limits = limits = InputLimits(**limit)
         self._lock = lock
         self._now_ns = now_ns
         self._warn = warn

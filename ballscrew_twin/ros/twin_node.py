@@ -1,17 +1,11 @@
 """ROS 2 node of the ball-screw twin: the simulator stepped in real time on ROS topics.
 
-Subscribes to the screw speed [rad/s], the temperature [deg C, converted to K on arrival],
-the preload [N] and an optional external axial load [N] (topics, message types and QoS are
-parameters; ``input_preset: bench`` takes the bench-bag schema's topics); publishes
-``drag_torque`` (ballscrew_twin_msgs/DragTorque) every tick, ``contact_states``
-(ContactStateArray) at ``contact_rate_hz`` and ``/diagnostics`` at ``diagnostics_rate_hz``.
-Parameters, topics and diagnostics: ``docs/nodes.md``.
-
-The node is the glue; the work is done by library objects: the parameter table
-(``twin_parameters.py``), the models (``fidelity.py``) and their step-down (``step_down.py``),
-the real-time tables of the screw (``tables.py``), the tick schedule (``scheduler.py``,
-``tick_thread.py``), input checks (``inputs.py``), message encoding (``twin_messages.py``) and
-the diagnostic checks (``twin_diagnostics.py``).
+Screw speed [rad/s], temperature [deg C, kept in K], preload and axial load [N] in;
+``drag_torque`` every tick, ``contact_states`` and ``/diagnostics`` out (topics, parameters,
+diagnostics: ``docs/nodes.md``). The node is the glue; the work is done by the parameter table
+(``twin_parameters``), the inputs (``twin_inputs``), the models and their step-down
+(``twin_models``, ``step_down``), the tables (``tables``), the tick schedule (``scheduler``,
+``tick_thread``), the encoding (``twin_messages``) and the checks (``twin_diagnostics``).
 
 The simulation keeps a fixed step locked to the node's clock (wall time, or ``/clock`` with
 ``use_sim_time``): it catches up after a short stall, skips ticks (and counts them) when far
@@ -46,14 +40,13 @@ from . import cdr, diagnostics, fidelity, twin_diagnostics
 from .executors import make_executor
 from .inputs import (
     NS_PER_S,
-    InputLimits,
 )
 from .node_parameters import TableNode
 from .node_process import run_node_process
 from .scheduler import TickScheduler
 from .tables import RealTimeTables
+from .tick_counts import TickBook, TickWindow
 from .tick_thread import TickThread, prepare_process
-from .tick_window import ON_TIME_NS, TickTotals, TickWindow
 from .twin_inputs import TwinInputs
 from .twin_messages import encode_contacts, encode_torque
 from .twin_models import TwinModels, describe
@@ -64,6 +57,7 @@ from .twin_parameters import (
     RATE_PARAMETERS,
     TABLE_FIDELITIES,
     TWIN_PARAMETERS,
+    rates_refused,
 )
 
 #: Minimum interval between two log lines about the same input or failure [s].
@@ -94,7 +88,7 @@ class TwinNode(TableNode):
         self.declare_specs(s for s in TWIN_PARAMETERS if s.name == "input_preset")
         preset = INPUT_PRESETS[self._str("input_preset")]
         self.declare_specs((s for s in TWIN_PARAMETERS if s.name != "input_preset"), preset)
-        if (reason := self._rates_refused({})) is not None:
+        if reason := rates_refused(self._float("sim_rate_hz"), self._float("contact_rate_hz")):
             raise ValueError(f"parameter {reason}")
         #: Whether the node's clock is wall time (not /clock); kept up by _start_schedule.
         self._wall_time = not self.get_parameter("use_sim_time").value
@@ -103,15 +97,10 @@ class TwinNode(TableNode):
         #: inputs, diagnostics windows): the ticks may run on a thread of their own.
         self.tick_lock = threading.Lock()
         self._last_log: dict[str, float] = {}
-        max_speed = self._float("limits.max_screw_speed") or self.config.screw.critical_speed
-        limits = InputLimits(
-            max_screw_speed=max_speed,
-            min_temperature=self._float("limits.min_temperature"),
-            max_temperature=self._float("limits.max_temperature"),
-            max_preload=self._float("limits.max_preload"),
-            max_axial_load=self._float("limits.max_axial_load"),
+        critical_speed = self.config.screw.critical_speed
+        self.inputs = TwinInputs(
+            self, critical_speed, self.tick_lock, self._now_ns, self._log_throttled
         )
-        self.inputs = TwinInputs(self, limits, self.tick_lock, self._now_ns, self._log_throttled)
         self.tables = RealTimeTables(
             self.config,
             self._str("realtime_map"),
@@ -129,13 +118,8 @@ class TwinNode(TableNode):
             self._log_throttled,
         )
         self.last_output: TwinOutput | None = None
-        #: Tick counts since start-up; the window restarts with each diagnostics message.
-        self.totals = TickTotals()
-        self._startup_ends_ns = time.monotonic_ns() + STARTUP_GRACE_NS
-        self.window = TickWindow()
+        self.ticks = TickBook(STARTUP_GRACE_NS)
         self._window_start_ns = self._now_ns()
-        #: If set, every tick's publish latency [ns] is appended (benchmarks).
-        self.latency_log: list[int] | None = None
         self._frame_id = self._str("frame_id")
         self._torque_encoder = cdr.DragTorqueEncoder(self._frame_id)
 
@@ -171,17 +155,6 @@ class TwinNode(TableNode):
         """Simulation step rate [Hz]."""
         return self._float("sim_rate_hz")
 
-    def _rates_refused(self, changes: dict[str, Any]) -> str | None:
-        """Why the rates after ``changes`` do not go together, or None."""
-        sim_rate = float(self._value("sim_rate_hz", changes))
-        contact_rate = float(self._value("contact_rate_hz", changes))
-        if contact_rate <= sim_rate:
-            return None
-        return (
-            f"contact_rate_hz = {contact_rate:g} Hz exceeds sim_rate_hz = {sim_rate:g} Hz "
-            "(contact states are published on simulation ticks)"
-        )
-
     def _model_settings(self, changes: dict[str, Any]) -> fidelity.ModelSettings:
         """What the models are built from, after ``changes``."""
         return fidelity.ModelSettings(
@@ -199,7 +172,8 @@ class TwinNode(TableNode):
         if (refused := self.refuse_changes(TWIN_PARAMETERS, params)) is not None:
             return refused
         changes = {p.name: p.value for p in params}
-        if (reason := self._rates_refused(changes)) is not None:
+        sim_rate, contact_rate = (self._value(n, changes) for n in RATE_PARAMETERS[:2])
+        if (reason := rates_refused(float(sim_rate), float(contact_rate))) is not None:
             return SetParametersResult(successful=False, reason=reason)
         if any(name in changes for name in MODEL_PARAMETERS):
             try:
@@ -325,8 +299,10 @@ class TwinNode(TableNode):
             if self._tick_thread is not None:
                 self._tick_thread.stop()
             return
-        self.totals.tick_errors += 1
-        self._log_throttled("tick", f"tick failed ({self.totals.tick_errors} so far): {err!r}")
+        self.ticks.totals.tick_errors += 1
+        self._log_throttled(
+            "tick", f"tick failed ({self.ticks.totals.tick_errors} so far): {err!r}"
+        )
 
     def destroy_node(self) -> None:
         """Stop the tick thread and a table build, then destroy the node."""
@@ -348,7 +324,7 @@ class TwinNode(TableNode):
         last_due = self.scheduler.time_of(self.scheduler.last_index)
         plan = self.scheduler.due(now)
         if plan.jumped_back:
-            self.totals.clock_jumps_back += 1
+            self.ticks.totals.clock_jumps_back += 1
             self.inputs.forget_times()
             self.models.choice.model.reset(self.inputs.operating_point)
             self.get_logger().warning(
@@ -356,7 +332,7 @@ class TwinNode(TableNode):
                 "model reset, input stamps forgotten"
             )
         if plan.jumped_forward:
-            self.totals.clock_jumps_forward += 1
+            self.ticks.totals.clock_jumps_forward += 1
             gap = (now - last_due) / NS_PER_S
             self.get_logger().warning(
                 f"clock jumped forwards to {now / NS_PER_S:.6f} s ({gap:.3f} s after the last "
@@ -368,28 +344,15 @@ class TwinNode(TableNode):
         for index in plan.ticks:
             self._tick(index)
 
-    @property
-    def starting_up(self) -> bool:
-        """Whether the node is still starting: no tick on time yet, within STARTUP_GRACE_NS."""
-        return time.monotonic_ns() < self._startup_ends_ns
-
     def book_skipped(self, count: int) -> None:
-        """Count ``count`` skipped ticks: as start-up (logged as information) while
-        :attr:`starting_up`, else in the diagnostics windows (a warning)."""
-        if self.starting_up:
-            self.totals.startup_skipped += count
+        """Count ``count`` skipped ticks: logged as information at start-up, else a warning."""
+        if self.ticks.book_skipped(count, self.models.step_down.window):
             self.get_logger().info(
                 f"{count} ticks skipped at start-up (loading and warming up the model)"
             )
             return
-        self.window.skipped += count
-        self.models.step_down.window.skipped += count
-        self.totals.skipped += count
-        self._log_throttled(
-            "skipped",
-            f"{count} ticks skipped: the node fell "
-            f"more than {self.scheduler.max_catch_up} ticks behind",
-        )
+        behind = f"more than {self.scheduler.max_catch_up} ticks behind"
+        self._log_throttled("skipped", f"{count} ticks skipped: the node fell {behind}")
 
     def _tick(self, index: int) -> None:
         """Step the model once and publish the tick's drag torque (and contact states)."""
@@ -400,7 +363,7 @@ class TwinNode(TableNode):
         start = time.perf_counter()
         out, failed = self.models.step(op, period, contacts=publish_contacts, requested=requested)
         step_time = time.perf_counter() - start
-        self.window.failures += failed
+        self.ticks.window.failures += failed
         tick_ns = self.scheduler.time_of(index)
         sec, nanosec = divmod(tick_ns, NS_PER_S)
         # Simulated time per compute time (>= 1 keeps up); below the clock's resolution it is
@@ -409,18 +372,10 @@ class TwinNode(TableNode):
         self._torque_pub.publish(
             encode_torque(self._torque_encoder, out, sec, nanosec, real_time_factor=rtf)
         )
-        self.totals.published += 1
         self.last_output = out
         # Tick latency: due time to torque published (contact states follow, at a lower rate).
         latency = self._now_ns() - tick_ns
-        if latency <= ON_TIME_NS:
-            self._startup_ends_ns = 0  # keeping up: start-up is over
-        else:
-            self.totals.late += 1
-        self.window.add(step_time, latency)
-        self.models.step_down.window.add(step_time, latency)
-        if self.latency_log is not None:
-            self.latency_log.append(latency)
+        self.ticks.book_published(step_time, latency, self.models.step_down.window)
         if publish_contacts and out.contacts is not None:
             self._publish_contacts(out, sec, nanosec)
         if self.models.step_down.window_full(self.sim_rate):
@@ -446,14 +401,14 @@ class TwinNode(TableNode):
             )
             return
         self._contact_pub.publish(data)
-        self.totals.contacts += 1
+        self.ticks.totals.contacts += 1
 
     # ------------------------------------------------------------------ diagnostics
     def diagnostic_checks(self) -> list[diagnostics.Check]:
         """The checks of the window since the last call (which restarts the window)."""
         with self.tick_lock:
             now = self._now_ns()
-            w, self.window = self.window, TickWindow()
+            w = self.ticks.close_window()
             elapsed = max((now - self._window_start_ns) / NS_PER_S, 1e-9)
             self._window_start_ns = now
             return self._checks(w, now, elapsed)
@@ -490,7 +445,7 @@ class TwinNode(TableNode):
         return twin_diagnostics.real_time_check(
             w,
             elapsed,
-            self.totals,
+            self.ticks.totals,
             sim_rate=self.sim_rate,
             period=self.period_ns / NS_PER_S,
             min_on_time_share=self._float("min_on_time_share"),

@@ -60,6 +60,18 @@ TABLE_FIDELITIES = ("auto", "realtime")
 #: Parameters whose change restarts the tick schedule.
 RATE_PARAMETERS = ("sim_rate_hz", "contact_rate_hz", "max_catch_up_ticks")
 
+
+def rates_refused(sim_rate: float, contact_rate: float) -> str | None:
+    """Why the simulation rate ``sim_rate`` and the contact-state rate ``contact_rate`` [Hz]
+    do not go together, or None."""
+    if contact_rate <= sim_rate:
+        return None
+    return (
+        f"contact_rate_hz = {contact_rate:g} Hz exceeds sim_rate_hz = {sim_rate:g} Hz "
+        "(contact states are published on simulation ticks)"
+    )
+
+
 _LIMITS = InputLimits()
 _INPUTS = INPUT_PRESETS["commands"]
 

@@ -120,8 +120,8 @@ def test_the_node_on_a_new_screw_switches_to_its_built_table(
     assert twin.models.switches == 1
     check = {c.name: c for c in twin.diagnostic_checks()}["real-time table"]
     assert check.level == diagnostics.OK and "built for this screw" in check.message
-    count = twin.totals.contacts
-    assert spin_until(executor, lambda: twin.totals.contacts > count)
+    count = twin.ticks.totals.contacts
+    assert spin_until(executor, lambda: twin.ticks.totals.contacts > count)
     assert twin.last_output is not None and twin.last_output.fidelity == "realtime-map"
 
 

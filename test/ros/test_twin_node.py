@@ -139,13 +139,13 @@ def test_command_moves_torque_the_right_way_within_a_few_ticks(
             assert twin.inputs.preload.last_arrival_ns is not None
             accepted_at.append(twin.inputs.preload.last_arrival_ns)
 
-    skipped_before = twin.totals.skipped
+    skipped_before = twin.ticks.totals.skipped
     assert spin_until(executor, lambda: bool(accepted_at), every=step_and_watch)
     assert spin_until(executor, lambda: bench.torques[-1].preload == 3000.0)
     first = next(m for m in bench.torques if m.preload == 3000.0)
     ticks_after = (_stamp_ns(first.header.stamp) - accepted_at[0]) / twin.period_ns
     # The next tick run takes the command; ticks skipped under load (counted) come on top.
-    assert ticks_after <= 1.0 + (twin.totals.skipped - skipped_before)
+    assert ticks_after <= 1.0 + (twin.ticks.totals.skipped - skipped_before)
 
     # Eq. 52 is linear in preload: three times the preload, three times the torque.
     assert first.total == pytest.approx(3.0 * low.total, rel=1e-12)
@@ -256,7 +256,7 @@ def test_sim_time_follows_clock_and_survives_a_jump_back(
         return [s for s in stamps if s < 1000 * NS_PER_S]
 
     assert spin_until(executor, lambda: len(after_jump()) >= 10, every=advance)
-    assert twin.totals.clock_jumps_back == 1
+    assert twin.ticks.totals.clock_jumps_back == 1
     assert all(500 * NS_PER_S <= s <= sim["ns"] for s in after_jump())
     assert _stamp_ns(bench.torques[-1].header.stamp) < 1000 * NS_PER_S
 
@@ -269,17 +269,17 @@ def test_a_stall_on_wall_time_counts_every_tick_not_published(
     # past start-up (a tick on time, or the grace time over): skipped ticks count from then on
     assert spin_until(
         executor,
-        lambda: len(bench.torques) >= 3 and not twin.starting_up,
+        lambda: len(bench.torques) >= 3 and not twin.ticks.starting_up,
         timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0,
     )
-    skipped = twin.totals.skipped
+    skipped = twin.ticks.totals.skipped
     with twin.tick_lock:  # the tick thread cannot run: a 1.5 s stall (> the 1 s jump limit)
         time.sleep(1.5)
-    published = twin.totals.published
-    assert spin_until(executor, lambda: twin.totals.published >= published + 3)
-    assert twin.totals.clock_jumps_forward == 1
+    published = twin.ticks.totals.published
+    assert spin_until(executor, lambda: twin.ticks.totals.published >= published + 3)
+    assert twin.ticks.totals.clock_jumps_forward == 1
     # ~150 ticks of 10 ms were due in the stall: counted as skipped, not lost.
-    assert 130 <= twin.totals.skipped - skipped <= 170
+    assert 130 <= twin.ticks.totals.skipped - skipped <= 170
 
 
 def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
@@ -442,7 +442,7 @@ def test_failing_model_is_replaced_and_reported(
     assert spin_until(executor, lambda: len(bench.torques) >= 3)
     assert all(_all_finite(m) and m.fidelity.startswith("catalog") for m in bench.torques)
     assert twin.models.choice.mode == "realtime"  # explicitly requested: kept, catalogue stands in
-    assert spin_until(executor, lambda: twin.window.failures > 0)
+    assert spin_until(executor, lambda: twin.ticks.window.failures > 0)
     check = {c.name: c for c in twin.diagnostic_checks()}["model"]
     assert check.level == diagnostics.WARN and "failed steps" in check.message
     assert twin.models.failures >= 3

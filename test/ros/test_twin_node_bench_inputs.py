@@ -106,7 +106,8 @@ def test_a_replayed_bench_bag_drives_the_twin_with_no_glue(
             assert spin_until(
                 executor,
                 lambda: (
-                    all(c.accepted > 0 for c in twin.inputs.channels[:3]) and twin.totals.published
+                    all(c.accepted > 0 for c in twin.inputs.channels[:3])
+                    and twin.ticks.totals.published
                 ),
             )
         finally:

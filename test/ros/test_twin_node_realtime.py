@@ -8,7 +8,7 @@ from rclpy.parameter import Parameter
 
 from ballscrew_twin.ros import diagnostics
 from ballscrew_twin.ros.inputs import NS_PER_S
-from ballscrew_twin.ros.tick_window import ON_TIME_NS, TickWindow
+from ballscrew_twin.ros.tick_counts import ON_TIME_NS, TickWindow
 from ballscrew_twin.ros.twin_node import STARTUP_GRACE_NS, TwinNode
 from ballscrew_twin.ros.twin_parameters import MIN_ON_TIME_SHARE
 
@@ -45,10 +45,10 @@ def test_ticks_skipped_at_start_up_are_not_a_warning(
 ) -> None:
     # Ticks driven by the executor's timer: none runs until the executor spins.
     twin = _twin(executor, fidelity="catalog", tick_source="executor", sim_rate_hz=100.0)
-    assert twin.starting_up
+    assert twin.ticks.starting_up
     with twin.tick_lock:
         twin.book_skipped(40)  # e.g. the first step loading the model
-        w = twin.window
+        w = twin.ticks.window
     for _ in range(10):
         w.add(1e-5, 0)
     check = twin.real_time_check(w, 1.0)
@@ -59,12 +59,12 @@ def test_ticks_skipped_at_start_up_are_not_a_warning(
 
     # Start-up ends with the first tick on time (at the latest after the grace time).
     assert spin_until(
-        executor, lambda: not twin.starting_up, timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0
+        executor, lambda: not twin.ticks.starting_up, timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0
     )
     with twin.tick_lock:
         twin.book_skipped(5)
-        w = twin.window
+        w = twin.ticks.window
     check = twin.real_time_check(w, 1.0)
     assert check.level == diagnostics.WARN
     assert "5 skipped" in check.message
-    assert twin.totals.startup_skipped == 40
+    assert twin.ticks.totals.startup_skipped == 40

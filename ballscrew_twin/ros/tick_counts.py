@@ -1,7 +1,9 @@
-"""Counters of the twin node's ticks over a window of time (no rclpy here)."""
+"""Counts of the twin node's ticks: per window of time, since start-up, and whether the node
+is still starting (no rclpy here)."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 #: A tick published within this time of its due time is on time [ns].
@@ -69,3 +71,55 @@ class TickTotals:
     clock_jumps_back: int = 0
     clock_jumps_forward: int = 0
     tick_errors: int = 0
+
+
+class TickBook:
+    """The node's tick counts: the window of the next /diagnostics message, the totals since
+    start-up, and the start-up phase (before the first tick on time, at most ``grace_ns``
+    [ns] of the steady clock), during which skipped ticks are not a warning.
+
+    Attributes:
+        totals: counts since start-up.
+        window: counts since the last :meth:`close_window`.
+        latency_log: if set, every tick's publish latency [ns] is appended (benchmarks).
+    """
+
+    def __init__(self, grace_ns: int) -> None:
+        self.totals = TickTotals()
+        self.window = TickWindow()
+        self.latency_log: list[int] | None = None
+        self._startup_ends_ns = time.monotonic_ns() + grace_ns
+
+    @property
+    def starting_up(self) -> bool:
+        """Whether the node is still starting: no tick on time yet, within the grace time."""
+        return time.monotonic_ns() < self._startup_ends_ns
+
+    def close_window(self) -> TickWindow:
+        """The window so far; a new one starts."""
+        w, self.window = self.window, TickWindow()
+        return w
+
+    def book_skipped(self, count: int, review: TickWindow) -> bool:
+        """Count ``count`` skipped ticks; whether at start-up (else they are also counted in
+        the window and in the step-down's ``review`` window)."""
+        if self.starting_up:
+            self.totals.startup_skipped += count
+            return True
+        self.window.skipped += count
+        review.skipped += count
+        self.totals.skipped += count
+        return False
+
+    def book_published(self, step_time: float, latency_ns: int, review: TickWindow) -> None:
+        """Count a published tick: model step time [s], publish latency [ns] (in the window,
+        the step-down's ``review`` window and the totals); the first on time ends start-up."""
+        self.totals.published += 1
+        if latency_ns <= ON_TIME_NS:
+            self._startup_ends_ns = 0  # keeping up: start-up is over
+        else:
+            self.totals.late += 1
+        self.window.add(step_time, latency_ns)
+        review.add(step_time, latency_ns)
+        if self.latency_log is not None:
+            self.latency_log.append(latency_ns)
