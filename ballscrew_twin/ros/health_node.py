@@ -49,11 +49,9 @@ from ballscrew_twin_msgs.msg import HealthResidual
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
@@ -63,7 +61,6 @@ from ..errors import BallscrewTwinError, ConfigError
 from ..health.baseline import load_baseline
 from ..health.commission import commission
 from ..health.monitor import (
-    DETECTORS,
     FAULT,
     OK,
     UNKNOWN,
@@ -81,36 +78,15 @@ from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import ERROR, STALE, Check, to_message
 from .diagnostics import OK as DIAG_OK
 from .diagnostics import WARN as DIAG_WARN
+from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
+from .node_parameters import TableNode
 
-NODE_NAME = "ballscrew_health"
 #: Minimum interval between two warnings of the same kind [s].
 WARN_THROTTLE = 2.0
 #: Diagnostic level of each verdict.
 DIAG_LEVEL = {OK: DIAG_OK, WARN: DIAG_WARN, FAULT: ERROR, UNKNOWN: STALE}
 #: Longest period of the steady-clock watchdog (clock check, delayed log lines) [s].
 WATCHDOG_PERIOD = 0.1
-TYPES = {
-    "torque_type": ("WrenchStamped", "Float64"),
-    "speed_type": ("JointState", "Float64"),
-    "preload_type": ("WrenchStamped", "Float64"),
-}
-
-
-def _float(description: str, low: float, high: float) -> ParameterDescriptor:
-    """Read-only double parameter restricted to [low, high]."""
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_DOUBLE,
-        description=description,
-        read_only=True,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)],
-    )
-
-
-def _string(description: str) -> ParameterDescriptor:
-    """Read-only string parameter."""
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_STRING, description=description, read_only=True
-    )
 
 
 def _seconds(stamp: Any) -> float:
@@ -124,7 +100,7 @@ def _time_msg(seconds: float) -> Time:
     return Time(sec=int(sec), nanosec=min(round((seconds - sec) * 1e9), 999_999_999))
 
 
-class HealthNode(Node):
+class HealthNode(TableNode):
     """Thin rclpy node around :class:`HealthMonitor` (parameters in ``config/health_node.yaml``).
 
     Keyword arguments are passed to :class:`rclpy.node.Node` (``context``,
@@ -133,128 +109,7 @@ class HealthNode(Node):
 
     def __init__(self, node_name: str = NODE_NAME, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        defaults = Settings()
-        res = ResidualSettings()
-        declared: list[tuple[str, Any, ParameterDescriptor]] = [
-            ("config_file", "", _string("Screw parameter file (YAML); empty: shipped paper screw")),
-            ("torque_topic", "/bench/torque", _string("Input: measured drive torque [N m]")),
-            ("torque_type", "WrenchStamped", _string("WrenchStamped (torque.z) or Float64")),
-            ("speed_topic", "/bench/joint_states", _string("Input: screw speed [rad/s]")),
-            ("speed_type", "JointState", _string("JointState (velocity) or Float64")),
-            ("joint_name", "screw", _string("Joint of the screw in JointState messages")),
-            (
-                "temperature_topic",
-                "/bench/temperature",
-                _string("Input: sensor_msgs/Temperature [deg C]"),
-            ),
-            ("preload_topic", "/bench/preload", _string("Input: load-cell preload [N]")),
-            ("preload_type", "WrenchStamped", _string("WrenchStamped (force.z) or Float64")),
-            ("health_topic", "health", _string("Output: ballscrew_twin_msgs/HealthResidual")),
-            ("frame_id", "screw", _string("header.frame_id of HealthResidual")),
-            (
-                "queue_depth",
-                1000,
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_INTEGER,
-                    read_only=True,
-                    description="Depth of the input queues (keep last) [-]",
-                ),
-            ),
-            (
-                "reliable_inputs",
-                False,
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_BOOL,
-                    read_only=True,
-                    description="Subscribe reliably (a replayed bag arrives whole; the "
-                    "publisher must be reliable) instead of best effort (sensor data: a late "
-                    "sample is dropped, the bench is never slowed)",
-                ),
-            ),
-            ("diagnostics_rate_hz", 1.0, _float("/diagnostics rate [Hz]", 0.1, 10.0)),
-            ("stale_after", 2.0, _float("No torque for this long: STALE [s]", 0.1, 60.0)),
-            (
-                "clock_timeout",
-                2.0,
-                _float(
-                    "use_sim_time: /clock still for this long (wall time): STALE [s]", 0.1, 60.0
-                ),
-            ),
-            (
-                "log_throttle",
-                1.0,
-                _float("Least wall time between two logged verdict/class changes [s]", 0.0, 60.0),
-            ),
-            (
-                "false_alarm_rate",
-                defaults.false_alarm_rate,
-                _float("Target false alarms per hour, all detectors [1/h]", 1e-9, 1e3),
-            ),
-            (
-                "detectors",
-                list(defaults.detectors),
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_STRING_ARRAY,
-                    read_only=True,
-                    description=f"Detectors that may raise an alarm, some of {list(DETECTORS)}",
-                ),
-            ),
-            ("warmup", defaults.warmup, _float("Healthy warm-up at the start [s]", 0.5, 3600.0)),
-            (
-                "block_duration",
-                res.block_duration,
-                _float("Length of one comparison block [s]", 0.005, 10.0),
-            ),
-            (
-                "sensor_noise",
-                0.0,
-                _float("Torque-sensor noise of one sample [N m]; 0: learn in warm-up", 0.0, 10.0),
-            ),
-            (
-                "model_error_relative",
-                res.model_error_relative,
-                _float("Model error relative to the torque, 1 sigma [-]", 0.0, 1.0),
-            ),
-            (
-                "classification_window",
-                defaults.classification_window,
-                _float("Time after an alarm over which the class is refined [s]", 0.1, 600.0),
-            ),
-            (
-                "classification_patience",
-                defaults.classification_patience,
-                _float(
-                    "Longest time after an alarm over which an unsure class (confidence < 0.9) "
-                    "is refined [s]",
-                    0.1,
-                    3600.0,
-                ),
-            ),
-            (
-                "baseline_file",
-                "",
-                _string("Baseline of the commissioned unit (YAML); empty: the nominal twin"),
-            ),
-            (
-                "commission_window",
-                300.0,
-                _float(
-                    "~/commission fits the samples of the last this many seconds [s]", 10.0, 3600.0
-                ),
-            ),
-            (
-                "commission_out",
-                "",
-                _string("~/commission also writes its baseline here (YAML); empty: not saved"),
-            ),
-        ]
-        for name, value, descriptor in declared:
-            self.declare_parameter(name, value, descriptor)
-        for name, allowed in TYPES.items():
-            if self._str(name) not in allowed:
-                raise ParameterException(
-                    f"{name} = {self._str(name)!r}: use one of {allowed}", [name]
-                )
+        self.declare_specs(HEALTH_PARAMETERS)
         noise = self._float("sensor_noise")
         self.settings = Settings(
             residual=ResidualSettings(
@@ -351,12 +206,6 @@ class HealthNode(Node):
         )
 
     # ------------------------------------------------------------------ helpers
-    def _float(self, name: str) -> float:
-        return float(self.get_parameter(name).value)
-
-    def _str(self, name: str) -> str:
-        return str(self.get_parameter(name).value)
-
     def _detectors(self) -> tuple[str, ...]:
         """The ``detectors`` parameter, checked by :func:`check_detectors`."""
         try:
