@@ -107,3 +107,53 @@ def test_tables_are_well_formed(table: tuple[ParameterSpec]) -> None:
             assert spec.unit, f"{spec.name}: a number needs a unit ('-' for a ratio)"
         if spec.low is not None and spec.high is not None:
             assert spec.low < spec.high
+
+
+def _cell(value: Any) -> str:
+    """A default or bound as written in docs/nodes.md."""
+    if isinstance(value, bool):
+        return f"`{str(value).lower()}`"
+    if isinstance(value, float):
+        return f"`{value:g}`"
+    if isinstance(value, tuple):
+        return "`[" + ", ".join(value) + "]`"
+    return f'`"{value}"`' if value == "" else f"`{value}`"
+
+
+def markdown_table(table: tuple[ParameterSpec, ...]) -> str:
+    """The parameter table of a node as docs/nodes.md shows it."""
+    rows = [
+        "| parameter | type | default | unit | accepted | rt | description |",
+        "| --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for spec in table:
+        if spec.choices:
+            accepted = ", ".join(f"`{c}`" for c in spec.choices)
+        elif spec.low is not None and spec.high is not None:
+            accepted = f"{spec.low:g} .. {spec.high:g}"
+        else:
+            accepted = ""
+        rows.append(
+            f"| `{spec.name}` | {spec.type_name} | {_cell(spec.default)} | {spec.unit} "
+            f"| {accepted} | {'rt' if spec.run_time else ''} "
+            f"| {spec.description.replace('|', '&#124;')} |"
+        )
+    return "\n".join(rows) + "\n"
+
+
+def presets_table() -> str:
+    """The input defaults of each ``input_preset`` as docs/nodes.md shows them."""
+    rows = ["| parameter | `commands` | `bench` |", "| --- | --- | --- |"]
+    commands, bench = INPUT_PRESETS["commands"], INPUT_PRESETS["bench"]
+    rows += [f"| `{k}` | {_cell(v)} | {_cell(bench[k])} |" for k, v in commands.items()]
+    return "\n".join(rows) + "\n"
+
+
+def test_docs_show_the_tables() -> None:
+    doc = (CONFIG.parent / "docs" / "nodes.md").read_text(encoding="utf-8")
+    for name, text in (
+        ("TWIN_PARAMETERS", markdown_table(TWIN_PARAMETERS)),
+        ("INPUT_PRESETS", presets_table()),
+        ("HEALTH_PARAMETERS", markdown_table(HEALTH_PARAMETERS)),
+    ):
+        assert text in doc, f"docs/nodes.md: the table of {name} is not the code's:\n{text}"
