@@ -44,14 +44,13 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-import rclpy
 from ballscrew_twin_msgs.msg import HealthResidual
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
@@ -80,6 +79,7 @@ from .diagnostics import OK as DIAG_OK
 from .diagnostics import WARN as DIAG_WARN
 from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
 from .node_parameters import TableNode
+from .node_process import run_node_process
 
 #: Minimum interval between two warnings of the same kind [s].
 WARN_THROTTLE = 2.0
@@ -566,31 +566,14 @@ class HealthNode(TableNode):
 
 def run_node(argv: list[str]) -> int:
     """Run :class:`HealthNode` with ROS arguments ``argv`` until shut down; the exit code."""
-    rclpy.init(args=argv)
-    node: HealthNode | None = None
-    executor: SingleThreadedExecutor | None = None
-    exit_code = 0
-    try:
-        node = HealthNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while executor.context.ok():
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (BallscrewTwinError, ParameterException, ValueError) as err:
-        print(f"health_node: cannot start: {err}", file=sys.stderr)
-        exit_code = 1
-    finally:
-        try:
-            if executor is not None:
-                executor.shutdown()
-            if node is not None:
-                node.destroy_node()
-        except KeyboardInterrupt:  # a second Ctrl-C while stopping: stop anyway
-            pass
-        rclpy.try_shutdown()
-    return exit_code
+    return run_node_process("health_node", argv, HealthNode, _executor)
+
+
+def _executor(node: HealthNode) -> SingleThreadedExecutor:
+    """A single-threaded executor spinning ``node``."""
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    return executor
 
 
 def main(args: list[str] | None = None) -> None:

@@ -58,6 +58,11 @@ def run_node_process(
             hint = " (write floating-point parameters with a decimal point, e.g. 1000.0)"
         print(f"{program}: cannot start: {err}{hint}", file=sys.stderr)
         exit_code = 1
+    except Exception:
+        if rclpy.ok():
+            raise
+        # SIGINT/SIGTERM while the node or the executor was being made shut the context down
+        # under them (rclpy's RCLError "the given context is not valid"): a clean stop.
     finally:
         # The executor no longer spins here. Take the node out of it before destroying the node
         # (destroying a node under a live executor crashed with SIGSEGV in 3 of 20 stops), and
