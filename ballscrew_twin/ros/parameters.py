@@ -113,7 +113,8 @@ def first_refusal(
 ) -> tuple[str, str] | None:
     """The first of ``values`` (name -> value) that ``table`` refuses, as (name, reason), or
     None when every one is accepted; names not in the table are not looked at."""
-    for spec in table:
-        if spec.name in values and (reason := spec.check(values[spec.name])) is not None:
-            return spec.name, reason
+    specs = table_by_name(table)
+    for name, value in values.items():
+        if name in specs and (reason := specs[name].check(value)) is not None:
+            return name, reason
     return None

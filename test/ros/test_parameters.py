@@ -54,7 +54,8 @@ def test_types_units_and_text() -> None:
 def test_first_refusal_and_names() -> None:
     table = (RATE, COUNT, MODE)
     assert first_refusal(table, {"rate": 5.0, "mode": "b", "other": object()}) is None
-    assert first_refusal(table, {"mode": "z", "count": 9}) == ("count", COUNT.check(9))
+    assert first_refusal(table, {"mode": "z", "count": 9}) == ("mode", MODE.check("z"))
+    assert first_refusal(table, {"count": 9, "mode": "z"}) == ("count", COUNT.check(9))
     assert set(table_by_name(table)) == {"rate", "count", "mode"}
     with pytest.raises(ValueError, match="rate given twice"):
         table_by_name((RATE, RATE))
