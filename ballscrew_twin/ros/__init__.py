@@ -26,6 +26,7 @@ Modules ("pure": no rclpy and no message types):
     demo_commander  -- command script of ``make demo``
     console_view    -- console view and plot of ``make demo``
     replay, record  -- ``ballscrew-twin replay BAG`` / ``record``: bags without ros2 bag
+    health_diagnostics -- the health node's checks and /clock watchdog (no rclpy)
     health_node     -- the health monitor node: bench data against the twin, fault verdicts
 
 The nodes' parameters, topics, services and diagnostics: ``docs/nodes.md``.

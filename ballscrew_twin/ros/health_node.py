@@ -61,7 +61,6 @@ from ..health.baseline import load_baseline
 from ..health.commission import commission
 from ..health.monitor import (
     FAULT,
-    OK,
     UNKNOWN,
     VERDICT_NAMES,
     WARN,
@@ -73,18 +72,16 @@ from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..models.validity import celsius_to_kelvin
 from ..params import load_config
+from . import health_diagnostics
 from .command_args import add_ros_arguments, ros_argv
-from .diagnostics import ERROR, STALE, Check, to_message
-from .diagnostics import OK as DIAG_OK
-from .diagnostics import WARN as DIAG_WARN
+from .diagnostics import Check, to_message
+from .health_diagnostics import ClockWatch
 from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
 from .node_parameters import TableNode
 from .node_process import run_node_process
 
 #: Minimum interval between two warnings of the same kind [s].
 WARN_THROTTLE = 2.0
-#: Diagnostic level of each verdict.
-DIAG_LEVEL = {OK: DIAG_OK, WARN: DIAG_WARN, FAULT: ERROR, UNKNOWN: STALE}
 #: Longest period of the steady-clock watchdog (clock check, delayed log lines) [s].
 WATCHDOG_PERIOD = 0.1
 
@@ -140,10 +137,8 @@ class HealthNode(TableNode):
         self._logged: tuple[int, str] | None = None
         self._log_wall = -math.inf
         self._log_pending: HealthSample | None = None
-        #: Last node-clock reading [ns] and the steady time it last changed [s].
-        self._clock_ns = self.get_clock().now().nanoseconds
-        self._clock_moved = time.monotonic()
-        self.clock_stale = False
+        #: Whether the node clock (/clock under use_sim_time) still advances.
+        self.clock = ClockWatch(self.get_clock().now().nanoseconds, time.monotonic())
         #: Samples received per channel (torque, speed, temperature, preload).
         self.received = dict.fromkeys(("torque", "speed", "temperature", "preload"), 0)
         #: Samples dropped (non-finite, malformed) since start-up.
@@ -414,7 +409,7 @@ class HealthNode(TableNode):
     def _publish_stale(self) -> None:
         """One UNKNOWN HealthResidual at the last clock time: the verdict is stale."""
         msg = HealthResidual()
-        msg.header.stamp = _time_msg(self._clock_ns * 1e-9)
+        msg.header.stamp = _time_msg(self.clock.clock_ns * 1e-9)
         msg.header.frame_id = self._frame_id
         msg.signal = "drag_torque"
         msg.verdict = UNKNOWN
@@ -434,23 +429,14 @@ class HealthNode(TableNode):
         if pending is not None and now - self._log_wall >= self._float("log_throttle"):
             self._log_now(pending)
         clock_ns = self.get_clock().now().nanoseconds
-        if clock_ns != self._clock_ns or not self._sim_time():
-            if self.clock_stale:
-                self.get_logger().info(f"/clock advances again ({clock_ns * 1e-9:.3f} s)")
-            self._clock_ns, self._clock_moved, self.clock_stale = clock_ns, now, False
-            return
-        if not self.clock_stale and now - self._clock_moved > self._float("clock_timeout"):
-            self.clock_stale = True
-            self.get_logger().warning(f"{self._clock_text(now)}: STALE")
+        timeout = self._float("clock_timeout")
+        change = self.clock.observe(clock_ns, now, sim_time=self._sim_time(), timeout=timeout)
+        if change == "resumed":
+            self.get_logger().info(f"/clock advances again ({clock_ns * 1e-9:.3f} s)")
+        elif change == "stale":
+            self.get_logger().warning(f"{self.clock.text(now)}: STALE")
             self._publish_stale()
             self._publish_diagnostics()
-
-    def _clock_text(self, now: float) -> str:
-        """What the /clock watchdog sees, one line."""
-        still = now - self._clock_moved
-        if self._clock_ns == 0:
-            return f"no /clock received for {still:.1f} s"
-        return f"/clock stopped at {self._clock_ns * 1e-9:.3f} s, {still:.1f} s ago"
 
     # ------------------------------------------------------------------ inputs
     def _on_torque_wrench(self, msg: WrenchStamped) -> None:
@@ -495,63 +481,22 @@ class HealthNode(TableNode):
         """The node's diagnostic checks: the health verdict, the torque input and, with
         use_sim_time, /clock (the verdict is STALE while /clock stands still)."""
         now = time.monotonic()
-        age = now - self._last_torque_wall
-        last = self.last
-        alarm = self.monitor.alarm
-        values: list[tuple[str, str]] = [
-            ("blocks", str(len(self.monitor.samples))),
+        counts = (
             ("received", ", ".join(f"{k} {v}" for k, v in self.received.items())),
             ("dropped samples", str(self.dropped)),
             ("restarts", str(self.restarts)),
             ("baseline", self.commission_result),
-            (
-                "gated [s]",
-                f"{self.monitor.gated_time:.1f} of "
-                f"{self.monitor.gated_time + self.monitor.compared_time:.1f}",
+        )
+        health = health_diagnostics.health_check(self.monitor, self.last, counts)
+        checks = [
+            health_diagnostics.stale_health(health, self.clock, now),
+            health_diagnostics.torque_check(
+                now - self._last_torque_wall, self._float("stale_after")
             ),
         ]
-        noise = self.monitor.sensor_variance
-        if noise is not None:
-            values.append(("sensor noise [N m]", f"{math.sqrt(noise):.3g}"))
-        if alarm is not None:
-            values += [
-                ("alarm time [s]", f"{alarm.time:.3f}"),
-                ("detector", alarm.detector),
-                ("estimated onset [s]", f"{alarm.onset:.3f}"),
-            ]
-        aligner = self.monitor.aligner
-        missing = [
-            s.name for s in (aligner.speed, aligner.temperature, aligner.preload) if not s.stamps
-        ]
-        if last is None:
-            text = "no comparison yet" + (f": waiting for {', '.join(missing)}" if missing else "")
-            health = Check("health", STALE, text, tuple(values))
-        else:
-            text = VERDICT_NAMES[last.verdict]
-            if last.fault_class:
-                text += f": {last.fault_class} (confidence {last.confidence:.2f})"
-            elif last.note:
-                text += f" ({last.note})"
-            health = Check("health", DIAG_LEVEL[last.verdict], text, tuple(values))
-        if self.clock_stale:
-            text = f"STALE: {self._clock_text(now)}; last: {health.message}"
-            health = Check("health", STALE, text, health.values)
-        stale = age > self._float("stale_after")
-        torque = Check(
-            "torque input",
-            STALE if stale else DIAG_OK,
-            "no torque received" if not math.isfinite(age) else f"last sample {age:.2f} s ago",
-        )
-        if not self._sim_time():
-            return [health, torque]
-        clock = Check(
-            "clock",
-            STALE if self.clock_stale else DIAG_OK,
-            self._clock_text(now)
-            if self.clock_stale
-            else f"/clock at {self._clock_ns * 1e-9:.3f} s",
-        )
-        return [health, torque, clock]
+        if self._sim_time():
+            checks.append(health_diagnostics.clock_check(self.clock, now))
+        return checks
 
     def _publish_diagnostics(self) -> None:
         self._diag_pub.publish(
