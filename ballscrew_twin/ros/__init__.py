@@ -18,6 +18,7 @@ Modules ("pure": no rclpy and no message types):
     diagnostics     -- ``/diagnostics`` messages from check results
     twin_diagnostics -- the twin node's checks (no rclpy)
     tables          -- the real-time tables of the node's screw, built when missing (no rclpy)
+    throttle        -- at most one log line per key and interval (pure)
     executors       -- the executors the processes spin with, and a ``spin_once`` loop
     node_process    -- one node in a process until SIGINT/SIGTERM, stopped cleanly
     twin_node       -- :class:`TwinNode`: commands in, DragTorque and ContactStateArray out

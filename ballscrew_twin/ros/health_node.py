@@ -79,6 +79,7 @@ from .health_diagnostics import ClockWatch
 from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
 from .node_parameters import TableNode
 from .node_process import run_node_process
+from .throttle import Throttle
 
 #: Minimum interval between two warnings of the same kind [s].
 WARN_THROTTLE = 2.0
@@ -149,7 +150,7 @@ class HealthNode(TableNode):
         self.published = 0
         self.last: HealthSample | None = None
         self._last_torque_wall = -math.inf
-        self._warned: dict[str, float] = {}
+        self._throttle = Throttle(WARN_THROTTLE)
         self._frame_id = self._str("frame_id")
         self._joint = self._str("joint_name")
 
@@ -210,9 +211,7 @@ class HealthNode(TableNode):
 
     def _warn(self, kind: str, text: str) -> None:
         """Log a warning at most once per :data:`WARN_THROTTLE` seconds per kind."""
-        now = time.monotonic()
-        if now - self._warned.get(kind, -math.inf) >= WARN_THROTTLE:
-            self._warned[kind] = now
+        if self._throttle.allows(kind):
             self.get_logger().warning(text)
 
     def _now(self) -> float:

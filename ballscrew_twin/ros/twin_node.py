@@ -19,7 +19,6 @@ Run: ``twin_node --ros-args --params-file config/twin_node.yaml``.
 
 from __future__ import annotations
 
-import math
 import sys
 import threading
 import time
@@ -45,6 +44,7 @@ from .node_parameters import TableNode
 from .node_process import run_node_process
 from .scheduler import TickScheduler
 from .tables import RealTimeTables
+from .throttle import Throttle
 from .tick_counts import TickBook, TickWindow
 from .tick_thread import TickThread, prepare_process
 from .twin_inputs import TwinInputs
@@ -96,7 +96,7 @@ class TwinNode(TableNode):
         #: Held while ticks run and while anything they read is changed (parameters,
         #: inputs, diagnostics windows): the ticks may run on a thread of their own.
         self.tick_lock = threading.Lock()
-        self._last_log: dict[str, float] = {}
+        self._throttle = Throttle(LOG_THROTTLE)
         critical_speed = self.config.screw.critical_speed
         self.inputs = TwinInputs(
             self, critical_speed, self.tick_lock, self._now_ns, self._log_throttled
@@ -267,9 +267,7 @@ class TwinNode(TableNode):
 
     def _log_throttled(self, key: str, text: str) -> None:
         """Warn at most once per :data:`LOG_THROTTLE` per ``key``."""
-        now = time.monotonic()
-        if now - self._last_log.get(key, -math.inf) >= LOG_THROTTLE:
-            self._last_log[key] = now
+        if self._throttle.allows(key):
             self.get_logger().warning(text)
 
     # ------------------------------------------------------------------ simulation
