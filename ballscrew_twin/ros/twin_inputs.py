@@ -70,7 +70,7 @@ class TwinInputs:
             )
         }
         limit["max_screw_speed"] = limit["max_screw_speed"] or critical_speed
-        self.limits = limits = InputLimits(**limit)
+        self.limits = InputLimits(**limit)
         self._lock = lock
         self._now_ns = now_ns
         self._warn = warn
@@ -83,7 +83,7 @@ class TwinInputs:
             ("temperature", check_temperature),
             ("preload", check_preload),
         ):
-            if (reason := check(initial[name], limits)) is not None:
+            if (reason := check(initial[name], self.limits)) is not None:
                 raise ValueError(f"parameter initial_{name}: {reason}")
         self.speed = InputChannel("screw speed", "rad/s", initial["screw_speed"])
         self.temperature = InputChannel("temperature", "K", initial["temperature"])
