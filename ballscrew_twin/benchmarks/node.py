@@ -27,6 +27,7 @@ real-time model. Writes a PNG of the latency distributions.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import multiprocessing
 import os
@@ -205,21 +206,21 @@ def _node_process(params: dict[str, Any], measure: float, conn: Connection) -> N
     prepare_process(int(params.get("thread_priority", 0)))  # as twin_node's main does
     start = time.monotonic()
     spin(executor, until=lambda: time.monotonic() - start > WARMUP)
-    node.latency_log = []
-    skipped0, published0, contacts0 = node.skipped_total, node.published_count, node.contact_count
+    node.ticks.latency_log = []
+    start_totals = dataclasses.replace(node.ticks.totals)
     conn.send(MEASURING)  # the commander counts received messages from here
     cpu0, wall0 = time.process_time(), time.monotonic()
     spin(executor, until=lambda: time.monotonic() - wall0 > measure)
     cpu, wall = time.process_time() - cpu0, time.monotonic() - wall0
     conn.send(
         {
-            "model": node.choice.model.name,
+            "model": node.models.choice.model.name,
             "tick_source": node.tick_source,
-            "latencies": np.asarray(node.latency_log, dtype=np.int64),
-            "skipped": node.skipped_total - skipped0,
+            "latencies": np.asarray(node.ticks.latency_log, dtype=np.int64),
+            "skipped": node.ticks.totals.skipped - start_totals.skipped,
             "cpu_share": cpu / wall,
-            "published": node.published_count - published0,
-            "contacts": node.contact_count - contacts0,
+            "published": node.ticks.totals.published - start_totals.published,
+            "contacts": node.ticks.totals.contacts - start_totals.contacts,
             "duration": wall,
         }
     )

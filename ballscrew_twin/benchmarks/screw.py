@@ -109,37 +109,37 @@ def run_node(config_file: str, workers: int, settle: float) -> dict[str, Any]:
     node = TwinNode(context=context, parameter_overrides=overrides)
     executor = make_executor("events", context)
     executor.add_node(node)
-    node.latency_log = []
+    node.ticks.latency_log = []
     marks: dict[str, float] = {"constructed": time.monotonic() - start}
     during: list[int] = []
 
     def table_in_use() -> bool:
         now = time.monotonic() - start
-        if "first tick" not in marks and node.published_count:
+        if "first tick" not in marks and node.ticks.totals.published:
             marks["first tick"] = now
         ready = not (node.tables.preview or node.tables.building)
-        if "full table" not in marks and node.published_count and ready:
+        if "full table" not in marks and node.ticks.totals.published and ready:
             marks["full table"] = now
-            contacts = node.contact_count
-            during.extend(node.latency_log or [])
-            node.latency_log = []
+            contacts = node.ticks.totals.contacts
+            during.extend(node.ticks.latency_log or [])
+            node.ticks.latency_log = []
             marks["contacts before"] = contacts
-        if "full table" in marks and node.contact_count > marks["contacts before"]:
+        if "full table" in marks and node.ticks.totals.contacts > marks["contacts before"]:
             marks["first contacts"] = now
             return True
         return now > BUILD_TIMEOUT
 
     spin(executor, until=table_in_use)
     settle_start = time.monotonic()
-    node.latency_log = []
+    node.ticks.latency_log = []
     spin(executor, until=lambda: time.monotonic() - settle_start > settle)
-    after = list(node.latency_log or [])
+    after = list(node.ticks.latency_log or [])
     result = {
         "marks": marks,
         "during": _on_time(during),
         "after": _on_time(after),
-        "model": node.choice.model.name,
-        "reason": node.choice.reason,
+        "model": node.models.choice.model.name,
+        "reason": node.models.choice.reason,
         "table": node.tables.source,
     }
     executor.shutdown()

@@ -13,12 +13,10 @@ from typing import Any
 
 from rclpy.executors import Executor, SingleThreadedExecutor
 
-#: Executor names (the twin node's parameter ``executor``).
-EXECUTORS = ("single_threaded", "events")
-
 
 def make_executor(name: str, context: Any) -> Executor:
-    """The executor ``name`` (one of :data:`EXECUTORS`) on ``context``."""
+    """The executor ``name`` (one of :data:`~ballscrew_twin.ros.twin_parameters.EXECUTORS`)
+    on ``context``."""
     if name == "events":
         from rclpy.experimental import EventsExecutor
 

@@ -44,16 +44,13 @@ from collections import deque
 from typing import Any
 
 import numpy as np
-import rclpy
 from ballscrew_twin_msgs.msg import HealthResidual
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import WrenchStamped
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.node import Node
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
@@ -63,9 +60,7 @@ from ..errors import BallscrewTwinError, ConfigError
 from ..health.baseline import load_baseline
 from ..health.commission import commission
 from ..health.monitor import (
-    DETECTORS,
     FAULT,
-    OK,
     UNKNOWN,
     VERDICT_NAMES,
     WARN,
@@ -77,40 +72,19 @@ from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..models.validity import celsius_to_kelvin
 from ..params import load_config
+from . import health_diagnostics
 from .command_args import add_ros_arguments, ros_argv
-from .diagnostics import ERROR, STALE, Check, to_message
-from .diagnostics import OK as DIAG_OK
-from .diagnostics import WARN as DIAG_WARN
+from .diagnostics import Check, to_message
+from .health_diagnostics import ClockWatch
+from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
+from .node_parameters import TableNode
+from .node_process import run_node_process
+from .throttle import Throttle
 
-NODE_NAME = "ballscrew_health"
 #: Minimum interval between two warnings of the same kind [s].
 WARN_THROTTLE = 2.0
-#: Diagnostic level of each verdict.
-DIAG_LEVEL = {OK: DIAG_OK, WARN: DIAG_WARN, FAULT: ERROR, UNKNOWN: STALE}
 #: Longest period of the steady-clock watchdog (clock check, delayed log lines) [s].
 WATCHDOG_PERIOD = 0.1
-TYPES = {
-    "torque_type": ("WrenchStamped", "Float64"),
-    "speed_type": ("JointState", "Float64"),
-    "preload_type": ("WrenchStamped", "Float64"),
-}
-
-
-def _float(description: str, low: float, high: float) -> ParameterDescriptor:
-    """Read-only double parameter restricted to [low, high]."""
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_DOUBLE,
-        description=description,
-        read_only=True,
-        floating_point_range=[FloatingPointRange(from_value=low, to_value=high, step=0.0)],
-    )
-
-
-def _string(description: str) -> ParameterDescriptor:
-    """Read-only string parameter."""
-    return ParameterDescriptor(
-        type=ParameterType.PARAMETER_STRING, description=description, read_only=True
-    )
 
 
 def _seconds(stamp: Any) -> float:
@@ -124,7 +98,7 @@ def _time_msg(seconds: float) -> Time:
     return Time(sec=int(sec), nanosec=min(round((seconds - sec) * 1e9), 999_999_999))
 
 
-class HealthNode(Node):
+class HealthNode(TableNode):
     """Thin rclpy node around :class:`HealthMonitor` (parameters in ``config/health_node.yaml``).
 
     Keyword arguments are passed to :class:`rclpy.node.Node` (``context``,
@@ -133,128 +107,7 @@ class HealthNode(Node):
 
     def __init__(self, node_name: str = NODE_NAME, **kwargs: Any) -> None:
         super().__init__(node_name, **kwargs)
-        defaults = Settings()
-        res = ResidualSettings()
-        declared: list[tuple[str, Any, ParameterDescriptor]] = [
-            ("config_file", "", _string("Screw parameter file (YAML); empty: shipped paper screw")),
-            ("torque_topic", "/bench/torque", _string("Input: measured drive torque [N m]")),
-            ("torque_type", "WrenchStamped", _string("WrenchStamped (torque.z) or Float64")),
-            ("speed_topic", "/bench/joint_states", _string("Input: screw speed [rad/s]")),
-            ("speed_type", "JointState", _string("JointState (velocity) or Float64")),
-            ("joint_name", "screw", _string("Joint of the screw in JointState messages")),
-            (
-                "temperature_topic",
-                "/bench/temperature",
-                _string("Input: sensor_msgs/Temperature [deg C]"),
-            ),
-            ("preload_topic", "/bench/preload", _string("Input: load-cell preload [N]")),
-            ("preload_type", "WrenchStamped", _string("WrenchStamped (force.z) or Float64")),
-            ("health_topic", "health", _string("Output: ballscrew_twin_msgs/HealthResidual")),
-            ("frame_id", "screw", _string("header.frame_id of HealthResidual")),
-            (
-                "queue_depth",
-                1000,
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_INTEGER,
-                    read_only=True,
-                    description="Depth of the input queues (keep last) [-]",
-                ),
-            ),
-            (
-                "reliable_inputs",
-                False,
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_BOOL,
-                    read_only=True,
-                    description="Subscribe reliably (a replayed bag arrives whole; the "
-                    "publisher must be reliable) instead of best effort (sensor data: a late "
-                    "sample is dropped, the bench is never slowed)",
-                ),
-            ),
-            ("diagnostics_rate_hz", 1.0, _float("/diagnostics rate [Hz]", 0.1, 10.0)),
-            ("stale_after", 2.0, _float("No torque for this long: STALE [s]", 0.1, 60.0)),
-            (
-                "clock_timeout",
-                2.0,
-                _float(
-                    "use_sim_time: /clock still for this long (wall time): STALE [s]", 0.1, 60.0
-                ),
-            ),
-            (
-                "log_throttle",
-                1.0,
-                _float("Least wall time between two logged verdict/class changes [s]", 0.0, 60.0),
-            ),
-            (
-                "false_alarm_rate",
-                defaults.false_alarm_rate,
-                _float("Target false alarms per hour, all detectors [1/h]", 1e-9, 1e3),
-            ),
-            (
-                "detectors",
-                list(defaults.detectors),
-                ParameterDescriptor(
-                    type=ParameterType.PARAMETER_STRING_ARRAY,
-                    read_only=True,
-                    description=f"Detectors that may raise an alarm, some of {list(DETECTORS)}",
-                ),
-            ),
-            ("warmup", defaults.warmup, _float("Healthy warm-up at the start [s]", 0.5, 3600.0)),
-            (
-                "block_duration",
-                res.block_duration,
-                _float("Length of one comparison block [s]", 0.005, 10.0),
-            ),
-            (
-                "sensor_noise",
-                0.0,
-                _float("Torque-sensor noise of one sample [N m]; 0: learn in warm-up", 0.0, 10.0),
-            ),
-            (
-                "model_error_relative",
-                res.model_error_relative,
-                _float("Model error relative to the torque, 1 sigma [-]", 0.0, 1.0),
-            ),
-            (
-                "classification_window",
-                defaults.classification_window,
-                _float("Time after an alarm over which the class is refined [s]", 0.1, 600.0),
-            ),
-            (
-                "classification_patience",
-                defaults.classification_patience,
-                _float(
-                    "Longest time after an alarm over which an unsure class (confidence < 0.9) "
-                    "is refined [s]",
-                    0.1,
-                    3600.0,
-                ),
-            ),
-            (
-                "baseline_file",
-                "",
-                _string("Baseline of the commissioned unit (YAML); empty: the nominal twin"),
-            ),
-            (
-                "commission_window",
-                300.0,
-                _float(
-                    "~/commission fits the samples of the last this many seconds [s]", 10.0, 3600.0
-                ),
-            ),
-            (
-                "commission_out",
-                "",
-                _string("~/commission also writes its baseline here (YAML); empty: not saved"),
-            ),
-        ]
-        for name, value, descriptor in declared:
-            self.declare_parameter(name, value, descriptor)
-        for name, allowed in TYPES.items():
-            if self._str(name) not in allowed:
-                raise ParameterException(
-                    f"{name} = {self._str(name)!r}: use one of {allowed}", [name]
-                )
+        self.declare_specs(HEALTH_PARAMETERS)
         noise = self._float("sensor_noise")
         self.settings = Settings(
             residual=ResidualSettings(
@@ -285,10 +138,8 @@ class HealthNode(Node):
         self._logged: tuple[int, str] | None = None
         self._log_wall = -math.inf
         self._log_pending: HealthSample | None = None
-        #: Last node-clock reading [ns] and the steady time it last changed [s].
-        self._clock_ns = self.get_clock().now().nanoseconds
-        self._clock_moved = time.monotonic()
-        self.clock_stale = False
+        #: Whether the node clock (/clock under use_sim_time) still advances.
+        self.clock = ClockWatch(self.get_clock().now().nanoseconds, time.monotonic())
         #: Samples received per channel (torque, speed, temperature, preload).
         self.received = dict.fromkeys(("torque", "speed", "temperature", "preload"), 0)
         #: Samples dropped (non-finite, malformed) since start-up.
@@ -299,7 +150,7 @@ class HealthNode(Node):
         self.published = 0
         self.last: HealthSample | None = None
         self._last_torque_wall = -math.inf
-        self._warned: dict[str, float] = {}
+        self._throttle = Throttle(WARN_THROTTLE)
         self._frame_id = self._str("frame_id")
         self._joint = self._str("joint_name")
 
@@ -351,12 +202,6 @@ class HealthNode(Node):
         )
 
     # ------------------------------------------------------------------ helpers
-    def _float(self, name: str) -> float:
-        return float(self.get_parameter(name).value)
-
-    def _str(self, name: str) -> str:
-        return str(self.get_parameter(name).value)
-
     def _detectors(self) -> tuple[str, ...]:
         """The ``detectors`` parameter, checked by :func:`check_detectors`."""
         try:
@@ -366,9 +211,7 @@ class HealthNode(Node):
 
     def _warn(self, kind: str, text: str) -> None:
         """Log a warning at most once per :data:`WARN_THROTTLE` seconds per kind."""
-        now = time.monotonic()
-        if now - self._warned.get(kind, -math.inf) >= WARN_THROTTLE:
-            self._warned[kind] = now
+        if self._throttle.allows(kind):
             self.get_logger().warning(text)
 
     def _now(self) -> float:
@@ -565,7 +408,7 @@ class HealthNode(Node):
     def _publish_stale(self) -> None:
         """One UNKNOWN HealthResidual at the last clock time: the verdict is stale."""
         msg = HealthResidual()
-        msg.header.stamp = _time_msg(self._clock_ns * 1e-9)
+        msg.header.stamp = _time_msg(self.clock.clock_ns * 1e-9)
         msg.header.frame_id = self._frame_id
         msg.signal = "drag_torque"
         msg.verdict = UNKNOWN
@@ -585,23 +428,14 @@ class HealthNode(Node):
         if pending is not None and now - self._log_wall >= self._float("log_throttle"):
             self._log_now(pending)
         clock_ns = self.get_clock().now().nanoseconds
-        if clock_ns != self._clock_ns or not self._sim_time():
-            if self.clock_stale:
-                self.get_logger().info(f"/clock advances again ({clock_ns * 1e-9:.3f} s)")
-            self._clock_ns, self._clock_moved, self.clock_stale = clock_ns, now, False
-            return
-        if not self.clock_stale and now - self._clock_moved > self._float("clock_timeout"):
-            self.clock_stale = True
-            self.get_logger().warning(f"{self._clock_text(now)}: STALE")
+        timeout = self._float("clock_timeout")
+        change = self.clock.observe(clock_ns, now, sim_time=self._sim_time(), timeout=timeout)
+        if change == "resumed":
+            self.get_logger().info(f"/clock advances again ({clock_ns * 1e-9:.3f} s)")
+        elif change == "stale":
+            self.get_logger().warning(f"{self.clock.text(now)}: STALE")
             self._publish_stale()
             self._publish_diagnostics()
-
-    def _clock_text(self, now: float) -> str:
-        """What the /clock watchdog sees, one line."""
-        still = now - self._clock_moved
-        if self._clock_ns == 0:
-            return f"no /clock received for {still:.1f} s"
-        return f"/clock stopped at {self._clock_ns * 1e-9:.3f} s, {still:.1f} s ago"
 
     # ------------------------------------------------------------------ inputs
     def _on_torque_wrench(self, msg: WrenchStamped) -> None:
@@ -646,63 +480,22 @@ class HealthNode(Node):
         """The node's diagnostic checks: the health verdict, the torque input and, with
         use_sim_time, /clock (the verdict is STALE while /clock stands still)."""
         now = time.monotonic()
-        age = now - self._last_torque_wall
-        last = self.last
-        alarm = self.monitor.alarm
-        values: list[tuple[str, str]] = [
-            ("blocks", str(len(self.monitor.samples))),
+        counts = (
             ("received", ", ".join(f"{k} {v}" for k, v in self.received.items())),
             ("dropped samples", str(self.dropped)),
             ("restarts", str(self.restarts)),
             ("baseline", self.commission_result),
-            (
-                "gated [s]",
-                f"{self.monitor.gated_time:.1f} of "
-                f"{self.monitor.gated_time + self.monitor.compared_time:.1f}",
+        )
+        health = health_diagnostics.health_check(self.monitor, self.last, counts)
+        checks = [
+            health_diagnostics.stale_health(health, self.clock, now),
+            health_diagnostics.torque_check(
+                now - self._last_torque_wall, self._float("stale_after")
             ),
         ]
-        noise = self.monitor.sensor_variance
-        if noise is not None:
-            values.append(("sensor noise [N m]", f"{math.sqrt(noise):.3g}"))
-        if alarm is not None:
-            values += [
-                ("alarm time [s]", f"{alarm.time:.3f}"),
-                ("detector", alarm.detector),
-                ("estimated onset [s]", f"{alarm.onset:.3f}"),
-            ]
-        aligner = self.monitor.aligner
-        missing = [
-            s.name for s in (aligner.speed, aligner.temperature, aligner.preload) if not s.stamps
-        ]
-        if last is None:
-            text = "no comparison yet" + (f": waiting for {', '.join(missing)}" if missing else "")
-            health = Check("health", STALE, text, tuple(values))
-        else:
-            text = VERDICT_NAMES[last.verdict]
-            if last.fault_class:
-                text += f": {last.fault_class} (confidence {last.confidence:.2f})"
-            elif last.note:
-                text += f" ({last.note})"
-            health = Check("health", DIAG_LEVEL[last.verdict], text, tuple(values))
-        if self.clock_stale:
-            text = f"STALE: {self._clock_text(now)}; last: {health.message}"
-            health = Check("health", STALE, text, health.values)
-        stale = age > self._float("stale_after")
-        torque = Check(
-            "torque input",
-            STALE if stale else DIAG_OK,
-            "no torque received" if not math.isfinite(age) else f"last sample {age:.2f} s ago",
-        )
-        if not self._sim_time():
-            return [health, torque]
-        clock = Check(
-            "clock",
-            STALE if self.clock_stale else DIAG_OK,
-            self._clock_text(now)
-            if self.clock_stale
-            else f"/clock at {self._clock_ns * 1e-9:.3f} s",
-        )
-        return [health, torque, clock]
+        if self._sim_time():
+            checks.append(health_diagnostics.clock_check(self.clock, now))
+        return checks
 
     def _publish_diagnostics(self) -> None:
         self._diag_pub.publish(
@@ -717,31 +510,14 @@ class HealthNode(Node):
 
 def run_node(argv: list[str]) -> int:
     """Run :class:`HealthNode` with ROS arguments ``argv`` until shut down; the exit code."""
-    rclpy.init(args=argv)
-    node: HealthNode | None = None
-    executor: SingleThreadedExecutor | None = None
-    exit_code = 0
-    try:
-        node = HealthNode()
-        executor = SingleThreadedExecutor()
-        executor.add_node(node)
-        while executor.context.ok():
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    except (BallscrewTwinError, ParameterException, ValueError) as err:
-        print(f"health_node: cannot start: {err}", file=sys.stderr)
-        exit_code = 1
-    finally:
-        try:
-            if executor is not None:
-                executor.shutdown()
-            if node is not None:
-                node.destroy_node()
-        except KeyboardInterrupt:  # a second Ctrl-C while stopping: stop anyway
-            pass
-        rclpy.try_shutdown()
-    return exit_code
+    return run_node_process("health_node", argv, HealthNode, _executor)
+
+
+def _executor(node: HealthNode) -> SingleThreadedExecutor:
+    """A single-threaded executor spinning ``node``."""
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    return executor
 
 
 def main(args: list[str] | None = None) -> None:

@@ -168,6 +168,8 @@ class InputChannel:
         self.accepted = 0
         self.rejected = 0
         self.last_rejection = ""
+        #: Rejected and received messages at the last :meth:`window_counts`.
+        self._reported = (0, 0)
 
     def accept(self, value: float, now_ns: int, stamp_ns: int = 0) -> None:
         """Take a checked value [unit] that arrived at ``now_ns`` with header ``stamp_ns``."""
@@ -181,6 +183,13 @@ class InputChannel:
         """Count a rejected message; the last good value stays in force."""
         self.rejected += 1
         self.last_rejection = reason
+
+    def window_counts(self) -> tuple[int, int]:
+        """Messages rejected and received since the last call (one /diagnostics window)."""
+        rejected, received = self.rejected, self.accepted + self.rejected
+        counts = (rejected - self._reported[0], received - self._reported[1])
+        self._reported = (rejected, received)
+        return counts
 
     def forget_times(self) -> None:
         """Forget arrival time and stamp (after the clock jumped backwards)."""

@@ -35,14 +35,20 @@ def _env() -> dict[str, str]:
     return env
 
 
-@pytest.mark.parametrize("name", ["twin_node", "twin_demo_commander", "ballscrew-twin"])
+@pytest.mark.parametrize(
+    "name", ["twin_node", "health_node", "twin_demo_commander", "ballscrew-twin"]
+)
 def test_scripts_on_venv_path(name: str) -> None:
     assert Path(_script(name)).is_file()
 
 
-def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
+@pytest.mark.parametrize(
+    ("name", "said"), [("twin_node", "model"), ("health_node", "monitoring /bench/torque")]
+)
+def test_node_runs_with_params_file_and_stops_on_sigint(name: str, said: str) -> None:
+    params = str(ROOT / f"config/{name}.yaml")
     proc = subprocess.Popen(
-        [_script("twin_node"), "--ros-args", "--params-file", str(ROOT / "config/twin_node.yaml")],
+        [_script(name), "--ros-args", "--params-file", params],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -64,7 +70,7 @@ def test_twin_node_runs_with_params_file_and_stops_on_sigint() -> None:
             if "publishing" in line:
                 started = line
                 break
-        assert "model" in started, f"no start-up line from twin_node: {started!r}"
+        assert said in started, f"no start-up line from {name}: {started!r}"
         proc.send_signal(signal.SIGINT)
         assert proc.wait(timeout=TIMEOUT) == 0
     finally:
@@ -85,6 +91,23 @@ def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
     )
     assert result.returncode == 1
     assert "sim_rate_hz" in result.stderr
+
+
+@pytest.mark.parametrize(
+    ("parameter", "named"),
+    [("torque_type:=Twist", "torque_type"), ("stale_after:=100.0", "stale_after")],
+)
+def test_health_node_refuses_a_bad_parameter(parameter: str, named: str) -> None:
+    result = subprocess.run(
+        [_script("health_node"), "--ros-args", "-p", parameter],
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+    assert result.returncode == 1
+    assert named in result.stderr and "Traceback" not in result.stderr
 
 
 def test_node_refuses_unreadable_params_file(tmp_path: Path) -> None:

@@ -8,7 +8,7 @@ import yaml
 
 from ballscrew_twin import results
 from ballscrew_twin.health import bench_data
-from ballscrew_twin.ros.twin_node import SCREW_FRAME_ID
+from ballscrew_twin.ros.twin_parameters import SCREW_FRAME_ID
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
 

@@ -198,11 +198,11 @@ def test_stopped_clock_is_stale_on_diagnostics_and_the_health_topic(
         return {s.name: s for s in diags[-1].status}.get(f"ballscrew_health: {name}")
 
     # never a /clock: stale
-    assert spin_until(executor, lambda: node.clock_stale)
+    assert spin_until(executor, lambda: node.clock.stale)
     assert "no /clock received" in node.checks()[2].message
     # a running /clock: not stale, the clock check reads the sim time
     assert spin_until(
-        executor, lambda: node._clock_ns > 50e9 and not node.clock_stale, every=advance
+        executor, lambda: node.clock.clock_ns > 50e9 and not node.clock.stale, every=advance
     )
     diags.clear()
     assert spin_until(
@@ -216,7 +216,7 @@ def test_stopped_clock_is_stale_on_diagnostics_and_the_health_topic(
     # the clock stops: STALE on /diagnostics and one UNKNOWN on the health topic
     health.clear()
     stopped_at = sim[0]
-    assert spin_until(executor, lambda: node.clock_stale)
+    assert spin_until(executor, lambda: node.clock.stale)
     assert spin_until(
         executor, lambda: bool(health) and bool(diags) and status("clock") is not None
     )
@@ -227,7 +227,7 @@ def test_stopped_clock_is_stale_on_diagnostics_and_the_health_topic(
     assert stale.verdict == UNKNOWN
     assert stale.header.stamp.sec + 1e-9 * stale.header.stamp.nanosec == pytest.approx(stopped_at)
     # it runs again
-    assert spin_until(executor, lambda: not node.clock_stale, every=advance)
+    assert spin_until(executor, lambda: not node.clock.stale, every=advance)
 
 
 def test_without_sim_time_there_is_no_clock_watch(
@@ -238,7 +238,7 @@ def test_without_sim_time_there_is_no_clock_watch(
     )
     executor.add_node(node)
     spin_until(executor, lambda: False, timeout=0.5)  # five times the timeout
-    assert not node.clock_stale
+    assert not node.clock.stale
     assert [c.name for c in node.checks()] == ["health", "torque input"]
 
 

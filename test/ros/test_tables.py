@@ -109,16 +109,19 @@ def test_the_node_on_a_new_screw_switches_to_its_built_table(
     """twin_node with the new screw's YAML: per-sphere states from the preview at once, the
     built table taken into use, the real-time table check on /diagnostics at each stage."""
     twin = _twin(executor, config_file=str(NEW_SCREW), table_workers=1)
-    assert twin.choice.mode == "realtime" and twin.tables.preview
+    assert twin.models.choice.mode == "realtime" and twin.tables.preview
     names = {c.name: c for c in twin.diagnostic_checks()}
     assert names["real-time table"].level == diagnostics.WARN
     assert spin_until(executor, lambda: not twin.tables.preview, timeout=120.0)
-    assert twin.choice.mode == "realtime" and "table of this screw built" in twin.choice.reason
-    assert twin.model_switches == 1
+    assert (
+        twin.models.choice.mode == "realtime"
+        and "table of this screw built" in twin.models.choice.reason
+    )
+    assert twin.models.switches == 1
     check = {c.name: c for c in twin.diagnostic_checks()}["real-time table"]
     assert check.level == diagnostics.OK and "built for this screw" in check.message
-    count = twin.contact_count
-    assert spin_until(executor, lambda: twin.contact_count > count)
+    count = twin.ticks.totals.contacts
+    assert spin_until(executor, lambda: twin.ticks.totals.contacts > count)
     assert twin.last_output is not None and twin.last_output.fidelity == "realtime-map"
 
 
@@ -133,7 +136,7 @@ def test_the_node_names_a_refused_table_and_never_uses_it(
         realtime_map=str(sm.DEFAULT_MAP_PATH),
         table_workers=0,
     )
-    assert twin.choice.mode == "catalog"
+    assert twin.models.choice.mode == "catalog"
     check = {c.name: c for c in twin.diagnostic_checks()}["real-time table"]
     assert check.level == diagnostics.WARN
     refused = dict(check.values)["refused 1"]

@@ -135,17 +135,17 @@ def test_command_moves_torque_the_right_way_within_a_few_ticks(
 
     def step_and_watch() -> None:
         bench.preload.publish(Float64(data=3000.0))
-        if not accepted_at and twin.preload.value == 3000.0:
-            assert twin.preload.last_arrival_ns is not None
-            accepted_at.append(twin.preload.last_arrival_ns)
+        if not accepted_at and twin.inputs.preload.value == 3000.0:
+            assert twin.inputs.preload.last_arrival_ns is not None
+            accepted_at.append(twin.inputs.preload.last_arrival_ns)
 
-    skipped_before = twin.skipped_total
+    skipped_before = twin.ticks.totals.skipped
     assert spin_until(executor, lambda: bool(accepted_at), every=step_and_watch)
     assert spin_until(executor, lambda: bench.torques[-1].preload == 3000.0)
     first = next(m for m in bench.torques if m.preload == 3000.0)
     ticks_after = (_stamp_ns(first.header.stamp) - accepted_at[0]) / twin.period_ns
     # The next tick run takes the command; ticks skipped under load (counted) come on top.
-    assert ticks_after <= 1.0 + (twin.skipped_total - skipped_before)
+    assert ticks_after <= 1.0 + (twin.ticks.totals.skipped - skipped_before)
 
     # Eq. 52 is linear in preload: three times the preload, three times the torque.
     assert first.total == pytest.approx(3.0 * low.total, rel=1e-12)
@@ -256,7 +256,7 @@ def test_sim_time_follows_clock_and_survives_a_jump_back(
         return [s for s in stamps if s < 1000 * NS_PER_S]
 
     assert spin_until(executor, lambda: len(after_jump()) >= 10, every=advance)
-    assert twin.clock_jumps_back == 1
+    assert twin.ticks.totals.clock_jumps_back == 1
     assert all(500 * NS_PER_S <= s <= sim["ns"] for s in after_jump())
     assert _stamp_ns(bench.torques[-1].header.stamp) < 1000 * NS_PER_S
 
@@ -269,17 +269,17 @@ def test_a_stall_on_wall_time_counts_every_tick_not_published(
     # past start-up (a tick on time, or the grace time over): skipped ticks count from then on
     assert spin_until(
         executor,
-        lambda: len(bench.torques) >= 3 and not twin.starting_up,
+        lambda: len(bench.torques) >= 3 and not twin.ticks.starting_up,
         timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0,
     )
-    skipped = twin.skipped_total
+    skipped = twin.ticks.totals.skipped
     with twin.tick_lock:  # the tick thread cannot run: a 1.5 s stall (> the 1 s jump limit)
         time.sleep(1.5)
-    published = twin.published_count
-    assert spin_until(executor, lambda: twin.published_count >= published + 3)
-    assert twin.clock_jumps_forward == 1
+    published = twin.ticks.totals.published
+    assert spin_until(executor, lambda: twin.ticks.totals.published >= published + 3)
+    assert twin.ticks.totals.clock_jumps_forward == 1
     # ~150 ticks of 10 ms were due in the stall: counted as skipped, not lost.
-    assert 130 <= twin.skipped_total - skipped <= 170
+    assert 130 <= twin.ticks.totals.skipped - skipped <= 170
 
 
 def test_use_sim_time_switched_at_run_time_moves_the_ticks_to_the_clock(
@@ -357,7 +357,7 @@ def test_diagnostics_report_model_real_time_inputs_and_validity(
     assert checks["input axial load"].level == diagnostics.OK  # optional input
 
     bench.preload.publish(Float64(data=2000.0))
-    assert spin_until(executor, lambda: twin.preload.value == 2000.0)
+    assert spin_until(executor, lambda: twin.inputs.preload.value == 2000.0)
     assert twin.diagnostic_checks()[2 + 2].level == diagnostics.OK  # preload fresh
     time.sleep(0.3)  # longer than stale_after: the publisher went away
     checks = {c.name: c for c in twin.diagnostic_checks()}
@@ -372,11 +372,11 @@ def test_node_name_and_defaults(executor: SingleThreadedExecutor) -> None:
     assert node.get_parameter("sim_rate_hz").value == 1000.0
     assert node.get_parameter("contact_rate_hz").value == 100.0
     assert node.get_parameter("fidelity").value == "auto"
-    assert node.limits.max_screw_speed == node.config.screw.critical_speed
+    assert node.inputs.limits.max_screw_speed == node.config.screw.critical_speed
     why = unavailable("realtime", ModelSettings(config=node.config))
-    assert node.choice.mode == ("catalog" if why else "realtime")
+    assert node.models.choice.mode == ("catalog" if why else "realtime")
     if why:
-        assert "realtime" in node.choice.reason
+        assert "realtime" in node.models.choice.reason
 
 
 class FakeRealTime:
@@ -412,7 +412,7 @@ def test_auto_steps_down_when_the_model_overruns_its_budget(
 ) -> None:
     _with_fake_realtime(monkeypatch, fail=False)
     twin = _twin(executor, fidelity="auto", sim_rate_hz=100.0)
-    assert twin.choice.mode == "realtime"
+    assert twin.models.choice.mode == "realtime"
     bench = Bench(executor)
     assert spin_until(executor, lambda: bool(bench.torques))
     assert bench.torques[-1].fidelity == "fake_realtime"
@@ -421,13 +421,13 @@ def test_auto_steps_down_when_the_model_overruns_its_budget(
     # is tolerated (start-up, a hiccup), the second in a row is not.
     for expected in ("realtime", "catalog"):
         with twin.tick_lock:  # the ticks run on a thread of their own
-            twin._auto_window = type(twin._auto_window)()
+            twin.models.step_down.window = type(twin.models.step_down.window)()
             for _ in range(100):
-                twin._auto_window.add(step_time=9e-3, latency_ns=200_000)
+                twin.models.step_down.window.add(step_time=9e-3, latency_ns=200_000)
             twin._review_fidelity()
-        assert twin.choice.mode == expected
-    assert twin.model_switches == 1
-    assert "took 9.000 ms per step" in twin.choice.reason
+        assert twin.models.choice.mode == expected
+    assert twin.models.switches == 1
+    assert "took 9.000 ms per step" in twin.models.choice.reason
     after = _published_after(spin_until, executor, bench, twin._now_ns())
     assert after.fidelity.startswith("catalog")
     assert "stepped down" in {c.name: c for c in twin.diagnostic_checks()}["model"].message
@@ -441,11 +441,11 @@ def test_failing_model_is_replaced_and_reported(
     bench = Bench(executor)
     assert spin_until(executor, lambda: len(bench.torques) >= 3)
     assert all(_all_finite(m) and m.fidelity.startswith("catalog") for m in bench.torques)
-    assert twin.choice.mode == "realtime"  # explicitly requested: kept, catalogue stands in
-    assert spin_until(executor, lambda: twin.window.failures > 0)
+    assert twin.models.choice.mode == "realtime"  # explicitly requested: kept, catalogue stands in
+    assert spin_until(executor, lambda: twin.ticks.window.failures > 0)
     check = {c.name: c for c in twin.diagnostic_checks()}["model"]
     assert check.level == diagnostics.WARN and "failed steps" in check.message
-    assert twin.model_failures >= 3
+    assert twin.models.failures >= 3
 
 
 @pytest.mark.parametrize(
@@ -476,7 +476,7 @@ def test_outside_the_envelope_clamped_and_warned(
     bench.preload.publish(Float64(data=20_000.0))
     assert spin_until(
         executor,
-        lambda: twin.preload.value == 20_000.0,
+        lambda: twin.inputs.preload.value == 20_000.0,
         every=lambda: bench.preload.publish(Float64(data=20_000.0)),
     )
     after = _published_after(spin_until, executor, bench, twin._now_ns())

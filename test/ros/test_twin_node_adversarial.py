@@ -88,10 +88,10 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
         "temperature": bench.create_publisher(Temperature, "temperature", qos),
     }
     handlers = {
-        "speed": twin._on_speed,
-        "preload": twin._on_preload,
-        "axial": twin._on_axial_load,
-        "temperature": twin._on_temperature,
+        "speed": twin.inputs.on_speed,
+        "preload": twin.inputs.on_preload,
+        "axial": twin.inputs.on_axial_load,
+        "temperature": twin.inputs.on_temperature,
     }
     assert spin_until(executor, lambda: len(torques) >= 5)
 
@@ -115,7 +115,7 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
     count = len(torques)
     assert spin_until(executor, lambda: len(torques) >= count + 50)  # still publishing
 
-    limits = twin.limits
+    limits = twin.inputs.limits
     for m in torques:
         values = [
             getattr(m, f)
@@ -136,8 +136,8 @@ def test_adversarial_commands_never_stop_or_corrupt_the_output(
         assert 0.0 <= m.preload <= limits.max_preload
         assert m.fidelity.startswith("catalog")
 
-    assert twin.rejected_commands > COMMANDS // 4
-    reasons = {c.last_rejection.split(" ")[0] for c in twin.channels if c.rejected}
+    assert twin.inputs.rejected > COMMANDS // 4
+    reasons = {c.last_rejection.split(" ")[0] for c in twin.inputs.channels if c.rejected}
     assert reasons  # each channel keeps its last reason
     checks = {c.name: c for c in twin.diagnostic_checks()}
     rejected = [c for c in checks.values() if "rejected" in c.message]

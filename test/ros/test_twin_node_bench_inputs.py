@@ -18,7 +18,8 @@ from sensor_msgs.msg import JointState, Temperature
 from ballscrew_twin.health.bags import BenchTopics, open_raw_bag
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.ros.replay import BagPlayer
-from ballscrew_twin.ros.twin_node import INPUT_PRESETS, TwinNode
+from ballscrew_twin.ros.twin_node import TwinNode
+from ballscrew_twin.ros.twin_parameters import INPUT_PRESETS
 
 from .conftest import SpinUntil
 from .test_twin_node import SPEED, _twin
@@ -60,14 +61,14 @@ def test_bench_messages_drive_the_twin(
     rig = BenchRig(executor, BenchTopics().preload)
 
     def arrived() -> bool:
-        op = twin.operating_point
+        op = twin.inputs.operating_point
         return (op.screw_speed, op.preload, op.axial_load) == (SPEED, 2500.0, -300.0) and (
             math.isclose(op.temperature, 303.15)
         )
 
     assert spin_until(executor, arrived, every=lambda: rig.publish(SPEED, 30.0, 2500.0, -300.0))
-    assert twin.rejected_commands == 0
-    for channel in twin.channels:
+    assert twin.inputs.rejected == 0
+    for channel in twin.inputs.channels:
         assert channel.accepted > 0, channel.name
 
 
@@ -104,17 +105,20 @@ def test_a_replayed_bench_bag_drives_the_twin_with_no_glue(
         try:
             assert spin_until(
                 executor,
-                lambda: all(c.accepted > 0 for c in twin.channels[:3]) and twin.published_count,
+                lambda: (
+                    all(c.accepted > 0 for c in twin.inputs.channels[:3])
+                    and twin.ticks.totals.published
+                ),
             )
         finally:
             stop.set()
             thread.join(timeout=10.0)
             player_node.destroy_node()
-    op = twin.operating_point
+    op = twin.inputs.operating_point
     assert op.screw_speed == pytest.approx(100.0 * math.pi / 30.0, rel=0.05)
     assert op.temperature == pytest.approx(293.15, abs=1.0)
     assert op.preload == pytest.approx(1500.0, rel=0.05)
-    assert twin.rejected_commands == 0
+    assert twin.inputs.rejected == 0
 
 
 def test_unknown_preset_is_refused(executor: SingleThreadedExecutor) -> None:

@@ -8,13 +8,9 @@ from rclpy.parameter import Parameter
 
 from ballscrew_twin.ros import diagnostics
 from ballscrew_twin.ros.inputs import NS_PER_S
-from ballscrew_twin.ros.twin_node import (
-    MIN_ON_TIME_SHARE,
-    ON_TIME_NS,
-    STARTUP_GRACE_NS,
-    TickWindow,
-    TwinNode,
-)
+from ballscrew_twin.ros.tick_counts import ON_TIME_NS, TickWindow
+from ballscrew_twin.ros.twin_node import STARTUP_GRACE_NS, TwinNode
+from ballscrew_twin.ros.twin_parameters import MIN_ON_TIME_SHARE
 
 from .conftest import SpinUntil
 from .test_twin_node import _twin
@@ -29,7 +25,7 @@ def _window(ticks: int, late: int) -> TickWindow:
 
 
 def _level(twin: TwinNode, w: TickWindow) -> int:
-    return twin._real_time_check(w, 1.0).level
+    return twin.real_time_check(w, 1.0).level
 
 
 def test_on_time_threshold_is_a_run_time_parameter(executor: SingleThreadedExecutor) -> None:
@@ -49,13 +45,13 @@ def test_ticks_skipped_at_start_up_are_not_a_warning(
 ) -> None:
     # Ticks driven by the executor's timer: none runs until the executor spins.
     twin = _twin(executor, fidelity="catalog", tick_source="executor", sim_rate_hz=100.0)
-    assert twin.starting_up
+    assert twin.ticks.starting_up
     with twin.tick_lock:
         twin.book_skipped(40)  # e.g. the first step loading the model
-        w = twin.window
+        w = twin.ticks.window
     for _ in range(10):
         w.add(1e-5, 0)
-    check = twin._real_time_check(w, 1.0)
+    check = twin.real_time_check(w, 1.0)
     assert check.level == diagnostics.OK, check.message
     values = dict(check.values)
     assert values["skipped ticks at start-up"] == "40"
@@ -63,12 +59,12 @@ def test_ticks_skipped_at_start_up_are_not_a_warning(
 
     # Start-up ends with the first tick on time (at the latest after the grace time).
     assert spin_until(
-        executor, lambda: not twin.starting_up, timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0
+        executor, lambda: not twin.ticks.starting_up, timeout=STARTUP_GRACE_NS / NS_PER_S + 5.0
     )
     with twin.tick_lock:
         twin.book_skipped(5)
-        w = twin.window
-    check = twin._real_time_check(w, 1.0)
+        w = twin.ticks.window
+    check = twin.real_time_check(w, 1.0)
     assert check.level == diagnostics.WARN
     assert "5 skipped" in check.message
-    assert twin.startup_skipped == 40
+    assert twin.ticks.totals.startup_skipped == 40
