@@ -1,5 +1,6 @@
 """Units at the edges: the rpm and degrees Celsius of command lines, catalogues and ROS
-messages, converted to the SI the code uses inside (rad/s, K).
+messages, converted to the SI the code uses inside (rad/s, K), and the nanoseconds of ROS
+times.
 
 One definition of each, imported wherever a conversion is made.
 """
@@ -13,6 +14,8 @@ from decimal import Decimal
 RPM = 2.0 * math.pi / 60.0
 #: The kelvin temperature of 0 degrees Celsius [K].
 CELSIUS_ZERO = 273.15
+#: Nanoseconds per second: ROS times and stamps are integer nanoseconds.
+NS_PER_S = 1_000_000_000
 
 
 def celsius_to_kelvin(celsius: float) -> float:

@@ -33,9 +33,9 @@ from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
+from ..units import RPM
 from .diagnostics import LEVEL_NAMES, level_of
 from .executors import make_executor, spin
-from .inputs import RAD_S_PER_RPM
 
 #: Longest wait for the first torque message [s].
 STARTUP_TIMEOUT = 60.0
@@ -185,7 +185,7 @@ class ConsoleView(Node):
         rtf = self.real_time.get("real-time factor (step / compute) [-]", "n/a")
         on_time = self.real_time.get("on time within 1 ms [-]", "n/a")
         print(
-            f"t={self.elapsed():5.1f} s  {msg.screw_speed / RAD_S_PER_RPM:7.1f} rpm  "
+            f"t={self.elapsed():5.1f} s  {msg.screw_speed / RPM:7.1f} rpm  "
             f"{msg.temperature:5.1f} C  {msg.preload:6.0f} N  "
             f"torque {msg.total * 1e3:8.3f} mN m  [{msg.fidelity}]  {rate:5.0f} msg/s  "
             f"rtf {rtf}  on time {on_time} ({self.real_time_level})  "
@@ -227,7 +227,7 @@ class ConsoleView(Node):
         ):
             torque_ax.plot(t, np.asarray(torques) * 1e3, style, lw=1.0, label=label)
         rows = (
-            (np.asarray(s.speed) / RAD_S_PER_RPM, "speed [rpm]"),
+            (np.asarray(s.speed) / RPM, "speed [rpm]"),
             (np.asarray(s.temperature), "temperature [°C]"),
             (np.asarray(s.preload), "preload [N]"),
         )

@@ -28,6 +28,7 @@ from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
+from ..units import RPM
 from .executors import spin_once
 
 #: Longest wait for the twin node to subscribe [s].
@@ -36,7 +37,6 @@ STARTUP_TIMEOUT = 60.0
 COMMAND_RATE = 10.0
 #: Interval between two printed lines [s].
 PRINT_PERIOD = 1.0
-RPM_TO_RAD_S = 2.0 * math.pi / 60.0
 #: Speed sent once in rpm instead of rad/s: above the screw's critical speed (1885 rad/s)
 #: when read as rad/s, so the node rejects it [rpm].
 RPM_MISTAKE = 3000.0
@@ -63,13 +63,13 @@ def command_at(fraction: float) -> Command:
     Five phases of equal length: 100 rpm / 20 deg C / 1500 N; preload raised to 3000 N; speed
     raised to 300 rpm; temperature raised to 40 deg C; rotation reversed (-100 rpm).
     """
-    base = Command(screw_speed=100.0 * RPM_TO_RAD_S, temperature_c=20.0, preload=1500.0)
+    base = Command(screw_speed=100.0 * RPM, temperature_c=20.0, preload=1500.0)
     phases = [
         base,
         Command(screw_speed=base.screw_speed, temperature_c=20.0, preload=3000.0),
-        Command(screw_speed=300.0 * RPM_TO_RAD_S, temperature_c=20.0, preload=3000.0),
-        Command(screw_speed=300.0 * RPM_TO_RAD_S, temperature_c=40.0, preload=3000.0),
-        Command(screw_speed=-100.0 * RPM_TO_RAD_S, temperature_c=40.0, preload=3000.0),
+        Command(screw_speed=300.0 * RPM, temperature_c=20.0, preload=3000.0),
+        Command(screw_speed=300.0 * RPM, temperature_c=40.0, preload=3000.0),
+        Command(screw_speed=-100.0 * RPM, temperature_c=40.0, preload=3000.0),
     ]
     index = min(max(int(fraction * len(phases)), 0), len(phases) - 1)
     return phases[index]
@@ -141,7 +141,7 @@ class DemoCommander(Node):
         if cmd != self._last_command:
             self._last_command = cmd
             print(
-                f"t={self.elapsed():5.1f} s  command {cmd.screw_speed / RPM_TO_RAD_S:6.0f} rpm, "
+                f"t={self.elapsed():5.1f} s  command {cmd.screw_speed / RPM:6.0f} rpm, "
                 f"{cmd.temperature_c:5.1f} C, {cmd.preload:6.0f} N",
                 flush=True,
             )

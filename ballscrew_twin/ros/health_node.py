@@ -70,8 +70,8 @@ from ..health.monitor import (
 )
 from ..health.monitor import MonitorSettings as Settings
 from ..health.residuals import ResidualSettings, StampOrderError
-from ..models.validity import celsius_to_kelvin
 from ..params import load_config
+from ..units import celsius_to_kelvin
 from . import health_diagnostics
 from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import Check, to_message

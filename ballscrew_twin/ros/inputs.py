@@ -10,12 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-#: Offset between the Celsius and kelvin scales [K].
-CELSIUS_TO_KELVIN_OFFSET = 273.15
-#: One revolution per minute in rad/s [rad/s per rpm].
-RAD_S_PER_RPM = 2.0 * math.pi / 60.0
-#: Nanoseconds per second.
-NS_PER_S = 1_000_000_000
+from ..units import CELSIUS_ZERO, NS_PER_S, RPM
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -65,10 +60,10 @@ def check_screw_speed(value: float, limits: InputLimits) -> str | None:
         reason = (
             f"screw speed {value:g} rad/s exceeds the limit of ±{limits.max_screw_speed:g} rad/s"
         )
-        if abs(value) * RAD_S_PER_RPM <= limits.max_screw_speed:
+        if abs(value) * RPM <= limits.max_screw_speed:
             reason += (
                 f"; was it sent in rpm? ({value:g} rpm = "
-                f"{value * RAD_S_PER_RPM:.4g} rad/s; the topic carries rad/s)"
+                f"{value * RPM:.4g} rad/s; the topic carries rad/s)"
             )
         return reason
     return None
@@ -87,7 +82,7 @@ def check_temperature(value: float, limits: InputLimits) -> str | None:
             f"temperature {value:g} K is outside "
             f"[{limits.min_temperature:g}, {limits.max_temperature:g}] K"
         )
-        if limits.min_temperature <= value - CELSIUS_TO_KELVIN_OFFSET <= limits.max_temperature:
+        if limits.min_temperature <= value - CELSIUS_ZERO <= limits.max_temperature:
             reason += "; was it sent in kelvin? sensor_msgs/Temperature carries degrees Celsius"
         return reason
     return None

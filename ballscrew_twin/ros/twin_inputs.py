@@ -21,9 +21,8 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..models.base import OperatingPoint
-from ..models.validity import celsius_to_kelvin
+from ..units import NS_PER_S, celsius_to_kelvin
 from .inputs import (
-    NS_PER_S,
     InputChannel,
     InputLimits,
     check_axial_load,

@@ -12,7 +12,8 @@ import math
 import numpy as np
 
 from ..models.base import ContactStates, TwinOutput
-from ..models.validity import CELSIUS_ZERO, all_finite
+from ..models.validity import all_finite
+from ..units import CELSIUS_ZERO
 from . import cdr
 
 

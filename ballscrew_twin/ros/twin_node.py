@@ -35,11 +35,9 @@ from rclpy.timer import Timer
 from ..errors import BallscrewTwinError
 from ..models.base import TwinOutput
 from ..params import load_config
+from ..units import NS_PER_S
 from . import cdr, diagnostics, fidelity, twin_diagnostics
 from .executors import make_executor
-from .inputs import (
-    NS_PER_S,
-)
 from .node_parameters import TableNode
 from .node_process import run_node_process
 from .scheduler import TickScheduler

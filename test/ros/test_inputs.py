@@ -8,8 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from ballscrew_twin.models.validity import celsius_to_kelvin
-from ballscrew_twin.ros.demo_commander import RPM_TO_RAD_S, command_at
+from ballscrew_twin.ros.demo_commander import command_at
 from ballscrew_twin.ros.inputs import (
     NS_PER_S,
     InputChannel,
@@ -20,6 +19,7 @@ from ballscrew_twin.ros.inputs import (
     check_stamp,
     check_temperature,
 )
+from ballscrew_twin.units import RPM, celsius_to_kelvin
 
 LIMITS = InputLimits()
 
@@ -126,7 +126,7 @@ def test_bad_limits_raise(kwargs: dict[str, float]) -> None:
 
 def test_demo_schedule() -> None:
     first, last = command_at(0.0), command_at(1.0)
-    assert first.screw_speed == pytest.approx(100.0 * RPM_TO_RAD_S)
+    assert first.screw_speed == pytest.approx(100.0 * RPM)
     assert first.preload == 1500.0
     assert command_at(0.3).preload > first.preload
     assert last.screw_speed < 0.0
