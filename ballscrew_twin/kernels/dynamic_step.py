@@ -91,7 +91,8 @@ N_BODY = 8
 # [m/s^2] and magnitude [m/s^2], screw inertia [kg m^2], nut mass [kg], nut weight along -z
 # [N] (0 for a horizontal screw), PI gains k_p [N m s/rad], k_i [N m/rad], ball radius [m],
 # pitch radius [m], lead / (2 pi) [m], sin and cos of the helix angle, initial nut offsets (2)
-# [m].
+# [m], 1 when the sphere positions are implicit (contact actions with the sphere centres at
+# x_n + dt v_{n+1}) else 0 (at x_n, semi-implicit) [-].
 (
     K_DT,
     K_MASS,
@@ -112,7 +113,8 @@ N_BODY = 8
     K_COS_HELIX,
     K_NUT_OFFSET0,
 ) = range(18)
-N_CONST = 19
+K_IMPLICIT = 19
+N_CONST = 20
 # Jacobian bookkeeping (3,) int64: valid (0/1), age [steps], refresh interval [steps].
 J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
 # Step statistics (S_COUNT,): motor torque at the end of the step [N m], moment of the spheres
@@ -340,13 +342,47 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, statics, ball_nu
 
 
 @njit(cache=True)
-def _jacobians(
-    vel, omega, nut_vel, speed, base, pos, body, frames, nb, statics, ball_nut, c, p, own, shared
-):
+def _place(vel, start, ball_nut, c, p, placed):
+    """The spheres where the step's end velocities ``vel`` (B, 3) [m/s] put them (implicit
+    sphere positions, DynamicModel._trial): centres x_n + dt v, located on the helix, their
+    defect offsets and the contact statics, written to ``placed``; the screw angle and the nut
+    positions stay those of the step's start. start = (pos, body, theta, sphere_offset,
+    spalls) of the step; placed = (pos, body, theta, frames, nb, statics)."""
+    pos, body, theta, sphere_offset, spalls = start
+    at_pos, _, at_theta, frames, nb, statics = placed
+    dt = c[K_DT]
+    for i in range(pos.shape[0]):
+        for k in range(3):
+            at_pos[i, k] = pos[i, k] + dt * vel[i, k]
+    _locate(at_pos, body[B_ANGLE], theta, c, at_theta, frames, nb)
+    offsets = np.empty((pos.shape[0], 4))
+    _approach_offsets(at_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
+    _statics(body, nb, offsets, ball_nut, c, p, statics)
+
+
+@njit(cache=True)
+def _evaluate(vel, omega, nut_vel, speed, start, placed, ball_nut, c, p, stacked):
+    """Contact actions at the given velocities (``_actions``, ``stacked`` written): at the
+    step's positions (semi-implicit: ``placed`` holds them and their statics), or, with
+    implicit sphere positions (c[K_IMPLICIT] = 1), with the spheres where these velocities
+    put them (``_place`` first)."""
+    if c[K_IMPLICIT] != 0.0:
+        _place(vel, start, ball_nut, c, p, placed)
+    at_pos, at_body, _, frames, nb, statics = placed
+    return _actions(
+        vel, omega, nut_vel, speed, at_pos, at_body, frames, nb, statics, ball_nut, c, p, stacked
+    )
+
+
+@njit(cache=True)
+def _jacobians(vel, omega, nut_vel, speed, base, start, placed, ball_nut, c, p, own, shared):
     """Forward-difference velocity Jacobians (DynamicModel._jacobians): ``own`` (B, 8, 6) with
     respect to each sphere's velocity and angular velocity, ``shared`` (B, 8, 3) with respect to
-    the screw speed and its nut's velocity. ``base`` (B, 8): the actions at these velocities."""
-    count = pos.shape[0]
+    the screw speed and its nut's velocity. ``base`` (B, 8): the actions at these velocities.
+    With implicit sphere positions a perturbed sphere velocity also moves the sphere by dt
+    times the perturbation (``_evaluate``): its columns are the total derivatives
+    d f(x_n + dt v, u) / du."""
+    count = vel.shape[0]
     bumped = np.empty((count, N_STACK))
     v = np.empty((count, 3))
     w = np.empty((count, 3))
@@ -360,22 +396,19 @@ def _jacobians(
                 v[i, j] += h
             else:
                 w[i, j - 3] += h
-        _actions(v, w, nut_vel, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
+        _evaluate(v, w, nut_vel, speed, start, placed, ball_nut, c, p, bumped)
         for i in range(count):
             for r in range(N_STACK):
                 own[i, r, j] = (bumped[i, r] - base[i, r]) / h
     h_screw = VELOCITY_STEP / c[K_PITCH_RADIUS]
-    _actions(
-        vel, omega, nut_vel, speed + h_screw, pos, body, frames, nb, statics, ball_nut, c, p,
-        bumped,
-    )  # fmt: skip
+    _evaluate(vel, omega, nut_vel, speed + h_screw, start, placed, ball_nut, c, p, bumped)
     for i in range(count):
         for r in range(N_STACK):
             shared[i, r, 0] = (bumped[i, r] - base[i, r]) / h_screw
     nut_bumped = np.empty(2)
     nut_bumped[0] = nut_vel[0] + VELOCITY_STEP
     nut_bumped[1] = nut_vel[1] + VELOCITY_STEP
-    _actions(vel, omega, nut_bumped, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
+    _evaluate(vel, omega, nut_bumped, speed, start, placed, ball_nut, c, p, bumped)
     for i in range(count):
         k = ball_nut[i]
         for r in range(N_STACK):
@@ -629,11 +662,14 @@ def step_kernel(
     dt = c[K_DT]
     frames = np.empty((count, 3, 3))
     nb = np.empty((count, 2))
-    _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
-    offsets = np.empty((count, 4))
-    _approach_offsets(out_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
     statics = np.empty((count, 4, N_STATICS))
-    _statics(body, nb, offsets, ball_nut, c, p, statics)
+    start = (pos, body, theta, sphere_offset, spalls)
+    placed = (pos.copy(), body, out_theta, frames, nb, statics)
+    if c[K_IMPLICIT] == 0.0:  # semi-implicit: the step's positions, located once
+        _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
+        offsets = np.empty((count, 4))
+        _approach_offsets(out_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
+        _statics(body, nb, offsets, ball_nut, c, p, statics)
 
     u0 = np.empty((count, 6))
     for i in range(count):
@@ -677,10 +713,9 @@ def step_kernel(
             for k in range(3):
                 v_start[i, k] = u[i, k]
                 w_start[i, k] = u[i, 3 + k]
-        active, out = _actions(
-            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, statics, ball_nut, c, p,
-            stacked,
-        )  # fmt: skip
+        active, out = _evaluate(
+            v_start, w_start, sv[1:], sv[0], start, placed, ball_nut, c, p, stacked
+        )
         evals += 1
         stale = attempt == 1 or jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
         for i in range(count):
@@ -700,8 +735,8 @@ def step_kernel(
                 break
             if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
                 _jacobians(
-                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, statics,
-                    ball_nut, c, p, jac_own, jac_shared,
+                    v_start, w_start, sv[1:], sv[0], stacked, start, placed, ball_nut, c, p,
+                    jac_own, jac_shared,
                 )  # fmt: skip
                 evals += 8
                 jacobians += 1
@@ -714,8 +749,8 @@ def step_kernel(
                         v_try[i, k] = u[i, k]
                         w_try[i, k] = u[i, 3 + k]
                 _jacobians(
-                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, statics, ball_nut,
-                    c, p, jac_own, jac_shared,
+                    v_try, w_try, sv[1:], sv[0], stacked, start, placed, ball_nut, c, p, jac_own,
+                    jac_shared,
                 )  # fmt: skip
                 evals += 8
                 jacobians += 1
@@ -734,9 +769,9 @@ def step_kernel(
                         w_try[i, k] = u_try[i, 3 + k]
                 for k in range(3):
                     sv_try[k] = sv[k] + step * d_shared[k]
-                active_try, out_try = _actions(
-                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, statics, ball_nut,
-                    c, p, stacked_try,
+                active_try, out_try = _evaluate(
+                    v_try, w_try, sv_try[1:], sv_try[0], start, placed, ball_nut, c, p,
+                    stacked_try,
                 )  # fmt: skip
                 evals += 1
                 w = _residual(
@@ -816,7 +851,9 @@ def step_kernel(
 # step count [-], dissipation per mechanism (7) and per nut (2) [W]; work totals (contact
 # evaluations, Jacobians, Newton iterations, unconverged steps) [-]; the last scaled residual
 # [-]; the first step's gravitational power [W], input and dissipated energy after it [J]; on a
-# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step.
+# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step; the
+# previous step's length [s] (the interval of the next trapezoid: the step may change between
+# calls, simulation.py's start phase).
 (
     A_MOTOR,
     A_INPUT,
@@ -842,8 +879,9 @@ def step_kernel(
     A_FAILED,
     A_FAILED_VALUE,
     A_FAILED_STEP,
-) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30)
-A_COUNT = 31
+    A_PREV_DT,
+) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31)
+A_COUNT = 32
 #: Quantities checked for finiteness at every step, in the order of simulation._check_finite.
 FINITE_CHECKS = (
     "screw speed",
@@ -942,11 +980,13 @@ def run_steps(
         power_in = motor * body[B_SPEED] + commands[n, 1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
         diss = stats[S_DISSIPATION]
         if acc[A_HAS_PREV] > 0.0:
-            acc[A_INPUT] += 0.5 * dt * (acc[A_PREV_POWER] + power_in)
-            acc[A_ABS_INPUT] += 0.5 * dt * (abs(acc[A_PREV_POWER]) + abs(power_in))
-            acc[A_DISSIPATED] += 0.5 * dt * (acc[A_PREV_DISS] + diss)
+            interval = acc[A_PREV_DT]
+            acc[A_INPUT] += 0.5 * interval * (acc[A_PREV_POWER] + power_in)
+            acc[A_ABS_INPUT] += 0.5 * interval * (abs(acc[A_PREV_POWER]) + abs(power_in))
+            acc[A_DISSIPATED] += 0.5 * interval * (acc[A_PREV_DISS] + diss)
         acc[A_PREV_POWER] = power_in
         acc[A_PREV_DISS] = diss
+        acc[A_PREV_DT] = dt
         acc[A_HAS_PREV] = 1.0
         if first_step + n >= window_first:
             acc[A_W_MOTOR] += motor
@@ -996,6 +1036,8 @@ def ensure_fresh_cache() -> bool:
             _locate,
             _approach_offsets,
             _actions,
+            _place,
+            _evaluate,
             _jacobians,
             _residual,
             _correction,

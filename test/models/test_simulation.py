@@ -326,9 +326,21 @@ FAULTY: dict[str, Any] = {
 }
 
 
-def test_compiled_loop_retraces_the_python_loop() -> None:
+#: FAULTY with a start phase (1 us semi-implicit steps until 0.1 ms) and then 5 us steps with
+#: the sphere positions implicit.
+FINE_START: dict[str, Any] = {
+    **FAULTY,
+    "time_step": 5e-6,
+    "implicit_positions": True,
+    "fine_time_step": 1e-6,
+    "fine_until": 1e-4,
+}
+
+
+@pytest.mark.parametrize("scenario", [FAULTY, FINE_START], ids=["uniform", "fine_start"])
+def test_compiled_loop_retraces_the_python_loop(scenario: dict[str, Any]) -> None:
     reference, fast = (
-        simulate(Scenario(**FAULTY), compiled_loop=compiled) for compiled in (False, True)
+        simulate(Scenario(**scenario), compiled_loop=compiled) for compiled in (False, True)
     )
     for name, value in vars(reference).items():
         if name in ("scenario", "summary"):
@@ -482,3 +494,33 @@ def test_compiled_loop_locates_unconverged_steps_like_the_python_loop() -> None:
     assert fast.summary["unconverged"] == reference.summary["unconverged"]
     for name in ("screw_speed", "motor_torque", "nut_position", "dissipation", "input_energy"):
         np.testing.assert_array_equal(getattr(fast, name), getattr(reference, name), name)
+
+
+def test_start_phase_runs_the_fine_steps() -> None:
+    """A run of 2 us steps whose first 0.4 ms are split into 1 us steps retraces, over those
+    0.4 ms, the run of 1 us steps throughout: every recorded series (states, forces, energy
+    integrals, power balance) to 1e-9 of its largest value. (The sample at 0.4 ms is the first
+    2 us step's.)"""
+    uniform = simulate(Scenario(**SMALL))
+    split = simulate(
+        Scenario(**{**SMALL, "time_step": 2e-6, "fine_time_step": 1e-6, "fine_until": 4e-4})
+    )
+    start = uniform.time < 4e-4 - 1e-12
+    assert start.sum() == 40
+    np.testing.assert_allclose(split.time[start], uniform.time[start], rtol=1e-12)
+    for name in (
+        "screw_speed",
+        "motor_torque",
+        "nut_force",
+        "nut_position",
+        "dissipation",
+        "kinetic_energy",
+        "elastic_energy",
+        "input_energy",
+        "dissipated_energy",
+        "power_balance_error",
+    ):
+        ours, theirs = getattr(split, name)[start], getattr(uniform, name)[start]
+        scale = float(np.max(np.abs(theirs)))
+        assert scale > 0.0, name
+        assert float(np.max(np.abs(ours - theirs))) <= 1e-9 * scale, name
