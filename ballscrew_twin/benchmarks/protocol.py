@@ -123,7 +123,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--implicit-positions",
         action="store_true",
-        help="sphere positions implicit (backward Euler; steps above ~3 us)",
+        help="sphere and screw positions implicit (backward Euler; steps above ~3 us)",
     )
     parser.add_argument(
         "--fine-time-step", type=float, default=None, help="step of the start phase [s]"
@@ -201,7 +201,7 @@ def integrator_label(scenario: Scenario) -> str:
     """How ``scenario`` integrates, in words (steps in us)."""
     step = f"dt = {scenario.time_step * 1e6:g} us"
     if scenario.implicit_positions:
-        label = f"implicit sphere positions, {step}"
+        label = f"implicit sphere and screw positions, {step}"
     else:
         label = f"semi-implicit, {step}"
     if scenario.substeps > 1 and scenario.fine_time_step is not None:
@@ -287,6 +287,7 @@ def _run_once(scenario: Scenario) -> dict[str, Any]:
             work.get("newton_iterations", math.nan),
             s.get("unconverged_steps", 0),
         )
+        + f"; {s.get('fallback_steps', 0)} steps redone as semi-implicit substeps"
     )
     listed = s.get("unconverged", {}).get("listed", [])
     in_hold = sum(entry["time_s"] >= ramp_end for entry in listed)
@@ -324,6 +325,7 @@ def _run_once(scenario: Scenario) -> dict[str, Any]:
         "evaluations": float(work.get("contact_evaluations", math.nan)),
         "unconverged": int(s.get("unconverged_steps", 0)),
         "unconverged_in_hold": in_hold,
+        "fallbacks": int(s.get("fallback_steps", 0)),
         "drag_Nm": float(s["drag_torque_Nm"]),
         "balance": float(s["power_balance_error_relative"]),
     }
@@ -340,7 +342,8 @@ def _side_by_side(rows: list[dict[str, Any]], reference: dict[str, Any] | None) 
         print(
             f"  {row['integrator']}: CPU {row['cpu_s']:.1f} s, {row['evaluations']:.2f} "
             f"contact-law evaluations per step, unconverged {row['unconverged']} "
-            f"({row['unconverged_in_hold']} listed in the hold), drag "
+            f"({row['unconverged_in_hold']} listed in the hold), {row['fallbacks']} steps redone "
+            "as substeps, drag "
             f"{row['drag_Nm'] * NMM_PER_NM:.4f} N mm{versus}, power-balance error "
             f"{100 * row['balance']:+.3f} %"
         )
@@ -481,6 +484,7 @@ def corner_health(result: SimulationResult) -> dict[str, Any]:
         "min_film_window_m": float(window_films.min()) if window_films.size else math.nan,
         "contacts_open_in_window": int(np.sum(~active[window])),
         "unconverged_steps": int(s["unconverged_steps"]),
+        "fallback_steps": int(s.get("fallback_steps", 0)),
         "balance_error": float(s["power_balance_error_relative"]),
         "drag_torque_Nm": float(s["drag_torque_Nm"]) + inertia_torque,
         "drag_torque_std_Nm": float(s["drag_torque_std_Nm"]),
@@ -503,6 +507,7 @@ CORNER_COLUMNS = (
     "min_film_window_m",
     "contacts_open_in_window",
     "unconverged_steps",
+    "fallback_steps",
     "steps",
     "balance_error",
     "drag_torque_Nm",
@@ -575,7 +580,8 @@ def _corner_line(row: dict[str, Any], ok: bool) -> str:
         f"{row['blow_up']} (max speed {row['max_screw_speed_rad_s']:.4g} rad/s, nut force "
         f"{row['max_nut_force_N']:.4g} N, contact force {row['max_normal_force_N']:.4g} N), "
         f"min film {row['min_film_m'] * 1e9:.4g} nm (window {row['min_film_window_m'] * 1e9:.4g}"
-        f" nm), unconverged {row['unconverged_steps']} of {row['steps']}, balance "
+        f" nm), unconverged {row['unconverged_steps']} of {row['steps']} (redone as substeps "
+        f"{row['fallback_steps']}), balance "
         f"{row['balance_error']:+.2g}, drag {row['drag_torque_Nm'] * NMM_PER_NM:.4f} N mm "
         f"(less J dOmega/dt: {row['drag_less_inertia_Nm'] * NMM_PER_NM:.4f}); "
         f"wall {row['wall_s']:.0f} s, CPU {row['cpu_s']:.0f} s"
@@ -590,7 +596,7 @@ def _corner_markdown(rows: list[dict[str, Any]], base: Scenario, time_step: floa
         f"{CORNER_DURATION * 1e3:g} ms per run)",
         "",
         "| preload | speed | T | finished | finite | blow-up | min film (window) | "
-        "unconverged | balance | drag (less J dOmega/dt) | wall / CPU |",
+        "unconverged (redone) | balance | drag (less J dOmega/dt) | wall / CPU |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:
@@ -604,7 +610,8 @@ def _corner_markdown(rows: list[dict[str, Any]], base: Scenario, time_step: floa
             f"| {r['preload_N']:g} N | {r['speed_rpm']:g} rpm | {r['temperature_C']:g} C | yes | "
             f"{'yes' if r['finite'] else 'NO'} | {'YES' if r['blow_up'] else 'no'} | "
             f"{r['min_film_m'] * 1e9:.3g} nm ({r['min_film_window_m'] * 1e9:.3g} nm) | "
-            f"{r['unconverged_steps']} / {r['steps']} | {100 * r['balance_error']:+.2f} % | "
+            f"{r['unconverged_steps']} / {r['steps']} ({r['fallback_steps']}) | "
+            f"{100 * r['balance_error']:+.2f} % | "
             f"{r['drag_torque_Nm'] * NMM_PER_NM:.3f} "
             f"({r['drag_less_inertia_Nm'] * NMM_PER_NM:.3f}) N mm | "
             f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} s |"

@@ -26,14 +26,21 @@ operation for operation, with the contact laws of
 - the backward-Euler residuals and their scaled maximum (``_residual``), the Newton correction
   by elimination of the 6 x 6 sphere blocks and a 3 x 3 Schur complement (``_correction``; small
   LU with partial pivoting instead of LAPACK), the Newton loop with backtracking, and the
-  semi-implicit position update.
+  position update x_{n+1} = x_n + dt u_{n+1};
+- with implicit sphere positions (c[K_IMPLICIT] = 1) every evaluation of the step puts the
+  spheres at x_n + dt v and the screw at phi_n + dt Omega first (``_place``: located, offsets
+  and statics again; ``_evaluate``),
+  so the contact actions are those at the end-of-step positions and the Jacobian columns the
+  total derivatives (docs/model.md section 10).
 
 Results agree with the reference to rounding (different summation order in a few sums and a
 different LU): test/kernels/test_dynamic_step.py runs both side by side.
 
 :func:`run_steps` loops :func:`step_kernel` over many steps (commands from the scenario's
-smooth steps) and accumulates what the simulation runner records per step (energy integrals,
-window sums), so that a whole output interval is one call from Python.
+smooth steps) and accumulates what the simulation runner records per step (energy integrals
+over each step's own length, window sums; ``_account``), so that a whole output interval is
+one call from Python; a step with implicit sphere positions that does not converge is redone
+there as semi-implicit substeps (``fallback``).
 
 numba freezes the solver constants (imported from :mod:`ballscrew_twin.models.dynamic`) and the
 machine code of ``contacts_kernel`` into the cache, which is invalidated only by a change of this
@@ -91,8 +98,8 @@ N_BODY = 8
 # [m/s^2] and magnitude [m/s^2], screw inertia [kg m^2], nut mass [kg], nut weight along -z
 # [N] (0 for a horizontal screw), PI gains k_p [N m s/rad], k_i [N m/rad], ball radius [m],
 # pitch radius [m], lead / (2 pi) [m], sin and cos of the helix angle, initial nut offsets (2)
-# [m], 1 when the sphere positions are implicit (contact actions with the sphere centres at
-# x_n + dt v_{n+1}) else 0 (at x_n, semi-implicit) [-].
+# [m], 1 when the positions are implicit (contact actions with the sphere centres at
+# x_n + dt v_{n+1} and the screw at phi_n + dt Omega_{n+1}) else 0 (at x_n, phi_n) [-].
 (
     K_DT,
     K_MASS,
@@ -342,22 +349,25 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, statics, ball_nu
 
 
 @njit(cache=True)
-def _place(vel, start, ball_nut, c, p, placed):
-    """The spheres where the step's end velocities ``vel`` (B, 3) [m/s] put them (implicit
-    sphere positions, DynamicModel._trial): centres x_n + dt v, located on the helix, their
-    defect offsets and the contact statics, written to ``placed``; the screw angle and the nut
-    positions stay those of the step's start. start = (pos, body, theta, sphere_offset,
-    spalls) of the step; placed = (pos, body, theta, frames, nb, statics)."""
+def _place(vel, speed, start, ball_nut, c, p, placed):
+    """The spheres and the screw where the step's end velocities ``vel`` (B, 3) [m/s] and
+    ``speed`` [rad/s] put them (implicit positions, DynamicModel._trial): centres x_n + dt v,
+    screw angle phi_n + dt Omega, the spheres located on the helix, their defect offsets and
+    the contact statics, written to ``placed``; the nut positions stay those of the step's
+    start. start = (pos, body, theta, sphere_offset, spalls) of the step;
+    placed = (pos, body, theta, frames, nb, statics)."""
     pos, body, theta, sphere_offset, spalls = start
-    at_pos, _, at_theta, frames, nb, statics = placed
+    at_pos, at_body, at_theta, frames, nb, statics = placed
     dt = c[K_DT]
     for i in range(pos.shape[0]):
         for k in range(3):
             at_pos[i, k] = pos[i, k] + dt * vel[i, k]
-    _locate(at_pos, body[B_ANGLE], theta, c, at_theta, frames, nb)
+    at_body[:] = body
+    at_body[B_ANGLE] = body[B_ANGLE] + dt * speed
+    _locate(at_pos, at_body[B_ANGLE], theta, c, at_theta, frames, nb)
     offsets = np.empty((pos.shape[0], 4))
-    _approach_offsets(at_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
-    _statics(body, nb, offsets, ball_nut, c, p, statics)
+    _approach_offsets(at_theta, at_body[B_ANGLE], sphere_offset, spalls, offsets)
+    _statics(at_body, nb, offsets, ball_nut, c, p, statics)
 
 
 @njit(cache=True)
@@ -367,7 +377,7 @@ def _evaluate(vel, omega, nut_vel, speed, start, placed, ball_nut, c, p, stacked
     implicit sphere positions (c[K_IMPLICIT] = 1), with the spheres where these velocities
     put them (``_place`` first)."""
     if c[K_IMPLICIT] != 0.0:
-        _place(vel, start, ball_nut, c, p, placed)
+        _place(vel, speed, start, ball_nut, c, p, placed)
     at_pos, at_body, _, frames, nb, statics = placed
     return _actions(
         vel, omega, nut_vel, speed, at_pos, at_body, frames, nb, statics, ball_nut, c, p, stacked
@@ -379,9 +389,9 @@ def _jacobians(vel, omega, nut_vel, speed, base, start, placed, ball_nut, c, p, 
     """Forward-difference velocity Jacobians (DynamicModel._jacobians): ``own`` (B, 8, 6) with
     respect to each sphere's velocity and angular velocity, ``shared`` (B, 8, 3) with respect to
     the screw speed and its nut's velocity. ``base`` (B, 8): the actions at these velocities.
-    With implicit sphere positions a perturbed sphere velocity also moves the sphere by dt
-    times the perturbation (``_evaluate``): its columns are the total derivatives
-    d f(x_n + dt v, u) / du."""
+    With implicit positions a perturbed sphere velocity or screw speed also moves the sphere or
+    the screw by dt times the perturbation (``_evaluate``): the columns are the total
+    derivatives d f(x_n + dt v, phi_n + dt Omega, u) / du."""
     count = vel.shape[0]
     bumped = np.empty((count, N_STACK))
     v = np.empty((count, 3))
@@ -664,7 +674,7 @@ def step_kernel(
     nb = np.empty((count, 2))
     statics = np.empty((count, 4, N_STATICS))
     start = (pos, body, theta, sphere_offset, spalls)
-    placed = (pos.copy(), body, out_theta, frames, nb, statics)
+    placed = (pos.copy(), body.copy(), out_theta, frames, nb, statics)
     if c[K_IMPLICIT] == 0.0:  # semi-implicit: the step's positions, located once
         _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
         offsets = np.empty((count, 4))
@@ -853,7 +863,7 @@ def step_kernel(
 # [-]; the first step's gravitational power [W], input and dissipated energy after it [J]; on a
 # non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step; the
 # previous step's length [s] (the interval of the next trapezoid: the step may change between
-# calls, simulation.py's start phase).
+# calls, simulation.py's start phase); the number of steps redone as fallback substeps [-].
 (
     A_MOTOR,
     A_INPUT,
@@ -880,8 +890,9 @@ def step_kernel(
     A_FAILED_VALUE,
     A_FAILED_STEP,
     A_PREV_DT,
-) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31)
-A_COUNT = 32
+    A_FALLBACKS,
+) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32)
+A_COUNT = 33
 #: Quantities checked for finiteness at every step, in the order of simulation._check_finite.
 FINITE_CHECKS = (
     "screw speed",
@@ -892,6 +903,69 @@ FINITE_CHECKS = (
     "sphere velocity",
     "sphere angular velocity",
 )
+
+
+@njit(cache=True, error_model="numpy")
+def _account(step, command, c, pos, vel, omega, body, stats, acc, window_first):
+    """simulation.simulate's per-step bookkeeping of one step of length c[K_DT] [s] from the
+    state (pos, vel, omega, body) with statistics ``stats``: the finiteness checks, the input
+    power M Omega + F_p (v_1 - v_2), the trapezoid energy integrals over the last step's length,
+    the window sums (run step ``step`` >= ``window_first``; ``step`` < 0: not a window sample)
+    and the work counters. Returns the gravitational power [W]; on a non-finite value it sets
+    acc[A_FAILED] (1 + its FINITE_CHECKS index) and returns NaN."""
+    count = pos.shape[0]
+    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
+    sum_vel = 0.0
+    sum_omega = 0.0
+    gravity_power = 0.0
+    for i in range(count):
+        sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
+        sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
+        gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
+    nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
+    gravity_power += c[K_WEIGHT] * nut_vel
+    checks = (
+        body[B_SPEED],
+        stats[S_MOTOR],
+        stats[S_DISSIPATION],
+        stats[S_SCREW_TORQUE],
+        nut_vel,
+        sum_vel,
+        sum_omega,
+    )
+    for j in range(len(checks)):
+        if not np.isfinite(checks[j]):
+            acc[A_FAILED] = 1.0 + j
+            acc[A_FAILED_VALUE] = checks[j]
+            return math.nan
+    motor = acc[A_MOTOR]
+    power_in = motor * body[B_SPEED] + command[1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
+    diss = stats[S_DISSIPATION]
+    if acc[A_HAS_PREV] > 0.0:
+        interval = acc[A_PREV_DT]
+        acc[A_INPUT] += 0.5 * interval * (acc[A_PREV_POWER] + power_in)
+        acc[A_ABS_INPUT] += 0.5 * interval * (abs(acc[A_PREV_POWER]) + abs(power_in))
+        acc[A_DISSIPATED] += 0.5 * interval * (acc[A_PREV_DISS] + diss)
+    acc[A_PREV_POWER] = power_in
+    acc[A_PREV_DISS] = diss
+    acc[A_PREV_DT] = c[K_DT]
+    acc[A_HAS_PREV] = 1.0
+    if step >= window_first:
+        acc[A_W_MOTOR] += motor
+        acc[A_W_SPEED] += body[B_SPEED]
+        acc[A_W_GRAVITY] += gravity_power
+        acc[A_W_COUNT] += 1.0
+        for j in range(N_MECHANISMS):
+            acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
+        for j in range(2):
+            acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
+    acc[A_EVALS] += stats[S_EVALS]
+    acc[A_JACOBIANS] += stats[S_JACOBIANS]
+    acc[A_ITERATIONS] += stats[S_ITERATIONS]
+    acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
+    acc[A_RESIDUAL] = stats[S_RESIDUAL]
+    acc[A_MOTOR] = stats[S_MOTOR]
+    return gravity_power
 
 
 @njit(cache=True, error_model="numpy")
@@ -918,6 +992,8 @@ def run_steps(
     history_meta,
     acc,
     first_stats,
+    fallback,
+    fine_step,
 ):
     """Steps ``first_step`` .. ``first_step + n - 1`` of a run (n = len(commands)), each as
     simulation.simulate's per-step loop does with step_kernel: the step, the finiteness checks,
@@ -930,91 +1006,70 @@ def run_steps(
         jam_start: (B,) time from which each sphere's rotation is blocked [s] (inf: never).
         acc: (A_COUNT,) run accumulators (layout A_*), updated; first_stats: (S_COUNT,) the
             first step's statistics (written). Other arguments: see step_kernel.
+        fallback: a step that does not converge (with implicit sphere positions) is redone from
+            its start as this many semi-implicit steps of ``fine_step`` [s] with its commands
+            (1: never); the discarded attempt's work is counted, the kept Jacobian and the
+            predictor's history dropped before and after.
 
     Returns:
         active (B, 4) and the contact kernel's buffer of the first step (for the records).
         Stops at the first non-finite value (acc[A_FAILED] = 1 + its FINITE_CHECKS index).
     """
     count = pos.shape[0]
-    dt = c[K_DT]
-    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
     jammed = np.zeros(count, dtype=np.bool_)
     new_pos, new_vel, new_omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
     new_theta, new_body = np.empty(count), np.empty(N_BODY)
     stats = np.zeros(S_COUNT)
     first_active = np.zeros((count, 4), dtype=np.bool_)
     first_out = np.zeros((1, count, 4))
+    fine_c = c.copy()
+    fine_c[K_DT] = fine_step
+    fine_c[K_IMPLICIT] = 0.0
     for n in range(commands.shape[0]):
-        for i in range(count):
-            jammed[i] = body[B_TIME] >= jam_start[i]
-        active, out = step_kernel(
-            pos, vel, omega, theta, body, commands[n], ball_nut, c, p, sphere_offset, spalls,
-            jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta, new_pos,
-            new_vel, new_omega, new_theta, new_body, stats,
-        )  # fmt: skip
-        sum_vel = 0.0
-        sum_omega = 0.0
-        gravity_power = 0.0
-        for i in range(count):
-            sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
-            sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
-            gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
-        nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
-        gravity_power += c[K_WEIGHT] * nut_vel
-        checks = (
-            body[B_SPEED],
-            stats[S_MOTOR],
-            stats[S_DISSIPATION],
-            stats[S_SCREW_TORQUE],
-            nut_vel,
-            sum_vel,
-            sum_omega,
-        )
-        for j in range(len(checks)):
-            if not np.isfinite(checks[j]):
-                acc[A_FAILED] = 1.0 + j
-                acc[A_FAILED_VALUE] = checks[j]
+        parts = 1
+        step_c = c
+        j = 0
+        while j < parts:
+            for i in range(count):
+                jammed[i] = body[B_TIME] >= jam_start[i]
+            active, out = step_kernel(
+                pos, vel, omega, theta, body, commands[n], ball_nut, step_c, p, sphere_offset,
+                spalls, jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta,
+                new_pos, new_vel, new_omega, new_theta, new_body, stats,
+            )  # fmt: skip
+            if parts == 1 and fallback > 1 and c[K_IMPLICIT] != 0.0 and stats[S_UNCONVERGED] > 0.0:
+                acc[A_EVALS] += stats[S_EVALS]
+                acc[A_JACOBIANS] += stats[S_JACOBIANS]
+                acc[A_ITERATIONS] += stats[S_ITERATIONS]
+                acc[A_FALLBACKS] += 1.0
+                jac_meta[J_VALID] = 0
+                history_meta[H_NEXT_TIME] = math.nan
+                parts = fallback
+                step_c = fine_c
+                continue
+            sample = first_step + n if j == 0 else -1
+            gravity_power = _account(
+                sample, commands[n], step_c, pos, vel, omega, body, stats, acc, window_first
+            )
+            if acc[A_FAILED] > 0.0:
                 acc[A_FAILED_STEP] = first_step + n
                 return first_active, first_out
-        motor = acc[A_MOTOR]
-        power_in = motor * body[B_SPEED] + commands[n, 1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
-        diss = stats[S_DISSIPATION]
-        if acc[A_HAS_PREV] > 0.0:
-            interval = acc[A_PREV_DT]
-            acc[A_INPUT] += 0.5 * interval * (acc[A_PREV_POWER] + power_in)
-            acc[A_ABS_INPUT] += 0.5 * interval * (abs(acc[A_PREV_POWER]) + abs(power_in))
-            acc[A_DISSIPATED] += 0.5 * interval * (acc[A_PREV_DISS] + diss)
-        acc[A_PREV_POWER] = power_in
-        acc[A_PREV_DISS] = diss
-        acc[A_PREV_DT] = dt
-        acc[A_HAS_PREV] = 1.0
-        if first_step + n >= window_first:
-            acc[A_W_MOTOR] += motor
-            acc[A_W_SPEED] += body[B_SPEED]
-            acc[A_W_GRAVITY] += gravity_power
-            acc[A_W_COUNT] += 1.0
-            for j in range(N_MECHANISMS):
-                acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
-            for j in range(2):
-                acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
-        acc[A_EVALS] += stats[S_EVALS]
-        acc[A_JACOBIANS] += stats[S_JACOBIANS]
-        acc[A_ITERATIONS] += stats[S_ITERATIONS]
-        acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
-        acc[A_RESIDUAL] = stats[S_RESIDUAL]
-        if n == 0:
-            first_stats[:] = stats
-            first_active = active
-            first_out = out
-            acc[A_FIRST_GRAVITY] = gravity_power
-            acc[A_FIRST_INPUT] = acc[A_INPUT]
-            acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
-        acc[A_MOTOR] = stats[S_MOTOR]
-        pos[:, :] = new_pos
-        vel[:, :] = new_vel
-        omega[:, :] = new_omega
-        theta[:] = new_theta
-        body[:] = new_body
+            if n == 0 and j == 0:
+                first_stats[:] = stats
+                first_active = active
+                first_out = out
+                acc[A_FIRST_GRAVITY] = gravity_power
+                acc[A_FIRST_INPUT] = acc[A_INPUT]
+                acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
+            pos[:, :] = new_pos
+            vel[:, :] = new_vel
+            omega[:, :] = new_omega
+            theta[:] = new_theta
+            body[:] = new_body
+            j += 1
+        if parts > 1:  # back to the run's step
+            jac_meta[J_VALID] = 0
+            history_meta[H_NEXT_TIME] = math.nan
     return first_active, first_out
 
 
@@ -1045,6 +1100,7 @@ def ensure_fresh_cache() -> bool:
             _predict,
             _remember,
             step_kernel,
+            _account,
             run_steps,
             frozen_constants,
             compiled_stamp,

@@ -24,7 +24,11 @@ polynomial extrapolation of the last steps' velocities (PREDICTOR_ORDER) with th
 the contact actions with respect to those velocities (finite differences, kept between steps;
 refreshed when a correction is needed and it is older than ``jacobian_interval`` steps or the
 contact set changed, and within a step whenever an iteration contracts the residual by less
-than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler).
+than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler:
+the contact actions at the step's start positions) or, with ``implicit_positions``, the contact
+actions are those with the sphere centres and the screw angle at the end of the step (backward
+Euler in these positions, stable above the contact springs' ~3 us limit; docs/model.md section
+10).
 The step is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs
 the same algorithm compiled (kernels/dynamic_step.py, tested equal).
 
@@ -139,6 +143,10 @@ class DynamicModel:
         sphere_contacts: contacts between neighbouring spheres of a nut along the helix
             (paper section 2.5, :mod:`.sphere_contact`), inside the implicit step. They run
             in the Python step only (the compiled step does not carry them yet).
+        implicit_positions: evaluate the contact actions with the sphere centres at the end
+            of the step, x_n + dt v_{n+1}, and the screw at phi_n + dt Omega_{n+1} (backward
+            Euler in these positions; the nut positions stay at the step's start), instead of
+            at x_n, phi_n.
     """
 
     config: TwinConfig
@@ -432,8 +440,9 @@ class DynamicModel:
         A sphere's actions depend on its own velocities (and, with implicit positions, its own
         position x_n + dt v) and the shared ones only, so perturbing one component of all
         spheres at once gives every sphere's column: 6 + 1 + 1 evaluations for any number of
-        spheres. With implicit positions a perturbed sphere velocity moves the sphere by dt
-        times the perturbation: its columns are the total derivatives d f(x_n + dt v, u) / du.
+        spheres. With implicit positions a perturbed sphere velocity or screw speed moves the
+        sphere or the screw by dt times the perturbation: the columns are the total
+        derivatives d f(x_n + dt v, phi_n + dt Omega, u) / du.
         """
         count = len(base.screw_moment)
         own = np.zeros((count, 8, 6))  # rows: force (3), moment (3), screw share, nut share
@@ -475,13 +484,17 @@ class DynamicModel:
         """Where the step from ``state`` evaluates the contact actions for the end-of-step
         sphere velocities ``u`` (B, 6) and screw / nut velocities ``shared`` (3,): at the
         step's positions x_n (semi-implicit Euler), or with ``implicit_positions`` with the
-        sphere centres where these velocities put them, x_n + dt v [m] (backward Euler in the
-        sphere positions; the screw angle and the nut positions stay at the step's start). The
-        helix search starts from the state's helix parameters."""
+        sphere centres and the screw where these velocities put them, x_n + dt v [m] and
+        phi_n + dt Omega [rad] (backward Euler in these positions; the nut positions stay at
+        the step's start). The helix search starts from the state's helix parameters."""
         trial = self._with_velocities(state, u, shared)
         if not self.implicit_positions:
             return trial
-        return replace(trial, ball_position=state.ball_position + self.time_step * u[:, :3])
+        return replace(
+            trial,
+            ball_position=state.ball_position + self.time_step * u[:, :3],
+            screw_angle=state.screw_angle + self.time_step * float(shared[0]),
+        )
 
     def _correction(
         self,

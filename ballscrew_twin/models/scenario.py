@@ -103,7 +103,8 @@ class Scenario:
         "s",
         0.0,
         1e-4,
-        "step of the start phase (each time_step split into semi-implicit steps of this)",
+        "semi-implicit step of the start phase and of the redone steps that did not converge "
+        "with implicit positions (each time_step split into steps of this)",
         default=None,
         lo_open=True,
     )
@@ -225,20 +226,20 @@ class Scenario:
                 )
 
     def _validate_fine_phase(self, where: str, window_start: float) -> None:
-        """fine_until: a whole number of time_step, before the averaging window, only with
-        fine_time_step, which divides time_step."""
-        if self.fine_until <= 0.0:
-            return
-        if self.fine_time_step is None:
-            raise ConfigError(f"{where}: fine_until = {self.fine_until} s needs fine_time_step")
-        for name, value, unit in (
-            ("fine_until", self.fine_until, self.time_step),
-            ("time_step", self.time_step, self.fine_time_step),
-        ):
+        """fine_time_step divides time_step; fine_until: only with fine_time_step, a whole
+        number of time_step, before the averaging window."""
+        checks = []
+        if self.fine_time_step is not None:
+            checks.append(("time_step", self.time_step, self.fine_time_step))
+        if self.fine_until > 0.0:
+            if self.fine_time_step is None:
+                raise ConfigError(f"{where}: fine_until = {self.fine_until} s needs fine_time_step")
+            checks.append(("fine_until", self.fine_until, self.time_step))
+        for name, value, unit in checks:
             ratio = value / unit
             if abs(ratio - round(ratio)) > STEP_MULTIPLE_TOLERANCE * max(ratio, 1.0):
                 raise ConfigError(f"{where}: {name} = {value} s is not a whole number of {unit} s")
-        if self.fine_until > window_start * (1.0 + 1e-12):
+        if self.fine_until > 0.0 and self.fine_until > window_start * (1.0 + 1e-12):
             raise ConfigError(
                 f"{where}: fine_until = {self.fine_until} s is inside the averaging window, "
                 f"which starts at {window_start:.6g} s"
@@ -250,6 +251,15 @@ class Scenario:
     def substeps(self) -> int:
         """Steps of fine_time_step in one time_step during the start phase [-] (1: none)."""
         if self.fine_until <= 0.0 or self.fine_time_step is None:
+            return 1
+        return max(1, round(self.time_step / self.fine_time_step))
+
+    @property
+    def fallback_substeps(self) -> int:
+        """With implicit sphere positions and fine_time_step: a step of time_step whose Newton
+        iterations do not converge is redone as this many semi-implicit steps of
+        fine_time_step [-] (1: never)."""
+        if not self.implicit_positions or self.fine_time_step is None:
             return 1
         return max(1, round(self.time_step / self.fine_time_step))
 

@@ -319,6 +319,7 @@ def simulate(
     )
     result.summary["start_time_unix_ns"] = started_unix_ns
     result.summary["unconverged_steps"] = model.unconverged_steps
+    result.summary["fallback_steps"] = run.fallbacks
     result.summary["unconverged"] = _unconverged_summary(
         run.unconverged, model.unconverged_steps, steps, scenario
     )
@@ -355,6 +356,10 @@ class _Run:
         # treatment of the positions (model.set_integrator).
         self.fine_steps = scenario.fine_steps
         self.substeps = scenario.substeps
+        # With implicit sphere positions, a step that does not converge is redone from its
+        # start as ``fallback`` semi-implicit steps of fine_time_step, with its commands.
+        self.fallback = scenario.fallback_substeps
+        self.fallbacks = 0  # run steps redone as fallback substeps
         if self.fine_steps > 0:
             assert scenario.fine_time_step is not None  # fine_steps > 0 needs it
             model.set_integrator(scenario.fine_time_step, False)
@@ -436,13 +441,22 @@ class _Run:
         for k in range(steps + 1):
             t = k * dt
             parts, step = self._parts(k)
-            for j in range(parts):
+            redo = False  # the run step did not converge: redone as fallback substeps
+            unconverged = False  # one of its steps ended above the tolerance
+            j = 0
+            while j < parts:
                 t_model = t + j * step if parts > 1 else t
-                commands = scenario.commands_at(t_model)
+                commands = scenario.commands_at(t if redo else t_model)
                 before = model.unconverged_steps
                 new_state, report = model.step(state, commands)
-                if model.unconverged_steps > before:
-                    self.unconverged.append((k, model.last_step_residual))
+                if parts == 1 and self.fallback > 1 and model.unconverged_steps > before:
+                    assert scenario.fine_time_step is not None  # fallback > 1 needs it
+                    model.unconverged_steps = before
+                    model.set_integrator(scenario.fine_time_step, False)
+                    parts, step, redo = self.fallback, scenario.fine_time_step, True
+                    self.fallbacks += 1
+                    continue
+                unconverged = unconverged or model.unconverged_steps > before
                 _check_finite(state, report, t_model)
                 power_in = model.input_power(state, commands, motor)
                 diss = report.dissipation
@@ -455,8 +469,15 @@ class _Run:
                 if j == 0:
                     self._sample(k, commands, state, motor, report, (input_energy, dissipated))
                 if k == steps:
-                    return
+                    break
                 state, motor = new_state, report.motor_torque
+                j += 1
+            if unconverged:  # listed once per run step, with its last step's residual
+                self.unconverged.append((k, model.last_step_residual))
+            if k == steps:
+                return
+            if redo:
+                model.set_integrator(dt, True)
             if self.progress is not None and (k + 1) % self.progress_every == 0:
                 self.progress((k + 1) / steps, time.perf_counter() - self.started)
 
@@ -599,6 +620,7 @@ class _Run:
                     first, window_first, commands[(first - k) * parts : (last - k) * parts], pos,
                     vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
+                    self.fallback if parts == 1 else 1, scenario.fine_time_step or dt,
                 )  # fmt: skip
 
             active, buffer = steps_from(k, k + n)
@@ -662,6 +684,7 @@ class _Run:
         self.window_mechanisms = acc[ks.A_W_MECHANISMS : ks.A_W_MECHANISMS + len(MECHANISMS)].copy()
         self.window_nuts = acc[ks.A_W_NUTS : ks.A_W_NUTS + 2].copy()
         self.abs_input_energy = float(acc[ks.A_ABS_INPUT])
+        self.fallbacks = int(acc[ks.A_FALLBACKS])
 
 
 def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
