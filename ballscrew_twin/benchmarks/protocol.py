@@ -50,14 +50,18 @@ NMM_PER_NM = 1e3
 RPM = math.pi / 30.0  # rad/s per rpm
 CELSIUS_ZERO = 273.15  # K
 
-#: Figures of earlier runs (docs/benchmarks.md), printed beside a run of the same scenario,
-#: step and duration: (scenario name, time step [s], duration [s]) -> (date, CPU time [s],
-#: contact-law evaluations per step, unconverged steps, drag torque [N m], power-balance
-#: error [-], load average).
+#: Figures of earlier runs (docs/benchmarks.md), printed beside a run of the same scenario and
+#: duration: (scenario name, duration [s]) -> (date, time step [s] of the semi-implicit step
+#: they used, CPU time [s], contact-law evaluations per step, unconverged steps, drag torque
+#: [N m], power-balance error [-], load average).
 PREVIOUS = {
-    ("paper_protocol", 2e-6, 0.6): ("2026-11-25", 132.4, 2.51, 0, 18.5251e-3, -0.0027, 4.7),
-    ("protocol_short", 2e-6, 0.012): ("2026-11-26", 20.6, 11.58, 410, 18.5325e-3, -0.021, 4.0),
+    ("paper_protocol", 0.6): ("2026-11-26", 2e-6, 103.1, 2.51, 0, 18.5251e-3, -0.0027, 1.7),
+    ("protocol_short", 0.012): ("2026-11-26", 2e-6, 20.6, 11.58, 410, 18.5325e-3, -0.021, 4.0),
 }
+
+#: The corner runs with implicit sphere positions: this step [s], after the start phase (the
+#: preload ramp and the standstill, until the speed ramp) at CORNER_TIME_STEP semi-implicit.
+CORNER_IMPLICIT_STEP = 1e-5
 
 #: The envelope of issue 4: preloads [N], speeds [rpm], temperatures [deg C] (CLI units).
 CORNER_PRELOADS = (0.0, 1500.0, 3000.0)
@@ -117,6 +121,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--out", default=None, help="folder for corners.csv and corners.md (with --corners)"
     )
     parser.add_argument(
+        "--implicit-positions",
+        action="store_true",
+        help="sphere and screw positions implicit (backward Euler; steps above ~3 us)",
+    )
+    parser.add_argument(
+        "--fine-time-step", type=float, default=None, help="step of the start phase [s]"
+    )
+    parser.add_argument(
+        "--fine-until", type=float, default=None, help="end of the start phase [s] (0: none)"
+    )
+    parser.add_argument(
+        "--semi-implicit",
+        action="store_true",
+        help="the semi-implicit step throughout (the integrator before issue 16, round 4), at "
+        "--time-step or the scenario's fine_time_step",
+    )
+    parser.add_argument(
+        "--baseline",
+        type=float,
+        default=None,
+        help="also run the scenario semi-implicit at this step [s] and print the two side by side",
+    )
+    parser.add_argument(
+        "--reference",
+        type=float,
+        default=None,
+        help="also run it semi-implicit at this step [s] (e.g. 1e-6): drag and balance of every "
+        "run against it, side by side",
+    )
+    parser.add_argument(
         "--scaling",
         default=None,
         help="comma-separated spheres per nut (e.g. 5,10,25): CPU time per simulated second "
@@ -138,7 +172,44 @@ def _scenario(args: argparse.Namespace) -> Scenario:
         changes["time_step"] = args.time_step
     if args.average_window is not None:
         changes["average_window"] = args.average_window
-    return replace(scenario, **changes) if changes else scenario
+    if args.implicit_positions:
+        changes["implicit_positions"] = True
+    if args.fine_time_step is not None:
+        changes["fine_time_step"] = args.fine_time_step
+    if args.fine_until is not None:
+        changes["fine_until"] = args.fine_until
+    scenario = replace(scenario, **changes) if changes else scenario
+    if args.semi_implicit:
+        step = args.time_step or scenario.fine_time_step or scenario.time_step
+        scenario = semi_implicit(scenario, step)
+    return scenario
+
+
+def semi_implicit(scenario: Scenario, time_step: float) -> Scenario:
+    """``scenario`` with the semi-implicit step of ``time_step`` [s] throughout (no start
+    phase, positions explicit in the contact actions)."""
+    return replace(
+        scenario,
+        time_step=time_step,
+        implicit_positions=False,
+        fine_time_step=None,
+        fine_until=0.0,
+    )
+
+
+def integrator_label(scenario: Scenario) -> str:
+    """How ``scenario`` integrates, in words (steps in us)."""
+    step = f"dt = {scenario.time_step * 1e6:g} us"
+    if scenario.implicit_positions:
+        label = f"implicit sphere and screw positions, {step}"
+    else:
+        label = f"semi-implicit, {step}"
+    if scenario.substeps > 1 and scenario.fine_time_step is not None:
+        label += (
+            f" ({scenario.fine_time_step * 1e6:g} us semi-implicit until "
+            f"{scenario.fine_until * 1e3:g} ms)"
+        )
+    return label
 
 
 def _timed_run(scenario: Scenario) -> tuple[SimulationResult, float, float, float, float]:
@@ -161,8 +232,10 @@ def _timed_run(scenario: Scenario) -> tuple[SimulationResult, float, float, floa
     return result, wall_before, wall - wall_before, cpu_before, cpu - cpu_before
 
 
-def _run_once(scenario: Scenario) -> None:
-    """Cost of one run with its profile summary."""
+def _run_once(scenario: Scenario) -> dict[str, Any]:
+    """Cost of one run with its profile summary, printed; returns its figures (CPU time [s],
+    contact-law evaluations per step, unconverged steps (all, listed in the hold), drag torque
+    [N m], power-balance error [-])."""
     profile = cProfile.Profile()
     profile.enable()
     result, transient_wall, hold_wall, transient_cpu, hold_cpu = _timed_run(scenario)
@@ -174,9 +247,10 @@ def _run_once(scenario: Scenario) -> None:
     hold = scenario.duration - ramp_end
     spheres = 2 * int(s["balls_per_nut"])
     print(
-        f"scenario {scenario.name}: {spheres} spheres, dt = {scenario.time_step:g} s, "
+        f"scenario {scenario.name}: {spheres} spheres, {integrator_label(scenario)}, "
         f"{scenario.duration:g} s simulated, {s['steps']} steps; one core (pid {os.getpid()}, "
-        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
+        f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)",
+        flush=True,
     )
     print(
         f"  wall time {wall:.1f} s, CPU time {cpu:.1f} s, "
@@ -213,10 +287,11 @@ def _run_once(scenario: Scenario) -> None:
             work.get("newton_iterations", math.nan),
             s.get("unconverged_steps", 0),
         )
+        + f"; {s.get('fallback_steps', 0)} steps redone as semi-implicit substeps"
     )
     listed = s.get("unconverged", {}).get("listed", [])
+    in_hold = sum(entry["time_s"] >= ramp_end for entry in listed)
     if listed:
-        in_hold = sum(entry["time_s"] >= ramp_end for entry in listed)
         times = ", ".join(f"{entry['time_s']:.6g}" for entry in listed[:10])
         print(f"    not converged at t = {times} s ({in_hold} of these after {ramp_end:g} s)")
     stats = pstats.Stats(profile)
@@ -233,15 +308,44 @@ def _run_once(scenario: Scenario) -> None:
         f"(std {s['drag_torque_std_Nm'] * NMM_PER_NM:.3g}), power-balance error "
         f"{s['power_balance_error_relative']:.2g} of the input"
     )
-    previous = PREVIOUS.get((scenario.name, scenario.time_step, scenario.duration))
+    previous = PREVIOUS.get((scenario.name, scenario.duration))
     if previous is not None:
-        date, cpu_then, evals, unconverged, drag, balance, load = previous
+        date, step, cpu_then, evals, unconverged, drag, balance, load = previous
         print(
-            f"  previous ({date}, docs/benchmarks.md, load average {load:g}): CPU time "
-            f"{cpu_then:.1f} s ({cpu_then / max(cpu, 1e-300):.2f} x this run), {evals:.2f} "
-            f"contact-law evaluations per step, {unconverged} steps not converged, drag torque "
-            f"{drag * NMM_PER_NM:.4f} N mm ({100 * (s['drag_torque_Nm'] / drag - 1):+.3f} % "
-            f"now), power-balance error {balance:.2g}"
+            f"  previous ({date}, semi-implicit, dt = {step * 1e6:g} us, docs/benchmarks.md, "
+            f"load average {load:g}): CPU time {cpu_then:.1f} s ({cpu_then / max(cpu, 1e-300):.2f}"
+            f" x this run), {evals:.2f} contact-law evaluations per step, {unconverged} steps "
+            f"not converged, drag torque {drag * NMM_PER_NM:.4f} N mm "
+            f"({100 * (s['drag_torque_Nm'] / drag - 1):+.3f} % now), power-balance error "
+            f"{balance:.2g}"
+        )
+    return {
+        "integrator": integrator_label(scenario),
+        "cpu_s": cpu,
+        "evaluations": float(work.get("contact_evaluations", math.nan)),
+        "unconverged": int(s.get("unconverged_steps", 0)),
+        "unconverged_in_hold": in_hold,
+        "fallbacks": int(s.get("fallback_steps", 0)),
+        "drag_Nm": float(s["drag_torque_Nm"]),
+        "balance": float(s["power_balance_error_relative"]),
+    }
+
+
+def _side_by_side(rows: list[dict[str, Any]], reference: dict[str, Any] | None) -> None:
+    """The runs of one benchmark call in a table; drags against ``reference`` when given."""
+    print("side by side (CPU time of this process; the same machine state, one after another):")
+    for row in rows:
+        versus = ""
+        if reference is not None:
+            change = 100 * (row["drag_Nm"] / reference["drag_Nm"] - 1)
+            versus = f" ({change:+.4f} % against {reference['integrator']})"
+        print(
+            f"  {row['integrator']}: CPU {row['cpu_s']:.1f} s, {row['evaluations']:.2f} "
+            f"contact-law evaluations per step, unconverged {row['unconverged']} "
+            f"({row['unconverged_in_hold']} listed in the hold), {row['fallbacks']} steps redone "
+            "as substeps, drag "
+            f"{row['drag_Nm'] * NMM_PER_NM:.4f} N mm{versus}, power-balance error "
+            f"{100 * row['balance']:+.3f} %"
         )
 
 
@@ -249,8 +353,8 @@ def _scaling(scenario: Scenario, counts: list[int]) -> None:
     """CPU time per simulated second (all, and the hold after the speed ramp) at each number
     of spheres per nut, per sphere, and its growth against linear growth from the first."""
     print(
-        f"cost against the number of spheres, scenario {scenario.name}, dt = "
-        f"{scenario.time_step:g} s, {scenario.duration:g} s simulated; one core (load average "
+        f"cost against the number of spheres, scenario {scenario.name}, "
+        f"{integrator_label(scenario)}, {scenario.duration:g} s simulated; one core (load average "
         f"{os.getloadavg()[0]:.1f} on {os.cpu_count()} cores)"
     )
     ramp_end = min(scenario.speed_ramp_end, scenario.duration)
@@ -314,10 +418,13 @@ def corner_scenario(
     """``base`` at one corner on the time-compressed protocol (CORNER_* timings).
 
     Args:
-        base: scenario giving the parameter file, sphere count, controller and backend.
+        base: scenario giving the parameter file, sphere count, controller, backend and
+            integrator: with implicit sphere positions, the preload ramp and the standstill
+            (until the speed ramp) are run at CORNER_TIME_STEP semi-implicit.
         preload: final preload [N]; speed: final screw speed [rad/s]; temperature: [K];
-        time_step: integration step [s].
+        time_step: integration step [s] (after that start phase).
     """
+    implicit = base.implicit_positions
     return replace(
         base,
         name=f"corner_{preload:g}N_{speed / RPM:g}rpm_{temperature - CELSIUS_ZERO:g}C",
@@ -332,6 +439,8 @@ def corner_scenario(
         time_step=time_step,
         output_interval=CORNER_OUTPUT,
         contact_output_interval=CORNER_OUTPUT,
+        fine_time_step=CORNER_TIME_STEP if implicit else None,
+        fine_until=CORNER_SPEED_RAMP[0] if implicit else 0.0,
     )
 
 
@@ -375,6 +484,7 @@ def corner_health(result: SimulationResult) -> dict[str, Any]:
         "min_film_window_m": float(window_films.min()) if window_films.size else math.nan,
         "contacts_open_in_window": int(np.sum(~active[window])),
         "unconverged_steps": int(s["unconverged_steps"]),
+        "fallback_steps": int(s.get("fallback_steps", 0)),
         "balance_error": float(s["power_balance_error_relative"]),
         "drag_torque_Nm": float(s["drag_torque_Nm"]) + inertia_torque,
         "drag_torque_std_Nm": float(s["drag_torque_std_Nm"]),
@@ -397,6 +507,7 @@ CORNER_COLUMNS = (
     "min_film_window_m",
     "contacts_open_in_window",
     "unconverged_steps",
+    "fallback_steps",
     "steps",
     "balance_error",
     "drag_torque_Nm",
@@ -416,8 +527,9 @@ def _corners(base: Scenario, time_step: float, out: Path | None) -> int:
     corners = [
         (p, n, c) for c in CORNER_TEMPERATURES_C for n in CORNER_SPEEDS_RPM for p in CORNER_PRELOADS
     ]
+    label = integrator_label(corner_scenario(base, 0.0, 0.0, CELSIUS_ZERO, time_step))
     print(
-        f"envelope corners: {len(corners)} runs of {CORNER_DURATION:g} s, dt = {time_step:g} s, "
+        f"envelope corners: {len(corners)} runs of {CORNER_DURATION:g} s, {label}, "
         f"preload ramp {CORNER_PRELOAD_RAMP:g} s, speed ramp {CORNER_SPEED_RAMP[0]:g}-"
         f"{CORNER_SPEED_RAMP[1]:g} s, averaged over the last {CORNER_WINDOW:g} s; "
         f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} cores",
@@ -468,7 +580,8 @@ def _corner_line(row: dict[str, Any], ok: bool) -> str:
         f"{row['blow_up']} (max speed {row['max_screw_speed_rad_s']:.4g} rad/s, nut force "
         f"{row['max_nut_force_N']:.4g} N, contact force {row['max_normal_force_N']:.4g} N), "
         f"min film {row['min_film_m'] * 1e9:.4g} nm (window {row['min_film_window_m'] * 1e9:.4g}"
-        f" nm), unconverged {row['unconverged_steps']} of {row['steps']}, balance "
+        f" nm), unconverged {row['unconverged_steps']} of {row['steps']} (redone as substeps "
+        f"{row['fallback_steps']}), balance "
         f"{row['balance_error']:+.2g}, drag {row['drag_torque_Nm'] * NMM_PER_NM:.4f} N mm "
         f"(less J dOmega/dt: {row['drag_less_inertia_Nm'] * NMM_PER_NM:.4f}); "
         f"wall {row['wall_s']:.0f} s, CPU {row['cpu_s']:.0f} s"
@@ -478,11 +591,12 @@ def _corner_line(row: dict[str, Any], ok: bool) -> str:
 def _corner_markdown(rows: list[dict[str, Any]], base: Scenario, time_step: float) -> str:
     """The corner table as markdown."""
     lines = [
-        f"Envelope corners (`bench protocol --corners`, base scenario {base.name}, dt = "
-        f"{time_step:g} s, {CORNER_DURATION * 1e3:g} ms per run)",
+        f"Envelope corners (`bench protocol --corners`, base scenario {base.name}, "
+        f"{integrator_label(corner_scenario(base, 0.0, 0.0, CELSIUS_ZERO, time_step))}, "
+        f"{CORNER_DURATION * 1e3:g} ms per run)",
         "",
         "| preload | speed | T | finished | finite | blow-up | min film (window) | "
-        "unconverged | balance | drag (less J dOmega/dt) | wall / CPU |",
+        "unconverged (redone) | balance | drag (less J dOmega/dt) | wall / CPU |",
         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in rows:
@@ -496,7 +610,8 @@ def _corner_markdown(rows: list[dict[str, Any]], base: Scenario, time_step: floa
             f"| {r['preload_N']:g} N | {r['speed_rpm']:g} rpm | {r['temperature_C']:g} C | yes | "
             f"{'yes' if r['finite'] else 'NO'} | {'YES' if r['blow_up'] else 'no'} | "
             f"{r['min_film_m'] * 1e9:.3g} nm ({r['min_film_window_m'] * 1e9:.3g} nm) | "
-            f"{r['unconverged_steps']} / {r['steps']} | {100 * r['balance_error']:+.2f} % | "
+            f"{r['unconverged_steps']} / {r['steps']} ({r['fallback_steps']}) | "
+            f"{100 * r['balance_error']:+.2f} % | "
             f"{r['drag_torque_Nm'] * NMM_PER_NM:.3f} "
             f"({r['drag_less_inertia_Nm'] * NMM_PER_NM:.3f}) N mm | "
             f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} s |"
@@ -508,9 +623,8 @@ def run(args: argparse.Namespace) -> int:
     """Run the benchmark; print its numbers."""
     scenario = _scenario(args)
     if args.corners:
-        return _corners(
-            scenario, args.time_step or CORNER_TIME_STEP, Path(args.out) if args.out else None
-        )
+        default = CORNER_IMPLICIT_STEP if scenario.implicit_positions else CORNER_TIME_STEP
+        return _corners(scenario, args.time_step or default, Path(args.out) if args.out else None)
     if args.scaling:
         _scaling(scenario, [int(x) for x in args.scaling.split(",") if x.strip()])
         return 0
@@ -518,7 +632,14 @@ def run(args: argparse.Namespace) -> int:
         steps = [float(x) for x in args.convergence.split(",") if x.strip()]
         _convergence(scenario, steps)
         return 0
-    _run_once(scenario)
+    rows = [_run_once(scenario)]
+    reference = None
+    for step, is_reference in ((args.baseline, False), (args.reference, True)):
+        if step is not None:
+            rows.append(_run_once(semi_implicit(scenario, step)))
+            reference = rows[-1] if is_reference else reference
+    if len(rows) > 1:
+        _side_by_side(rows, reference)
     if args.full:
         paper = load_scenario(SCENARIO_DIR / "paper_protocol.yaml")
         if args.time_step is not None:

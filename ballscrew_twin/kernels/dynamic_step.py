@@ -26,14 +26,21 @@ operation for operation, with the contact laws of
 - the backward-Euler residuals and their scaled maximum (``_residual``), the Newton correction
   by elimination of the 6 x 6 sphere blocks and a 3 x 3 Schur complement (``_correction``; small
   LU with partial pivoting instead of LAPACK), the Newton loop with backtracking, and the
-  semi-implicit position update.
+  position update x_{n+1} = x_n + dt u_{n+1};
+- with implicit sphere positions (c[K_IMPLICIT] = 1) every evaluation of the step puts the
+  spheres at x_n + dt v and the screw at phi_n + dt Omega first (``_place``: located, offsets
+  and statics again; ``_evaluate``),
+  so the contact actions are those at the end-of-step positions and the Jacobian columns the
+  total derivatives (docs/model.md section 10).
 
 Results agree with the reference to rounding (different summation order in a few sums and a
 different LU): test/kernels/test_dynamic_step.py runs both side by side.
 
 :func:`run_steps` loops :func:`step_kernel` over many steps (commands from the scenario's
-smooth steps) and accumulates what the simulation runner records per step (energy integrals,
-window sums), so that a whole output interval is one call from Python.
+smooth steps) and accumulates what the simulation runner records per step (energy integrals
+over each step's own length, window sums; ``_account``), so that a whole output interval is
+one call from Python; a step with implicit sphere positions that does not converge is redone
+there as semi-implicit substeps (``fallback``).
 
 numba freezes the solver constants (imported from :mod:`ballscrew_twin.models.dynamic`) and the
 machine code of ``contacts_kernel`` into the cache, which is invalidated only by a change of this
@@ -91,7 +98,8 @@ N_BODY = 8
 # [m/s^2] and magnitude [m/s^2], screw inertia [kg m^2], nut mass [kg], nut weight along -z
 # [N] (0 for a horizontal screw), PI gains k_p [N m s/rad], k_i [N m/rad], ball radius [m],
 # pitch radius [m], lead / (2 pi) [m], sin and cos of the helix angle, initial nut offsets (2)
-# [m].
+# [m], 1 when the positions are implicit (contact actions with the sphere centres at
+# x_n + dt v_{n+1} and the screw at phi_n + dt Omega_{n+1}) else 0 (at x_n, phi_n) [-].
 (
     K_DT,
     K_MASS,
@@ -112,7 +120,8 @@ N_BODY = 8
     K_COS_HELIX,
     K_NUT_OFFSET0,
 ) = range(18)
-N_CONST = 19
+K_IMPLICIT = 19
+N_CONST = 20
 # Jacobian bookkeeping (3,) int64: valid (0/1), age [steps], refresh interval [steps].
 J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
 # Step statistics (S_COUNT,): motor torque at the end of the step [N m], moment of the spheres
@@ -340,13 +349,50 @@ def _actions(vel, omega, nut_vel, speed, pos, body, frames, nb, statics, ball_nu
 
 
 @njit(cache=True)
-def _jacobians(
-    vel, omega, nut_vel, speed, base, pos, body, frames, nb, statics, ball_nut, c, p, own, shared
-):
+def _place(vel, speed, start, ball_nut, c, p, placed):
+    """The spheres and the screw where the step's end velocities ``vel`` (B, 3) [m/s] and
+    ``speed`` [rad/s] put them (implicit positions, DynamicModel._trial): centres x_n + dt v,
+    screw angle phi_n + dt Omega, the spheres located on the helix, their defect offsets and
+    the contact statics, written to ``placed``; the nut positions stay those of the step's
+    start. start = (pos, body, theta, sphere_offset, spalls) of the step;
+    placed = (pos, body, theta, frames, nb, statics)."""
+    pos, body, theta, sphere_offset, spalls = start
+    at_pos, at_body, at_theta, frames, nb, statics = placed
+    dt = c[K_DT]
+    for i in range(pos.shape[0]):
+        for k in range(3):
+            at_pos[i, k] = pos[i, k] + dt * vel[i, k]
+    at_body[:] = body
+    at_body[B_ANGLE] = body[B_ANGLE] + dt * speed
+    _locate(at_pos, at_body[B_ANGLE], theta, c, at_theta, frames, nb)
+    offsets = np.empty((pos.shape[0], 4))
+    _approach_offsets(at_theta, at_body[B_ANGLE], sphere_offset, spalls, offsets)
+    _statics(at_body, nb, offsets, ball_nut, c, p, statics)
+
+
+@njit(cache=True)
+def _evaluate(vel, omega, nut_vel, speed, start, placed, ball_nut, c, p, stacked):
+    """Contact actions at the given velocities (``_actions``, ``stacked`` written): at the
+    step's positions (semi-implicit: ``placed`` holds them and their statics), or, with
+    implicit sphere positions (c[K_IMPLICIT] = 1), with the spheres where these velocities
+    put them (``_place`` first)."""
+    if c[K_IMPLICIT] != 0.0:
+        _place(vel, speed, start, ball_nut, c, p, placed)
+    at_pos, at_body, _, frames, nb, statics = placed
+    return _actions(
+        vel, omega, nut_vel, speed, at_pos, at_body, frames, nb, statics, ball_nut, c, p, stacked
+    )
+
+
+@njit(cache=True)
+def _jacobians(vel, omega, nut_vel, speed, base, start, placed, ball_nut, c, p, own, shared):
     """Forward-difference velocity Jacobians (DynamicModel._jacobians): ``own`` (B, 8, 6) with
     respect to each sphere's velocity and angular velocity, ``shared`` (B, 8, 3) with respect to
-    the screw speed and its nut's velocity. ``base`` (B, 8): the actions at these velocities."""
-    count = pos.shape[0]
+    the screw speed and its nut's velocity. ``base`` (B, 8): the actions at these velocities.
+    With implicit positions a perturbed sphere velocity or screw speed also moves the sphere or
+    the screw by dt times the perturbation (``_evaluate``): the columns are the total
+    derivatives d f(x_n + dt v, phi_n + dt Omega, u) / du."""
+    count = vel.shape[0]
     bumped = np.empty((count, N_STACK))
     v = np.empty((count, 3))
     w = np.empty((count, 3))
@@ -360,22 +406,19 @@ def _jacobians(
                 v[i, j] += h
             else:
                 w[i, j - 3] += h
-        _actions(v, w, nut_vel, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
+        _evaluate(v, w, nut_vel, speed, start, placed, ball_nut, c, p, bumped)
         for i in range(count):
             for r in range(N_STACK):
                 own[i, r, j] = (bumped[i, r] - base[i, r]) / h
     h_screw = VELOCITY_STEP / c[K_PITCH_RADIUS]
-    _actions(
-        vel, omega, nut_vel, speed + h_screw, pos, body, frames, nb, statics, ball_nut, c, p,
-        bumped,
-    )  # fmt: skip
+    _evaluate(vel, omega, nut_vel, speed + h_screw, start, placed, ball_nut, c, p, bumped)
     for i in range(count):
         for r in range(N_STACK):
             shared[i, r, 0] = (bumped[i, r] - base[i, r]) / h_screw
     nut_bumped = np.empty(2)
     nut_bumped[0] = nut_vel[0] + VELOCITY_STEP
     nut_bumped[1] = nut_vel[1] + VELOCITY_STEP
-    _actions(vel, omega, nut_bumped, speed, pos, body, frames, nb, statics, ball_nut, c, p, bumped)
+    _evaluate(vel, omega, nut_bumped, speed, start, placed, ball_nut, c, p, bumped)
     for i in range(count):
         k = ball_nut[i]
         for r in range(N_STACK):
@@ -629,11 +672,14 @@ def step_kernel(
     dt = c[K_DT]
     frames = np.empty((count, 3, 3))
     nb = np.empty((count, 2))
-    _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
-    offsets = np.empty((count, 4))
-    _approach_offsets(out_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
     statics = np.empty((count, 4, N_STATICS))
-    _statics(body, nb, offsets, ball_nut, c, p, statics)
+    start = (pos, body, theta, sphere_offset, spalls)
+    placed = (pos.copy(), body.copy(), out_theta, frames, nb, statics)
+    if c[K_IMPLICIT] == 0.0:  # semi-implicit: the step's positions, located once
+        _locate(pos, body[B_ANGLE], theta, c, out_theta, frames, nb)
+        offsets = np.empty((count, 4))
+        _approach_offsets(out_theta, body[B_ANGLE], sphere_offset, spalls, offsets)
+        _statics(body, nb, offsets, ball_nut, c, p, statics)
 
     u0 = np.empty((count, 6))
     for i in range(count):
@@ -677,10 +723,9 @@ def step_kernel(
             for k in range(3):
                 v_start[i, k] = u[i, k]
                 w_start[i, k] = u[i, 3 + k]
-        active, out = _actions(
-            v_start, w_start, sv[1:], sv[0], pos, body, frames, nb, statics, ball_nut, c, p,
-            stacked,
-        )  # fmt: skip
+        active, out = _evaluate(
+            v_start, w_start, sv[1:], sv[0], start, placed, ball_nut, c, p, stacked
+        )
         evals += 1
         stale = attempt == 1 or jac_meta[J_VALID] == 0 or jac_meta[J_AGE] >= jac_meta[J_INTERVAL]
         for i in range(count):
@@ -700,8 +745,8 @@ def step_kernel(
                 break
             if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
                 _jacobians(
-                    v_start, w_start, sv[1:], sv[0], stacked, pos, body, frames, nb, statics,
-                    ball_nut, c, p, jac_own, jac_shared,
+                    v_start, w_start, sv[1:], sv[0], stacked, start, placed, ball_nut, c, p,
+                    jac_own, jac_shared,
                 )  # fmt: skip
                 evals += 8
                 jacobians += 1
@@ -714,8 +759,8 @@ def step_kernel(
                         v_try[i, k] = u[i, k]
                         w_try[i, k] = u[i, 3 + k]
                 _jacobians(
-                    v_try, w_try, sv[1:], sv[0], stacked, pos, body, frames, nb, statics, ball_nut,
-                    c, p, jac_own, jac_shared,
+                    v_try, w_try, sv[1:], sv[0], stacked, start, placed, ball_nut, c, p, jac_own,
+                    jac_shared,
                 )  # fmt: skip
                 evals += 8
                 jacobians += 1
@@ -734,9 +779,9 @@ def step_kernel(
                         w_try[i, k] = u_try[i, 3 + k]
                 for k in range(3):
                     sv_try[k] = sv[k] + step * d_shared[k]
-                active_try, out_try = _actions(
-                    v_try, w_try, sv_try[1:], sv_try[0], pos, body, frames, nb, statics, ball_nut,
-                    c, p, stacked_try,
+                active_try, out_try = _evaluate(
+                    v_try, w_try, sv_try[1:], sv_try[0], start, placed, ball_nut, c, p,
+                    stacked_try,
                 )  # fmt: skip
                 evals += 1
                 w = _residual(
@@ -816,7 +861,9 @@ def step_kernel(
 # step count [-], dissipation per mechanism (7) and per nut (2) [W]; work totals (contact
 # evaluations, Jacobians, Newton iterations, unconverged steps) [-]; the last scaled residual
 # [-]; the first step's gravitational power [W], input and dissipated energy after it [J]; on a
-# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step.
+# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step; the
+# previous step's length [s] (the interval of the next trapezoid: the step may change between
+# calls, simulation.py's start phase); the number of steps redone as fallback substeps [-].
 (
     A_MOTOR,
     A_INPUT,
@@ -842,8 +889,10 @@ def step_kernel(
     A_FAILED,
     A_FAILED_VALUE,
     A_FAILED_STEP,
-) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30)
-A_COUNT = 31
+    A_PREV_DT,
+    A_FALLBACKS,
+) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32)
+A_COUNT = 33
 #: Quantities checked for finiteness at every step, in the order of simulation._check_finite.
 FINITE_CHECKS = (
     "screw speed",
@@ -854,6 +903,69 @@ FINITE_CHECKS = (
     "sphere velocity",
     "sphere angular velocity",
 )
+
+
+@njit(cache=True, error_model="numpy")
+def _account(step, command, c, pos, vel, omega, body, stats, acc, window_first):
+    """simulation.simulate's per-step bookkeeping of one step of length c[K_DT] [s] from the
+    state (pos, vel, omega, body) with statistics ``stats``: the finiteness checks, the input
+    power M Omega + F_p (v_1 - v_2), the trapezoid energy integrals over the last step's length,
+    the window sums (run step ``step`` >= ``window_first``; ``step`` < 0: not a window sample)
+    and the work counters. Returns the gravitational power [W]; on a non-finite value it sets
+    acc[A_FAILED] (1 + its FINITE_CHECKS index) and returns NaN."""
+    count = pos.shape[0]
+    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
+    sum_vel = 0.0
+    sum_omega = 0.0
+    gravity_power = 0.0
+    for i in range(count):
+        sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
+        sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
+        gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
+    nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
+    gravity_power += c[K_WEIGHT] * nut_vel
+    checks = (
+        body[B_SPEED],
+        stats[S_MOTOR],
+        stats[S_DISSIPATION],
+        stats[S_SCREW_TORQUE],
+        nut_vel,
+        sum_vel,
+        sum_omega,
+    )
+    for j in range(len(checks)):
+        if not np.isfinite(checks[j]):
+            acc[A_FAILED] = 1.0 + j
+            acc[A_FAILED_VALUE] = checks[j]
+            return math.nan
+    motor = acc[A_MOTOR]
+    power_in = motor * body[B_SPEED] + command[1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
+    diss = stats[S_DISSIPATION]
+    if acc[A_HAS_PREV] > 0.0:
+        interval = acc[A_PREV_DT]
+        acc[A_INPUT] += 0.5 * interval * (acc[A_PREV_POWER] + power_in)
+        acc[A_ABS_INPUT] += 0.5 * interval * (abs(acc[A_PREV_POWER]) + abs(power_in))
+        acc[A_DISSIPATED] += 0.5 * interval * (acc[A_PREV_DISS] + diss)
+    acc[A_PREV_POWER] = power_in
+    acc[A_PREV_DISS] = diss
+    acc[A_PREV_DT] = c[K_DT]
+    acc[A_HAS_PREV] = 1.0
+    if step >= window_first:
+        acc[A_W_MOTOR] += motor
+        acc[A_W_SPEED] += body[B_SPEED]
+        acc[A_W_GRAVITY] += gravity_power
+        acc[A_W_COUNT] += 1.0
+        for j in range(N_MECHANISMS):
+            acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
+        for j in range(2):
+            acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
+    acc[A_EVALS] += stats[S_EVALS]
+    acc[A_JACOBIANS] += stats[S_JACOBIANS]
+    acc[A_ITERATIONS] += stats[S_ITERATIONS]
+    acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
+    acc[A_RESIDUAL] = stats[S_RESIDUAL]
+    acc[A_MOTOR] = stats[S_MOTOR]
+    return gravity_power
 
 
 @njit(cache=True, error_model="numpy")
@@ -880,6 +992,8 @@ def run_steps(
     history_meta,
     acc,
     first_stats,
+    fallback,
+    fine_step,
 ):
     """Steps ``first_step`` .. ``first_step + n - 1`` of a run (n = len(commands)), each as
     simulation.simulate's per-step loop does with step_kernel: the step, the finiteness checks,
@@ -892,89 +1006,70 @@ def run_steps(
         jam_start: (B,) time from which each sphere's rotation is blocked [s] (inf: never).
         acc: (A_COUNT,) run accumulators (layout A_*), updated; first_stats: (S_COUNT,) the
             first step's statistics (written). Other arguments: see step_kernel.
+        fallback: a step that does not converge (with implicit sphere positions) is redone from
+            its start as this many semi-implicit steps of ``fine_step`` [s] with its commands
+            (1: never); the discarded attempt's work is counted, the kept Jacobian and the
+            predictor's history dropped before and after.
 
     Returns:
         active (B, 4) and the contact kernel's buffer of the first step (for the records).
         Stops at the first non-finite value (acc[A_FAILED] = 1 + its FINITE_CHECKS index).
     """
     count = pos.shape[0]
-    dt = c[K_DT]
-    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
     jammed = np.zeros(count, dtype=np.bool_)
     new_pos, new_vel, new_omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
     new_theta, new_body = np.empty(count), np.empty(N_BODY)
     stats = np.zeros(S_COUNT)
     first_active = np.zeros((count, 4), dtype=np.bool_)
     first_out = np.zeros((1, count, 4))
+    fine_c = c.copy()
+    fine_c[K_DT] = fine_step
+    fine_c[K_IMPLICIT] = 0.0
     for n in range(commands.shape[0]):
-        for i in range(count):
-            jammed[i] = body[B_TIME] >= jam_start[i]
-        active, out = step_kernel(
-            pos, vel, omega, theta, body, commands[n], ball_nut, c, p, sphere_offset, spalls,
-            jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta, new_pos,
-            new_vel, new_omega, new_theta, new_body, stats,
-        )  # fmt: skip
-        sum_vel = 0.0
-        sum_omega = 0.0
-        gravity_power = 0.0
-        for i in range(count):
-            sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
-            sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
-            gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
-        nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
-        gravity_power += c[K_WEIGHT] * nut_vel
-        checks = (
-            body[B_SPEED],
-            stats[S_MOTOR],
-            stats[S_DISSIPATION],
-            stats[S_SCREW_TORQUE],
-            nut_vel,
-            sum_vel,
-            sum_omega,
-        )
-        for j in range(len(checks)):
-            if not np.isfinite(checks[j]):
-                acc[A_FAILED] = 1.0 + j
-                acc[A_FAILED_VALUE] = checks[j]
+        parts = 1
+        step_c = c
+        j = 0
+        while j < parts:
+            for i in range(count):
+                jammed[i] = body[B_TIME] >= jam_start[i]
+            active, out = step_kernel(
+                pos, vel, omega, theta, body, commands[n], ball_nut, step_c, p, sphere_offset,
+                spalls, jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta,
+                new_pos, new_vel, new_omega, new_theta, new_body, stats,
+            )  # fmt: skip
+            if parts == 1 and fallback > 1 and c[K_IMPLICIT] != 0.0 and stats[S_UNCONVERGED] > 0.0:
+                acc[A_EVALS] += stats[S_EVALS]
+                acc[A_JACOBIANS] += stats[S_JACOBIANS]
+                acc[A_ITERATIONS] += stats[S_ITERATIONS]
+                acc[A_FALLBACKS] += 1.0
+                jac_meta[J_VALID] = 0
+                history_meta[H_NEXT_TIME] = math.nan
+                parts = fallback
+                step_c = fine_c
+                continue
+            sample = first_step + n if j == 0 else -1
+            gravity_power = _account(
+                sample, commands[n], step_c, pos, vel, omega, body, stats, acc, window_first
+            )
+            if acc[A_FAILED] > 0.0:
                 acc[A_FAILED_STEP] = first_step + n
                 return first_active, first_out
-        motor = acc[A_MOTOR]
-        power_in = motor * body[B_SPEED] + commands[n, 1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
-        diss = stats[S_DISSIPATION]
-        if acc[A_HAS_PREV] > 0.0:
-            acc[A_INPUT] += 0.5 * dt * (acc[A_PREV_POWER] + power_in)
-            acc[A_ABS_INPUT] += 0.5 * dt * (abs(acc[A_PREV_POWER]) + abs(power_in))
-            acc[A_DISSIPATED] += 0.5 * dt * (acc[A_PREV_DISS] + diss)
-        acc[A_PREV_POWER] = power_in
-        acc[A_PREV_DISS] = diss
-        acc[A_HAS_PREV] = 1.0
-        if first_step + n >= window_first:
-            acc[A_W_MOTOR] += motor
-            acc[A_W_SPEED] += body[B_SPEED]
-            acc[A_W_GRAVITY] += gravity_power
-            acc[A_W_COUNT] += 1.0
-            for j in range(N_MECHANISMS):
-                acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
-            for j in range(2):
-                acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
-        acc[A_EVALS] += stats[S_EVALS]
-        acc[A_JACOBIANS] += stats[S_JACOBIANS]
-        acc[A_ITERATIONS] += stats[S_ITERATIONS]
-        acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
-        acc[A_RESIDUAL] = stats[S_RESIDUAL]
-        if n == 0:
-            first_stats[:] = stats
-            first_active = active
-            first_out = out
-            acc[A_FIRST_GRAVITY] = gravity_power
-            acc[A_FIRST_INPUT] = acc[A_INPUT]
-            acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
-        acc[A_MOTOR] = stats[S_MOTOR]
-        pos[:, :] = new_pos
-        vel[:, :] = new_vel
-        omega[:, :] = new_omega
-        theta[:] = new_theta
-        body[:] = new_body
+            if n == 0 and j == 0:
+                first_stats[:] = stats
+                first_active = active
+                first_out = out
+                acc[A_FIRST_GRAVITY] = gravity_power
+                acc[A_FIRST_INPUT] = acc[A_INPUT]
+                acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
+            pos[:, :] = new_pos
+            vel[:, :] = new_vel
+            omega[:, :] = new_omega
+            theta[:] = new_theta
+            body[:] = new_body
+            j += 1
+        if parts > 1:  # back to the run's step
+            jac_meta[J_VALID] = 0
+            history_meta[H_NEXT_TIME] = math.nan
     return first_active, first_out
 
 
@@ -996,6 +1091,8 @@ def ensure_fresh_cache() -> bool:
             _locate,
             _approach_offsets,
             _actions,
+            _place,
+            _evaluate,
             _jacobians,
             _residual,
             _correction,
@@ -1003,6 +1100,7 @@ def ensure_fresh_cache() -> bool:
             _predict,
             _remember,
             step_kernel,
+            _account,
             run_steps,
             frozen_constants,
             compiled_stamp,

@@ -24,7 +24,11 @@ polynomial extrapolation of the last steps' velocities (PREDICTOR_ORDER) with th
 the contact actions with respect to those velocities (finite differences, kept between steps;
 refreshed when a correction is needed and it is older than ``jacobian_interval`` steps or the
 contact set changed, and within a step whenever an iteration contracts the residual by less
-than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler).
+than JACOBIAN_REFRESH_RATIO); positions move with the new velocities (semi-implicit Euler:
+the contact actions at the step's start positions) or, with ``implicit_positions``, the contact
+actions are those with the sphere centres and the screw angle at the end of the step (backward
+Euler in these positions, stable above the contact springs' ~3 us limit; docs/model.md section
+10).
 The step is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs
 the same algorithm compiled (kernels/dynamic_step.py, tested equal).
 
@@ -139,6 +143,10 @@ class DynamicModel:
         sphere_contacts: contacts between neighbouring spheres of a nut along the helix
             (paper section 2.5, :mod:`.sphere_contact`), inside the implicit step. They run
             in the Python step only (the compiled step does not carry them yet).
+        implicit_positions: evaluate the contact actions with the sphere centres at the end
+            of the step, x_n + dt v_{n+1}, and the screw at phi_n + dt Omega_{n+1} (backward
+            Euler in these positions; the nut positions stay at the step's start), instead of
+            at x_n, phi_n.
     """
 
     config: TwinConfig
@@ -150,6 +158,7 @@ class DynamicModel:
     faults: Faults = field(default_factory=Faults)
     compiled_step: bool = True
     sphere_contacts: bool = False
+    implicit_positions: bool = False
 
     def __post_init__(self) -> None:
         OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=0.0).validate()
@@ -206,6 +215,19 @@ class DynamicModel:
         self._kernel: _CompiledStep | None = None
         if self.compiled_step and self.backend == "compiled" and not self.sphere_contacts:
             self._kernel = _CompiledStep(self)
+
+    def set_integrator(self, time_step: float, implicit_positions: bool) -> None:
+        """Change the step [s] and the treatment of the sphere positions between two steps (a
+        scenario's start phase, simulation.py). The kept Jacobian (it holds dt) and the
+        predictor's history (equal steps) are dropped."""
+        if not (0.0 < time_step <= 1e-4):
+            raise OperatingPointError(f"time_step = {time_step} s must be in (0, 1e-4]")
+        self.time_step = time_step
+        self.implicit_positions = implicit_positions
+        self._jacobian = None
+        self._history, self._history_time, self._history_order = [], math.nan, 0
+        if self._kernel is not None:
+            self._kernel.set_integrator(time_step, implicit_positions)
 
     # ----------------------------------------------------------------- initial state
 
@@ -406,38 +428,44 @@ class DynamicModel:
 
     # ----------------------------------------------------------------- stepping
 
-    def _jacobians(self, state: DynamicState, base: Actions) -> Jacobians:
-        """Derivatives of each sphere's actions with respect to its own velocities and to the
-        shared ones (screw speed, its nut's velocity), by forward differences.
+    def _jacobians(
+        self, state: DynamicState, u: FloatArray, shared: FloatArray, base: Actions
+    ) -> Jacobians:
+        """Derivatives of each sphere's actions, evaluated at the step's trial state
+        (:meth:`_trial`) for sphere velocities ``u`` (B, 6) and screw / nut velocities
+        ``shared`` (3,) from the step's start ``state``, with respect to its own velocities and
+        to the shared ones (screw speed, its nut's velocity), by forward differences; ``base``:
+        the actions at ``u``, ``shared``.
 
-        A sphere's actions depend on its own velocities and the shared ones only, so perturbing
-        one component of all spheres at once gives every sphere's column: 6 + 1 + 1
-        evaluations for any number of spheres.
+        A sphere's actions depend on its own velocities (and, with implicit positions, its own
+        position x_n + dt v) and the shared ones only, so perturbing one component of all
+        spheres at once gives every sphere's column: 6 + 1 + 1 evaluations for any number of
+        spheres. With implicit positions a perturbed sphere velocity or screw speed moves the
+        sphere or the screw by dt times the perturbation: the columns are the total
+        derivatives d f(x_n + dt v, phi_n + dt Omega, u) / du.
         """
         count = len(base.screw_moment)
         own = np.zeros((count, 8, 6))  # rows: force (3), moment (3), screw share, nut share
-        shared = np.zeros((count, 8, 3))  # columns: screw speed, master nut, slave nut velocity
+        jac_shared = np.zeros((count, 8, 3))  # columns: screw speed, master, slave nut velocity
         y0 = base.stacked()
         r_b = self.geometry.ball_radius
         for j in range(6):
             for colour in self._colours:
-                v, w = state.ball_velocity.copy(), state.ball_omega.copy()
+                bumped = u.copy()
                 h = VELOCITY_STEP if j < 3 else VELOCITY_STEP / r_b
-                if j < 3:
-                    v[colour, j] += h
-                else:
-                    w[colour, j - 3] += h
-                column = (self.contact_actions(state, v, w).stacked() - y0) / h
+                bumped[colour, j] += h
+                actions = self.contact_actions(self._trial(state, bumped, shared))
+                column = (actions.stacked() - y0) / h
                 own[colour, :, j] = column[colour]
         h_screw = VELOCITY_STEP / self.geometry.pitch_radius
-        bumped = self.contact_actions(state, screw_speed=state.screw_speed + h_screw)
-        shared[:, :, 0] = (bumped.stacked() - y0) / h_screw
-        bumped = self.contact_actions(state, nut_velocity=state.nut_velocity + VELOCITY_STEP)
-        column = (bumped.stacked() - y0) / VELOCITY_STEP  # each sphere feels its own nut only
-        for k in (0, 1):
+        moved = self._trial(state, u, shared + np.array([h_screw, 0.0, 0.0]))
+        jac_shared[:, :, 0] = (self.contact_actions(moved).stacked() - y0) / h_screw
+        moved = self._trial(state, u, shared + np.array([0.0, VELOCITY_STEP, VELOCITY_STEP]))
+        column = (self.contact_actions(moved).stacked() - y0) / VELOCITY_STEP
+        for k in (0, 1):  # both nuts moved at once: each sphere feels its own nut only
             members = self.ball_nut == k
-            shared[members, :, 1 + k] = column[members]
-        return Jacobians(own, shared)
+            jac_shared[members, :, 1 + k] = column[members]
+        return Jacobians(own, jac_shared)
 
     def _with_velocities(
         self, state: DynamicState, u: FloatArray, shared: FloatArray
@@ -450,6 +478,22 @@ class DynamicModel:
             ball_omega=u[:, 3:].copy(),
             screw_speed=float(shared[0]),
             nut_velocity=shared[1:].copy(),
+        )
+
+    def _trial(self, state: DynamicState, u: FloatArray, shared: FloatArray) -> DynamicState:
+        """Where the step from ``state`` evaluates the contact actions for the end-of-step
+        sphere velocities ``u`` (B, 6) and screw / nut velocities ``shared`` (3,): at the
+        step's positions x_n (semi-implicit Euler), or with ``implicit_positions`` with the
+        sphere centres and the screw where these velocities put them, x_n + dt v [m] and
+        phi_n + dt Omega [rad] (backward Euler in these positions; the nut positions stay at
+        the step's start). The helix search starts from the state's helix parameters."""
+        trial = self._with_velocities(state, u, shared)
+        if not self.implicit_positions:
+            return trial
+        return replace(
+            trial,
+            ball_position=state.ball_position + self.time_step * u[:, :3],
+            screw_angle=state.screw_angle + self.time_step * float(shared[0]),
         )
 
     def _correction(
@@ -619,8 +663,7 @@ class DynamicModel:
                 u, shared, predicted = self._predict(state.time, u0, shared0, jammed)
             else:
                 u, shared, predicted = u0.copy(), shared0.copy(), False
-            start = self._with_velocities(state, u, shared)
-            actions = self.contact_actions(start)
+            actions = self.contact_actions(self._trial(state, u, shared))
             contact_set = actions.contacts.active
             stale = (
                 attempt == 1
@@ -638,12 +681,11 @@ class DynamicModel:
                     converged = True
                     break
                 if iteration == 0 and stale:  # refreshed when a correction needs it, at the start
-                    self._jacobian = self._jacobians(start, actions)
+                    self._jacobian = self._jacobians(state, u, shared, actions)
                     self._jacobian_contacts = contact_set.copy()
                     self._jacobian_age = 1
                 if iteration > 0 and not worst < JACOBIAN_REFRESH_RATIO * previous:
-                    trial = self._with_velocities(state, u, shared)
-                    self._jacobian = self._jacobians(trial, actions)  # at the iterate
+                    self._jacobian = self._jacobians(state, u, shared, actions)  # at the iterate
                     self._jacobian_contacts = actions.contacts.active.copy()
                     self._jacobian_age = 0
                 assert self._jacobian is not None  # refreshed above when there was none
@@ -651,7 +693,7 @@ class DynamicModel:
                 step = 1.0
                 for _ in range(STEP_BACKTRACKS + 1):  # backtrack while the residual grows
                     u_try, shared_try = u + step * du, shared + step * d_shared
-                    acts = self.contact_actions(self._with_velocities(state, u_try, shared_try))
+                    acts = self.contact_actions(self._trial(state, u_try, shared_try))
                     rb, rs, w = residual(acts, u_try, shared_try)
                     if w < worst or iteration == 0:
                         break
@@ -768,6 +810,7 @@ class _CompiledStep:
         consts[ks.K_SIN_HELIX] = model.zhat[0]
         consts[ks.K_COS_HELIX] = math.cos(geom.helix_angle)
         consts[ks.K_NUT_OFFSET0 : ks.K_NUT_OFFSET0 + 2] = model._nut_offset0
+        consts[ks.K_IMPLICIT] = float(model.implicit_positions)
         self.consts = consts
         self.params = np.array(scene_arrays(scene), dtype=np.float64)
         count = len(model.ball_nut)
@@ -782,6 +825,15 @@ class _CompiledStep:
         self.history = np.zeros((PREDICTOR_ORDER, count + 1, 6))
         self.history_meta = np.array([math.nan, 0.0, 0.0])
         self.stats = np.zeros(ks.S_COUNT)
+
+    def set_integrator(self, time_step: float, implicit_positions: bool) -> None:
+        """The step [s] and sphere-position treatment of the next steps; the kept Jacobian
+        and the predictor's history are dropped (DynamicModel.set_integrator)."""
+        ks = self.ks
+        self.consts[ks.K_DT] = time_step
+        self.consts[ks.K_IMPLICIT] = float(implicit_positions)
+        self.jac_meta[ks.J_VALID] = 0
+        self.history_meta[ks.H_NEXT_TIME] = math.nan
 
     def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
         """One compiled step; the same result as :meth:`DynamicModel._step` (to rounding)."""

@@ -33,7 +33,7 @@ _DEFAULT_CONTROLLER = SpeedController()
 
 
 def _num(
-    unit: str, lo: float, hi: float, doc: str, *, default: float, lo_open: bool = False
+    unit: str, lo: float, hi: float, doc: str, *, default: float | None, lo_open: bool = False
 ) -> Any:
     """A float field with unit, range [lo, hi] ((lo, hi] when ``lo_open``) and description."""
     meta = {"unit": unit, "min": lo, "max": hi, "min_open": lo_open, "doc": doc}
@@ -99,6 +99,18 @@ class Scenario:
     )
     time_step: float = _num("s", 0.0, 1e-4, "integration step", default=1e-6, lo_open=True)
     jacobian_interval: int = _int(1, 100_000, "steps between Jacobian refreshes", default=10)
+    fine_time_step: float | None = _num(
+        "s",
+        0.0,
+        1e-4,
+        "semi-implicit step of the start phase and of the redone steps that did not converge "
+        "with implicit positions (each time_step split into steps of this)",
+        default=None,
+        lo_open=True,
+    )
+    fine_until: float = _num(
+        "s", 0.0, 100.0, "end of the start phase run at fine_time_step (0: none)", default=0.0
+    )
     output_interval: float = _num(
         "s", 0.0, 100.0, "time-series sampling period", default=1e-4, lo_open=True
     )
@@ -117,6 +129,13 @@ class Scenario:
     sphere_contacts: bool = field(
         default=False,
         metadata={"doc": "contacts between neighbouring spheres (Python step, slower)"},
+    )
+    implicit_positions: bool = field(
+        default=False,
+        metadata={
+            "doc": "contact actions at the end-of-step positions (backward Euler in positions "
+            "too, stable above the contact springs' ~3 us limit) instead of the start's"
+        },
     )
     faults: Any = field(
         default=None,
@@ -151,10 +170,11 @@ class Scenario:
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
         if self.config is not None and (not isinstance(self.config, str) or not self.config):
             raise ConfigError(f"{where}: config must be a path string, got {self.config!r}")
-        if not isinstance(self.sphere_contacts, bool):
-            raise ConfigError(
-                f"{where}: sphere_contacts must be true or false, got {self.sphere_contacts!r}"
-            )
+        for flag in ("sphere_contacts", "implicit_positions"):
+            if not isinstance(getattr(self, flag), bool):
+                raise ConfigError(
+                    f"{where}: {flag} must be true or false, got {getattr(self, flag)!r}"
+                )
         if self.backend not in get_args(Backend):
             raise ConfigError(
                 f"{where}: backend = {self.backend!r} is not one of {list(get_args(Backend))}"
@@ -197,6 +217,7 @@ class Scenario:
                     f"{where}: {name} = {value} s is not a whole number of "
                     f"time_step = {self.time_step} s"
                 )
+        self._validate_fine_phase(where, window_start)
         for name in ("output_interval", "contact_output_interval"):
             if getattr(self, name) > self.duration:
                 raise ConfigError(
@@ -204,7 +225,48 @@ class Scenario:
                     f"{self.duration} s"
                 )
 
+    def _validate_fine_phase(self, where: str, window_start: float) -> None:
+        """fine_time_step divides time_step; fine_until: only with fine_time_step, a whole
+        number of time_step, before the averaging window."""
+        checks = []
+        if self.fine_time_step is not None:
+            checks.append(("time_step", self.time_step, self.fine_time_step))
+        if self.fine_until > 0.0:
+            if self.fine_time_step is None:
+                raise ConfigError(f"{where}: fine_until = {self.fine_until} s needs fine_time_step")
+            checks.append(("fine_until", self.fine_until, self.time_step))
+        for name, value, unit in checks:
+            ratio = value / unit
+            if abs(ratio - round(ratio)) > STEP_MULTIPLE_TOLERANCE * max(ratio, 1.0):
+                raise ConfigError(f"{where}: {name} = {value} s is not a whole number of {unit} s")
+        if self.fine_until > 0.0 and self.fine_until > window_start * (1.0 + 1e-12):
+            raise ConfigError(
+                f"{where}: fine_until = {self.fine_until} s is inside the averaging window, "
+                f"which starts at {window_start:.6g} s"
+            )
+
     # ------------------------------------------------------------------ derived
+
+    @property
+    def substeps(self) -> int:
+        """Steps of fine_time_step in one time_step during the start phase [-] (1: none)."""
+        if self.fine_until <= 0.0 or self.fine_time_step is None:
+            return 1
+        return max(1, round(self.time_step / self.fine_time_step))
+
+    @property
+    def fallback_substeps(self) -> int:
+        """With implicit sphere positions and fine_time_step: a step of time_step whose Newton
+        iterations do not converge is redone as this many semi-implicit steps of
+        fine_time_step [-] (1: never)."""
+        if not self.implicit_positions or self.fine_time_step is None:
+            return 1
+        return max(1, round(self.time_step / self.fine_time_step))
+
+    @property
+    def fine_steps(self) -> int:
+        """Steps of time_step in the start phase [-], each split into ``substeps``."""
+        return round(self.fine_until / self.time_step) if self.substeps > 1 else 0
 
     @property
     def controller(self) -> SpeedController:

@@ -20,6 +20,7 @@ integration step of the window, not only the recorded samples.
 from __future__ import annotations
 
 import math
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -280,6 +281,7 @@ def simulate(
         controller=scenario.controller,
         backend=scenario.backend,
         sphere_contacts=scenario.sphere_contacts,
+        implicit_positions=scenario.implicit_positions,
         faults=faults_from_mapping(
             scenario.faults, config.screw.balls_per_nut, f"{scenario.source or 'scenario'}: faults"
         ),
@@ -317,6 +319,7 @@ def simulate(
     )
     result.summary["start_time_unix_ns"] = started_unix_ns
     result.summary["unconverged_steps"] = model.unconverged_steps
+    result.summary["fallback_steps"] = run.fallbacks
     result.summary["unconverged"] = _unconverged_summary(
         run.unconverged, model.unconverged_steps, steps, scenario
     )
@@ -348,6 +351,18 @@ class _Run:
         self.ball_mass = make_scene(model.config, scenario.temperature, 0.0).ball_mass
         self.state = model.initial_state(0.0)
         self.steps = scenario.steps
+        # The start phase: its steps of time_step are each run as ``substeps`` semi-implicit
+        # steps of fine_time_step; from step ``fine_steps`` on, time_step with the scenario's
+        # treatment of the positions (model.set_integrator).
+        self.fine_steps = scenario.fine_steps
+        self.substeps = scenario.substeps
+        # With implicit sphere positions, a step that does not converge is redone from its
+        # start as ``fallback`` semi-implicit steps of fine_time_step, with its commands.
+        self.fallback = scenario.fallback_substeps
+        self.fallbacks = 0  # run steps redone as fallback substeps
+        if self.fine_steps > 0:
+            assert scenario.fine_time_step is not None  # fine_steps > 0 needs it
+            model.set_integrator(scenario.fine_time_step, False)
         self.every = scenario.steps_per(scenario.output_interval)
         self.contact_every = scenario.steps_per(scenario.contact_output_interval)
         self.window_first = self.steps - scenario.steps_per(scenario.average_window)
@@ -404,46 +419,92 @@ class _Run:
         )
         self.rec.n += 1
 
+    def _parts(self, k: int) -> tuple[int, float]:
+        """Steps of the model in run step ``k`` and their length [s]; switches the model to
+        the scenario's step at the end of the start phase."""
+        scenario = self.scenario
+        if self.fine_steps > 0 and k == self.fine_steps:
+            self.model.set_integrator(scenario.time_step, scenario.implicit_positions)
+        if k < self.fine_steps:
+            assert scenario.fine_time_step is not None  # fine_steps > 0 needs it
+            return self.substeps, scenario.fine_time_step
+        return 1, scenario.time_step
+
     def python(self) -> None:
-        """One Python iteration per step (the reference loop)."""
+        """One Python iteration per step of the model (the reference loop)."""
         model, scenario, state = self.model, self.scenario, self.state
         dt, steps = scenario.time_step, self.steps
         motor = 0.0  # N m: the controller starts at rest with zero error
         input_energy = dissipated = 0.0
-        previous: tuple[float, float] | None = None  # (input power, dissipation), last step
-        window = self.window
+        # (input power [W], dissipation [W], length [s]) of the last step
+        previous: tuple[float, float, float] | None = None
         for k in range(steps + 1):
             t = k * dt
-            commands = scenario.commands_at(t)
-            before = model.unconverged_steps
-            new_state, report = model.step(state, commands)
-            if model.unconverged_steps > before:
+            parts, step = self._parts(k)
+            redo = False  # the run step did not converge: redone as fallback substeps
+            unconverged = False  # one of its steps ended above the tolerance
+            j = 0
+            while j < parts:
+                t_model = t + j * step if parts > 1 else t
+                commands = scenario.commands_at(t if redo else t_model)
+                before = model.unconverged_steps
+                new_state, report = model.step(state, commands)
+                if parts == 1 and self.fallback > 1 and model.unconverged_steps > before:
+                    assert scenario.fine_time_step is not None  # fallback > 1 needs it
+                    model.unconverged_steps = before
+                    model.set_integrator(scenario.fine_time_step, False)
+                    parts, step, redo = self.fallback, scenario.fine_time_step, True
+                    self.fallbacks += 1
+                    continue
+                unconverged = unconverged or model.unconverged_steps > before
+                _check_finite(state, report, t_model)
+                power_in = model.input_power(state, commands, motor)
+                diss = report.dissipation
+                if previous is not None:
+                    interval = previous[2]
+                    input_energy += 0.5 * interval * (previous[0] + power_in)
+                    self.abs_input_energy += 0.5 * interval * (abs(previous[0]) + abs(power_in))
+                    dissipated += 0.5 * interval * (previous[1] + diss)
+                previous = (power_in, diss, step)
+                if j == 0:
+                    self._sample(k, commands, state, motor, report, (input_energy, dissipated))
+                if k == steps:
+                    break
+                state, motor = new_state, report.motor_torque
+                j += 1
+            if unconverged:  # listed once per run step, with its last step's residual
                 self.unconverged.append((k, model.last_step_residual))
-            _check_finite(state, report, t)
-            power_in = model.input_power(state, commands, motor)
-            diss = report.dissipation
-            if previous is not None:
-                input_energy += 0.5 * dt * (previous[0] + power_in)
-                self.abs_input_energy += 0.5 * dt * (abs(previous[0]) + abs(power_in))
-                dissipated += 0.5 * dt * (previous[1] + diss)
-            previous = (power_in, diss)
-            p_grav = _gravitational_power(model, self.ball_mass, state)
-            if k >= self.window_first:
-                window["motor"] += motor
-                window["speed"] += state.screw_speed
-                window["gravity"] += p_grav
-                window["count"] += 1
-                self.window_mechanisms += report.mechanism_dissipation
-                self.window_nuts += report.nut_dissipation
-            if k % self.every == 0:
-                self._record(t, commands, state, motor, report, p_grav, (input_energy, dissipated))
-            if k % self.contact_every == 0:
-                _record_contacts(self.rec, report, t)
             if k == steps:
-                break
-            state, motor = new_state, report.motor_torque
+                return
+            if redo:
+                model.set_integrator(dt, True)
             if self.progress is not None and (k + 1) % self.progress_every == 0:
                 self.progress((k + 1) / steps, time.perf_counter() - self.started)
+
+    def _sample(
+        self,
+        k: int,
+        commands: Commands,
+        state: DynamicState,
+        motor: float,
+        report: StepReport,
+        energies: tuple[float, float],
+    ) -> None:
+        """The Python loop's window sums and records at the start of run step ``k``."""
+        window = self.window
+        t = k * self.scenario.time_step
+        p_grav = _gravitational_power(self.model, self.ball_mass, state)
+        if k >= self.window_first:
+            window["motor"] += motor
+            window["speed"] += state.screw_speed
+            window["gravity"] += p_grav
+            window["count"] += 1
+            self.window_mechanisms += report.mechanism_dissipation
+            self.window_nuts += report.nut_dissipation
+        if k % self.every == 0:
+            self._record(t, commands, state, motor, report, p_grav, energies)
+        if k % self.contact_every == 0:
+            _record_contacts(self.rec, report, t)
 
     def _note_unconverged(self, ks: Any, step: int, acc: FloatArray, done: int) -> None:
         """Record step ``step``, just run alone by the compiled loop, if it ended unconverged
@@ -529,10 +590,12 @@ class _Run:
                 (k // self.contact_every + 1) * self.contact_every,
                 (k // self.progress_every + 1) * self.progress_every,
                 steps,
+                self.fine_steps if k < self.fine_steps else steps,
             )
             n = 1 if k == steps else stop - k
-            times = np.arange(k, k + n, dtype=np.float64) * dt
-            commands = np.empty((n, 2))
+            parts, step = self._parts(k)
+            times = _step_times(k, n, dt, parts, step)
+            commands = np.empty((len(times), 2))
             commands[:, 0] = scenario.speed * _smooth_steps(
                 times, scenario.speed_ramp_start, scenario.speed_ramp_end
             )
@@ -542,13 +605,22 @@ class _Run:
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
             snapshot = [a.copy() for a in mutable]
 
+            # Steps of the start phase are before the window (Scenario validation).
+            window_first = self.window_first if parts == 1 else sys.maxsize
+
             def steps_from(
-                first: int, last: int, commands: FloatArray = commands, k: int = k
+                first: int,
+                last: int,
+                commands: FloatArray = commands,
+                k: int = k,
+                parts: int = parts,
+                window_first: int = window_first,
             ) -> tuple[Any, Any]:
                 return ks.run_steps(
-                    first, self.window_first, commands[first - k : last - k], pos, vel, omega,
-                    theta, body, kernel.ball_nut, kernel.consts, kernel.params,
+                    first, window_first, commands[(first - k) * parts : (last - k) * parts], pos,
+                    vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
+                    self.fallback if parts == 1 else 1, scenario.fine_time_step or dt,
                 )  # fmt: skip
 
             active, buffer = steps_from(k, k + n)
@@ -561,8 +633,10 @@ class _Run:
             else:
                 self._note_unconverged(ks, k, acc, done[3])  # n == 1 or nothing new
             if acc[ks.A_FAILED] > 0.0:
+                # body is left at the start of the failed step
+                failed_at = acc[ks.A_FAILED_STEP] * dt if parts == 1 else body[ks.B_TIME]
                 raise SolverError(
-                    f"dynamic model diverged at t = {acc[ks.A_FAILED_STEP] * dt:.7g} s: "
+                    f"dynamic model diverged at t = {failed_at:.7g} s: "
                     f"{ks.FINITE_CHECKS[int(acc[ks.A_FAILED]) - 1]} is "
                     f"{acc[ks.A_FAILED_VALUE]} (last screw speed {body[ks.B_SPEED]:.6g} rad/s)"
                 )
@@ -580,7 +654,8 @@ class _Run:
             model.last_step_residual = float(acc[ks.A_RESIDUAL])
             done = totals
             if record or record_contacts:
-                # The first step's contacts, evaluated at the positions of ``before``.
+                # The first step's contacts: at the positions of ``before`` (semi-implicit) or
+                # at its end (implicit positions; the record's energy is then evaluated anew).
                 contacts = evaluation_from_buffer(active, buffer)
                 report = _report_from_stats(ks, first_stats, contacts)
                 t = k * dt
@@ -594,7 +669,7 @@ class _Run:
                         report,
                         float(acc[ks.A_FIRST_GRAVITY]),
                         (float(acc[ks.A_FIRST_INPUT]), float(acc[ks.A_FIRST_DISSIPATED])),
-                        contacts,
+                        None if model.implicit_positions else contacts,
                     )
                 if record_contacts:
                     _record_contacts(self.rec, report, t)
@@ -609,6 +684,7 @@ class _Run:
         self.window_mechanisms = acc[ks.A_W_MECHANISMS : ks.A_W_MECHANISMS + len(MECHANISMS)].copy()
         self.window_nuts = acc[ks.A_W_NUTS : ks.A_W_NUTS + 2].copy()
         self.abs_input_energy = float(acc[ks.A_ABS_INPUT])
+        self.fallbacks = int(acc[ks.A_FALLBACKS])
 
 
 def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
@@ -618,6 +694,15 @@ def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
         return np.where(t >= t1, 1.0, 0.0)
     s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
     return np.where(t >= t1, 1.0, np.where(t <= t0, 0.0, s * s * (3.0 - 2.0 * s)))
+
+
+def _step_times(k: int, n: int, dt: float, parts: int, step: float) -> FloatArray:
+    """Start times [s] of the model's steps in run steps k .. k + n - 1 of ``dt`` [s], each
+    run as ``parts`` steps of ``step`` [s] (the Python loop's arithmetic)."""
+    starts = np.arange(k, k + n, dtype=np.float64) * dt
+    if parts == 1:
+        return starts
+    return np.asarray((starts[:, None] + np.arange(parts) * step).ravel())
 
 
 def _body_state(

@@ -44,13 +44,23 @@ def test_frozen_constants_are_those_of_the_reference() -> None:
     )
 
 
-@pytest.mark.parametrize(("faults", "interval"), [(Faults(), 1), (DEFECTS, 5)])
-def test_compiled_step_follows_the_reference_trajectory(faults: Faults, interval: int) -> None:
+@pytest.mark.parametrize(
+    ("faults", "interval", "implicit"),
+    [(Faults(), 1, False), (DEFECTS, 5, False), (Faults(), 1, True), (DEFECTS, 5, True)],
+)
+def test_compiled_step_follows_the_reference_trajectory(
+    faults: Faults, interval: int, implicit: bool
+) -> None:
     screw = dataclasses.replace(BASE.screw, balls_per_nut=2)
     config = dataclasses.replace(BASE, screw=screw)
     models = [
         DynamicModel(
-            config, 293.15, jacobian_interval=interval, faults=faults, compiled_step=compiled
+            config,
+            293.15,
+            jacobian_interval=interval,
+            faults=faults,
+            compiled_step=compiled,
+            implicit_positions=implicit,
         )
         for compiled in (False, True)
     ]

@@ -57,6 +57,20 @@ def test_defaults_are_the_paper_protocol(tmp_path: Path) -> None:
         ({"output_interval": 1.5e-6}, "output_interval = 1.5e-06 s is not a whole number"),
         ({"backend": "gpu"}, "backend = 'gpu' is not one of"),
         ({"sphere_contacts": "yes"}, "sphere_contacts must be true or false, got 'yes'"),
+        ({"implicit_positions": 1}, "implicit_positions must be true or false, got 1"),
+        ({"fine_until": 0.01}, "fine_until = 0.01 s needs fine_time_step"),
+        (
+            {"time_step": 5e-6, "fine_time_step": 2e-6, "fine_until": 0.01},
+            "time_step = 5e-06 s is not a whole number of 2e-06 s",
+        ),
+        (
+            {"time_step": 1e-5, "fine_time_step": 2e-6, "fine_until": 1.5e-5},
+            "fine_until = 1.5e-05 s is not a whole number of 1e-05 s",
+        ),
+        (
+            {"time_step": 1e-5, "fine_time_step": 2e-6, "fine_until": 0.5},
+            "fine_until = 0.5 s is inside the averaging window",
+        ),
         ({"faults": {"jams": [{"nut": 0, "index": 1}]}}, "faults.jams[0].start: missing"),
         ({"controller_integral": -5.0}, "controller_integral = -5.0 is outside"),
         ({"duration": True}, "duration: expected a number in s"),
