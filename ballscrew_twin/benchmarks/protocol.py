@@ -39,6 +39,7 @@ import numpy as np
 from ..errors import BallscrewTwinError
 from ..models.scenario import Scenario, load_scenario
 from ..models.simulation import SimulationResult, simulate
+from ..units import CELSIUS_ZERO, RPM
 
 #: One-line help of this benchmark.
 DESCRIPTION = "cost of the paper protocol on the dynamic model (and its time-step convergence)"
@@ -47,8 +48,6 @@ SCENARIO_DIR = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 PAPER_TRANSIENT = 0.1  # s, end of the paper's speed ramp
 PAPER_DURATION = 0.6  # s, the paper's protocol
 NMM_PER_NM = 1e3
-RPM = math.pi / 30.0  # rad/s per rpm
-CELSIUS_ZERO = 273.15  # K
 
 #: Figures of earlier runs (docs/benchmarks.md), printed beside a run of the same scenario and
 #: duration: (scenario name, duration [s]) -> (date, time step [s] of the semi-implicit step

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from ..errors import OperatingPointError
+from ..errors import ConfigError, OperatingPointError
 from ..params import TwinConfig
 from ..physics import geometry
 from .base import DISSIPATION_KEYS, OperatingPoint
@@ -175,7 +175,7 @@ class DynamicModel:
 
             self._contacts = evaluate_contacts_compiled
         elif self.backend != "reference":
-            raise ValueError(f"backend = {self.backend!r} must be compiled or reference")
+            raise ConfigError(f"backend = {self.backend!r} must be compiled or reference")
         count = self.config.screw.balls_per_nut
         self.ball_nut = np.repeat(np.array([0, 1]), count)
         self.ball_index = np.tile(np.arange(count), 2)
