@@ -549,11 +549,12 @@ class HealthMonitor:
         [N m], the drag's change from the nearest commissioned temperature) and the
         ``transient`` variance of :meth:`transient_variance`."""
         b = self.baseline
-        outside = b.temperature_error * b.temperature_distance(block.temperature) * abs(drag)
+        speed = float(np.mean(block.speed))
+        outside = b.temperature_error * b.temperature_distance(block.temperature, speed)
         shift = b.extrapolation_error(edge_change)
-        error = b.error_at(float(np.mean(block.speed)), block.temperature)
+        error = b.error_at(speed, block.temperature)
         return b.torque_gain * math.sqrt(
-            (error * drag) ** 2 + b.error_absolute**2 + outside**2 + shift**2 + transient
+            (error * drag) ** 2 + b.error_absolute**2 + (outside * drag) ** 2 + shift**2 + transient
         )
 
     def _process(self, block: Block) -> HealthSample:

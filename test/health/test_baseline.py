@@ -97,9 +97,13 @@ def test_shape_and_error_bands_follow_their_definitions() -> None:
     assert [b.error_at(v, 295.0) for v in inside] == list(b.error_bands)
     assert b.error_at(-inside[2], 295.0) == b.error_bands[2]
     assert replace(b, error_bands=()).error_at(5.0, 295.0) == 0.012
-    assert b.temperature_distance(295.0) == 0.0
-    assert b.temperature_distance(280.0) == pytest.approx(10.0)
-    assert b.temperature_distance(310.0) == pytest.approx(10.0)
+    # below 3 rad/s the band saw the whole range, 290-300 K
+    assert b.temperature_distance(295.0, 1.0) == 0.0
+    assert b.temperature_distance(280.0, -1.0) == pytest.approx(10.0)
+    assert b.temperature_distance(310.0, 1.0) == pytest.approx(10.0)
+    # at 50 rad/s (30-100 rad/s) only 295-299 K, at 500 rad/s only 300 K
+    assert b.temperature_distance(293.0, 50.0) == pytest.approx(2.0)
+    assert b.temperature_distance(295.0, -500.0) == pytest.approx(5.0)
     assert math.isfinite(b.error_absolute)
 
 
