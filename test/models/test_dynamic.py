@@ -150,13 +150,16 @@ def test_energy_is_conserved_without_friction_and_damping() -> None:
     assert max(first_fine, last_fine) < max(first, last)  # smaller with the smaller step
 
 
-def _nut_position_after(dt: float, horizon: float) -> float:
+def _nut_position_after(dt: float, horizon: float, implicit: bool = False) -> float:
+    """The two nuts' separation [m] after a smooth preload ramp of ``horizon`` [s] in steps
+    of ``dt`` [s], with implicit sphere positions or not."""
     model = DynamicModel(
         frictionless(1),
         temperature=293.15,
         time_step=dt,
         jacobian_interval=10**9,
         controller=SpeedController(0.0, 0.0),
+        implicit_positions=implicit,
     )
     state = model.initial_state(200.0)
     for _ in range(round(horizon / dt)):
@@ -237,31 +240,15 @@ def test_implicit_positions_are_stable_beyond_the_explicit_limit() -> None:
     assert implicit <= 0.0, (implicit, kinetic)
 
 
-def _nut_separation_after(dt: float, horizon: float, implicit: bool) -> float:
-    model = DynamicModel(
-        frictionless(1),
-        temperature=293.15,
-        time_step=dt,
-        jacobian_interval=10**9,
-        controller=SpeedController(0.0, 0.0),
-        implicit_positions=implicit,
-    )
-    state = model.initial_state(200.0)
-    for _ in range(round(horizon / dt)):
-        x = min(state.time / horizon, 1.0)
-        state, _ = model.step(state, Commands(0.0, 200.0 + 100.0 * (3 * x * x - 2 * x**3)))
-    return float(state.nut_position[0] - state.nut_position[1])
-
-
 def test_implicit_positions_converge_to_the_semi_implicit_solution() -> None:
     """With implicit sphere positions the steps of 4, 2 and 1 us, all beyond or at the
     semi-implicit limit, converge to the semi-implicit solution at 0.025 us (an independent
     integration of the same equations) at least at first order (measured: errors 3.1e-10,
     7.1e-11, 1.5e-11 m of 3.9e-6 m, order 2.1 and 2.3)."""
     horizon = 2e-4
-    reference = _nut_separation_after(2.5e-8, horizon, implicit=False)
+    reference = _nut_position_after(2.5e-8, horizon, implicit=False)
     errors = [
-        abs(_nut_separation_after(dt, horizon, implicit=True) - reference)
+        abs(_nut_position_after(dt, horizon, implicit=True) - reference)
         for dt in (4e-6, 2e-6, 1e-6)
     ]
     orders = [math.log2(errors[k] / errors[k + 1]) for k in range(2)]

@@ -35,6 +35,18 @@ def _env() -> dict[str, str]:
     return env
 
 
+def _finished(args: list[str]) -> subprocess.CompletedProcess[str]:
+    """``args`` run to their end with no input, on this test's ROS domain; output captured."""
+    return subprocess.run(
+        args,
+        capture_output=True,
+        text=True,
+        env=_env(),
+        timeout=TIMEOUT,
+        stdin=subprocess.DEVNULL,
+    )
+
+
 @pytest.mark.parametrize(
     "name", ["twin_node", "health_node", "twin_demo_commander", "ballscrew-twin"]
 )
@@ -81,13 +93,8 @@ def test_node_runs_with_params_file_and_stops_on_sigint(name: str, said: str) ->
 
 @pytest.mark.parametrize("command", [["twin_node"], ["ballscrew-twin", "node"]])
 def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
-    result = subprocess.run(
-        [_script(command[0]), *command[1:], "--ros-args", "-p", "sim_rate_hz:=5000.0"],
-        capture_output=True,
-        text=True,
-        env=_env(),
-        timeout=TIMEOUT,
-        stdin=subprocess.DEVNULL,
+    result = _finished(
+        [_script(command[0]), *command[1:], "--ros-args", "-p", "sim_rate_hz:=5000.0"]
     )
     assert result.returncode == 1
     assert "sim_rate_hz" in result.stderr
@@ -98,26 +105,14 @@ def test_node_refuses_out_of_range_parameter(command: list[str]) -> None:
     [("torque_type:=Twist", "torque_type"), ("stale_after:=100.0", "stale_after")],
 )
 def test_health_node_refuses_a_bad_parameter(parameter: str, named: str) -> None:
-    result = subprocess.run(
-        [_script("health_node"), "--ros-args", "-p", parameter],
-        capture_output=True,
-        text=True,
-        env=_env(),
-        timeout=TIMEOUT,
-        stdin=subprocess.DEVNULL,
-    )
+    result = _finished([_script("health_node"), "--ros-args", "-p", parameter])
     assert result.returncode == 1
     assert named in result.stderr and "Traceback" not in result.stderr
 
 
 def test_node_refuses_unreadable_params_file(tmp_path: Path) -> None:
-    result = subprocess.run(
-        [_script("ballscrew-twin"), "node", "--params-file", str(tmp_path / "missing.yaml")],
-        capture_output=True,
-        text=True,
-        env=_env(),
-        timeout=TIMEOUT,
-        stdin=subprocess.DEVNULL,
+    result = _finished(
+        [_script("ballscrew-twin"), "node", "--params-file", str(tmp_path / "missing.yaml")]
     )
     assert result.returncode == 1
     assert "missing.yaml" in result.stderr and "Traceback" not in result.stderr
