@@ -110,16 +110,23 @@ def _total_energy(model: DynamicModel, state, preload: float) -> float:  # type:
     return sum(terms.values()) - preload * separation  # the preload's potential
 
 
-def _energy_errors(dt: float, duration: float) -> tuple[float, float, float]:
-    """Largest |E(t) - E(0)| over the first and the last quarter of the run, and KE(0) [J]."""
-    preload = 300.0
-    model = DynamicModel(
-        frictionless(),
+def _undriven(dt: float, balls: int = 2, implicit: bool = False) -> DynamicModel:
+    """The frictionless screw of ``balls`` spheres per nut at 20 C, stepped at ``dt`` [s] with
+    a Jacobian kept all run, no speed control, sphere positions implicit or not."""
+    return DynamicModel(
+        frictionless(balls),
         temperature=293.15,
         time_step=dt,
         jacobian_interval=10**9,
         controller=SpeedController(0.0, 0.0),
+        implicit_positions=implicit,
     )
+
+
+def _energy_errors(dt: float, duration: float) -> tuple[float, float, float]:
+    """Largest |E(t) - E(0)| over the first and the last quarter of the run, and KE(0) [J]."""
+    preload = 300.0
+    model = _undriven(dt)
     state = model.initial_state(preload)
     rng = np.random.default_rng(3)
     state.ball_velocity += rng.normal(0.0, 0.02, state.ball_velocity.shape)
@@ -153,14 +160,7 @@ def test_energy_is_conserved_without_friction_and_damping() -> None:
 def _nut_position_after(dt: float, horizon: float, implicit: bool = False) -> float:
     """The two nuts' separation [m] after a smooth preload ramp of ``horizon`` [s] in steps
     of ``dt`` [s], with implicit sphere positions or not."""
-    model = DynamicModel(
-        frictionless(1),
-        temperature=293.15,
-        time_step=dt,
-        jacobian_interval=10**9,
-        controller=SpeedController(0.0, 0.0),
-        implicit_positions=implicit,
-    )
+    model = _undriven(dt, balls=1, implicit=implicit)
     state = model.initial_state(200.0)
     for _ in range(round(horizon / dt)):
         x = min(state.time / horizon, 1.0)
@@ -205,14 +205,7 @@ def _energy_drift(dt: float, implicit: bool, duration: float = 1e-3) -> tuple[fl
     """Largest E(t) - E(0) [J] (inf once a value is not finite) of the frictionless preloaded
     spheres with random velocities, and KE(0) [J]."""
     preload = 300.0
-    model = DynamicModel(
-        frictionless(),
-        temperature=293.15,
-        time_step=dt,
-        jacobian_interval=10**9,
-        controller=SpeedController(0.0, 0.0),
-        implicit_positions=implicit,
-    )
+    model = _undriven(dt, implicit=implicit)
     state = model.initial_state(preload)
     rng = np.random.default_rng(3)
     state.ball_velocity += rng.normal(0.0, 0.02, state.ball_velocity.shape)
