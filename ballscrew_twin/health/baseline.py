@@ -20,9 +20,10 @@ and compares with the 1-sigma uncertainty
 the sensor noise of the block mean, the twin's own error after commissioning (relative and
 absolute), the inertia's, the speed interpolation's at the block edges (c_k the second
 differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`), the growth
-of the error with the distance d_T [K] of the temperature from the commissioned range, and
-outside that range the part of the twin's change from the nearest commissioned temperature
-T_edge that a fitted shift dT leaves uncertain (:meth:`Baseline.extrapolation_error`).
+of the error with the distance d_T [K] of the temperature from the range commissioned in the
+block's speed band (:meth:`Baseline.temperature_distance`), and outside that range the part
+of the twin's change from the nearest commissioned temperature T_edge that a fitted shift dT
+leaves uncertain (:meth:`Baseline.extrapolation_error`).
 :func:`.commission.commission` fits all of them on a healthy recording; without one the nominal
 baseline (:meth:`Baseline.nominal`) is used with the default model error of the accuracy
 benchmark. Saved as YAML (SI units, every field documented in the file).
@@ -76,7 +77,8 @@ FIELD_DOCS: dict[str, str] = {
     "error_absolute": "e_abs, twin error floor (1 sigma) [N m]",
     "inertia_error": "e_J, relative error of the inertia torque (1 sigma) [-]",
     "unseen_error": "e_rel where the residual surface has no support (not commissioned) [-]",
-    "temperature_error": "e_T, relative error growth per K outside the commissioned range [1/K]",
+    "temperature_error": "e_T, relative error growth per K outside the temperatures commissioned "
+    "in the block's speed band [1/K]",
     "temperature_min": "lowest temperature of the commissioning recording [K]",
     "temperature_max": "highest temperature of the commissioning recording [K]",
     "band_temperature_min": "lowest temperature commissioned in each speed band of error_bands "
