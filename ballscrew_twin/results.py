@@ -31,7 +31,7 @@ import numpy as np
 from .errors import BallscrewTwinError, ResultsError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation import MECHANISMS, SimulationResult
-from .units import CELSIUS_ZERO
+from .units import CELSIUS_ZERO, ns_to_stamp
 
 #: Folder of the message definitions (repository layout).
 MSG_DIR = Path(__file__).resolve().parents[1] / "msg_defs" / "msg"
@@ -150,7 +150,8 @@ def _nanoseconds(seconds: float) -> int:
 def _stamp(store: Any, t_ns: int) -> Any:
     """builtin_interfaces/Time of ``t_ns``."""
     time_cls = store.types["builtin_interfaces/msg/Time"]
-    return time_cls(sec=t_ns // 10**9, nanosec=t_ns % 10**9)
+    sec, nanosec = ns_to_stamp(t_ns)
+    return time_cls(sec=sec, nanosec=nanosec)
 
 
 def write_bag(

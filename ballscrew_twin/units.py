@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from decimal import Decimal
+from typing import Any
 
 #: rad/s per rpm: a speed in rpm times RPM is in rad/s.
 RPM = 2.0 * math.pi / 60.0
@@ -16,6 +17,16 @@ RPM = 2.0 * math.pi / 60.0
 CELSIUS_ZERO = 273.15
 #: Nanoseconds per second: ROS times and stamps are integer nanoseconds.
 NS_PER_S = 1_000_000_000
+
+
+def stamp_to_ns(stamp: Any) -> int:
+    """A builtin_interfaces/Time (``sec``, ``nanosec``) as integer nanoseconds [ns]."""
+    return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
+
+
+def ns_to_stamp(ns: int) -> tuple[int, int]:
+    """Integer nanoseconds [ns] as the (``sec``, ``nanosec``) of a builtin_interfaces/Time."""
+    return divmod(ns, NS_PER_S)
 
 
 def celsius_to_kelvin(celsius: float) -> float:

@@ -49,7 +49,7 @@ import yaml
 from numpy.typing import NDArray
 
 from ..errors import BagError
-from ..units import CELSIUS_ZERO
+from ..units import CELSIUS_ZERO, stamp_to_ns
 
 FloatArray = NDArray[np.float64]
 
@@ -792,7 +792,7 @@ def _stamp_ns(msg: Any) -> int:
     header = getattr(msg, "header", None)
     if header is None:
         return 0
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+    return stamp_to_ns(header.stamp)
 
 
 def _joint_index(msg: Any, joint: str) -> int | None:

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from ..errors import BagError, ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
-from ..units import CELSIUS_ZERO
+from ..units import CELSIUS_ZERO, ns_to_stamp
 from .bags import TRUTH_KEY, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
 from .bench_units import BenchUnit, UnitTorqueTable, presliding_reference
@@ -546,7 +546,8 @@ def write_bench_bag(
     no_effort = np.zeros(0, dtype=np.float64)
 
     def header(ns: int) -> Any:
-        return header_cls(stamp=time_cls(sec=ns // 10**9, nanosec=ns % 10**9), frame_id=FRAME_ID)
+        sec, nanosec = ns_to_stamp(ns)
+        return header_cls(stamp=time_cls(sec=sec, nanosec=nanosec), frame_id=FRAME_ID)
 
     def torque_msg(ns: int, v: float) -> Any:
         z = vector(x=0.0, y=0.0, z=v)

@@ -50,6 +50,7 @@ from typing import Any
 
 from ..errors import BallscrewTwinError
 from ..health.bags import RawBag, RawMessage, open_raw_bag
+from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
 
 CLOCK_TOPIC = "/clock"
@@ -202,7 +203,7 @@ class BagPlayer:
     def _publish_clock(self, bag_ns: int) -> None:
         if self.clock and bag_ns > self._last_clock_ns:
             msg = self._clock_cls()
-            msg.clock.sec, msg.clock.nanosec = divmod(bag_ns, 1_000_000_000)
+            msg.clock.sec, msg.clock.nanosec = ns_to_stamp(bag_ns)
             self.clock_pub.publish(msg)
             self._last_clock_ns = bag_ns
 

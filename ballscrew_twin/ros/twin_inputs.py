@@ -21,7 +21,7 @@ from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
 from ..models.base import OperatingPoint
-from ..units import NS_PER_S, celsius_to_kelvin
+from ..units import NS_PER_S, celsius_to_kelvin, stamp_to_ns
 from .inputs import (
     InputChannel,
     InputLimits,
@@ -147,7 +147,7 @@ class TwinInputs:
         a header ``stamp`` (builtin_interfaces/Time) is checked for order and age."""
         with self._lock:
             now = self._now_ns()
-            stamp_ns = 0 if stamp is None else stamp.sec * NS_PER_S + stamp.nanosec
+            stamp_ns = 0 if stamp is None else stamp_to_ns(stamp)
             if reason is None:
                 max_age = float(self._node.get_parameter("max_stamp_age").value)
                 reason = check_stamp(

@@ -35,7 +35,7 @@ from rclpy.timer import Timer
 from ..errors import BallscrewTwinError
 from ..models.base import TwinOutput
 from ..params import load_config
-from ..units import NS_PER_S
+from ..units import NS_PER_S, ns_to_stamp
 from . import cdr, diagnostics, fidelity, twin_diagnostics
 from .executors import make_executor
 from .node_parameters import TableNode
@@ -361,7 +361,7 @@ class TwinNode(TableNode):
         step_time = time.perf_counter() - start
         self.ticks.window.failures += failed
         tick_ns = self.scheduler.time_of(index)
-        sec, nanosec = divmod(tick_ns, NS_PER_S)
+        sec, nanosec = ns_to_stamp(tick_ns)
         # Simulated time per compute time (>= 1 keeps up); below the clock's resolution it is
         # counted as one nanosecond.
         rtf = period / max(step_time, 1e-9)
