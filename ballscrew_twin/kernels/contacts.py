@@ -72,7 +72,8 @@ K_LOG_POLY = (0.5, 0.12498593597, 0.06880248576, 0.03328355346, 0.00441787012)
 E_POLY = (1.0, 0.44325141463, 0.06260601220, 0.04757383546, 0.01736506451)
 E_LOG_POLY = (0.0, 0.24998368310, 0.09200180037, 0.04069697526, 0.00526449639)
 
-# physics/film.py has no module constant used here (Eq. 30's 0.75 is not needed).
+# physics/film.py (D15, D16; Eq. 30's 0.75 is not needed)
+ENTRAINMENT_SMOOTHING_SPEED = 1e-4  # m/s, film.ENTRAINMENT_SMOOTHING_SPEED
 
 # physics/traction.py (Eq. 37, D7)
 LOAD_SHARE_A = 1.2
@@ -335,6 +336,12 @@ def viscosity_pressure(eta_t, pressure, z):
 
 # ----------------------------------------------------------------------------- film (2.3)
 @njit(inline="always")
+def smoothed_speed(entrainment):
+    """|u|_e = sqrt(u^2 + u_e^2) [m/s], the entrainment speed the film laws take (film.py, D16)."""
+    return math.sqrt(entrainment * entrainment + ENTRAINMENT_SMOOTHING_SPEED**2)
+
+
+@njit(inline="always")
 def central_film_nondimensional(m, ell, lam):
     """Nijenbanning-Venner-Moes central film H_c(M, L, lambda) [-] (Eq. 26a-g, film.py).
 
@@ -372,13 +379,13 @@ def central_film_nondimensional(m, ell, lam):
 def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alpha_pv):
     """Isothermal central film h_c = R_x sqrt(eta0 u_s / (E' R_x)) H_c [m] (Eq. 26a, D4).
 
-    Moes groups on the sum velocity u_s = 2|u| (Eqs. 27-29): M = F/(E' R_x^2) (E' R_x /
+    Moes groups on the sum velocity u_s = 2|u|_e (Eqs. 27-29, D16): M = F/(E' R_x^2) (E' R_x /
     (eta0 u_s))^(3/4), L = alpha E' (E' R_x / (eta0 u_s))^(-1/4), lambda = R_x / R_y.
-    Zero when u is zero or F_n below FILM_MIN_LOAD (film.py, D15).
+    Zero when F_n is below FILM_MIN_LOAD (film.py, D15).
     """
-    u_sum = 2.0 * abs(entrainment)
-    if not (u_sum > 0.0 and f_n > FILM_MIN_LOAD):
+    if not f_n > FILM_MIN_LOAD:
         return 0.0
+    u_sum = 2.0 * smoothed_speed(entrainment)
     speed_group = e_reduced * r_x / (eta_atm * u_sum)
     ln_group = math.log(speed_group)
     m = f_n / (e_reduced * (r_x * r_x)) * math.exp(0.75 * ln_group)
@@ -392,10 +399,11 @@ def film_central_isothermal(f_n, entrainment, eta_atm, r_x, r_y, e_reduced, alph
 def thermal_reduction_factor(max_pressure, e_reduced, eta_atm, beta, entrainment, k_h, srr):
     """Gupta inlet-heating factor C in [0, 1] (Eqs. 31-32, D5).
 
-    L_th = eta0 beta u^2 / k_h; C = (1 - 13.2 (p_h/E') L_th^0.42) /
+    L_th = eta0 beta |u|_e^2 / k_h (D16); C = (1 - 13.2 (p_h/E') L_th^0.42) /
     (1 + 0.213 (1 + 2.23 SRR^0.83) L_th^0.64), clamped to [0, 1].
     """
-    lth = max(eta_atm * beta * (entrainment * entrainment) / k_h, 0.0)
+    speed = smoothed_speed(entrainment)
+    lth = max(eta_atm * beta * (speed * speed) / k_h, 0.0)
     srr_abs = abs(srr)
     ln_lth = math.log(lth) if lth > 0.0 else -np.inf
     srr_pow = math.exp(0.83 * math.log(srr_abs)) if srr_abs > 0.0 else 0.0
@@ -446,13 +454,13 @@ def sliding_friction(speed, eta, limit, film_safe, area, share, f_n, tau_e, mu_d
 def rolling_resistance_force(f_n, entrainment, eta_atm, r_x, r_y, e_reduced):
     """Hydrodynamic rolling resistance FR [N] (Eqs. 39-41), W = F/(E' R_x^2), U = eta0 u/(E' R_x).
 
-    FR = (FR_IVR - FR_EHL) / (1 + 0.0841 lam^0.6029 W U^-0.75) + FR_EHL, zero without load or
-    entrainment.
+    FR = (FR_IVR - FR_EHL) / (1 + 0.0841 lam^0.6029 W U^-0.75) + FR_EHL, zero without load; u
+    is the smoothed speed |u|_e (D16).
     """
     f = max(f_n, 0.0)
-    u = abs(entrainment)
-    if not (f > FILM_MIN_LOAD and u > 0.0):  # a film effect: none without a film
+    if not f > FILM_MIN_LOAD:  # a film effect: none without a film
         return 0.0
+    u = smoothed_speed(entrainment)
     ln_lam = math.log(r_x / r_y)
     load = f / (e_reduced * (r_x * r_x))
     ln_speed = math.log(eta_atm * u / (e_reduced * r_x))
@@ -795,10 +803,11 @@ def contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, s
     u1 = v_ball_point[0] - v_contact[0]
     u2 = v_groove[0] - v_contact[0]
     entrain = 0.5 * (u1 + u2)
-    e_sign = 1.0 if entrain >= 0.0 else -1.0
+    e_share = entrain / smoothed_speed(entrain)  # FR's share along t (rolling.py, D16)
     omega_rel = _sub(omega, omega_groove)
     spin = _dot(omega_rel, d)
     roll_dir, roll = _unit(_sub(omega_rel, _scale(spin, d)))
+    roll_share = ball_radius * roll / smoothed_speed(ball_radius * roll)  # MER, MC (D16)
 
     lub_c = 0.0
     dry_c = 0.0
@@ -814,7 +823,7 @@ def contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, s
     fp = 0.0
     if active:
         # Lubrication (Eqs. 26-33, 37-38).
-        srr = abs(u1 - u2) / max(abs(entrain), 1e-12)
+        srr = abs(u1 - u2) / smoothed_speed(entrain)
         h_iso = film_central_isothermal(f_n, entrain, viscosity_atm, r_x, r_y, e_reduced, alpha_pv)
         c_th = thermal_reduction_factor(p_max, e_reduced, viscosity_atm, beta, entrain, k_h, srr)
         h_tot = c_th * h_iso + h_r
@@ -842,17 +851,17 @@ def contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, s
     f_centre = lub_c + dry_c
 
     # Forces and moments on the ball (Eqs. 46-47) and on the groove (48-49, D13).
-    e_dir = (e_sign, 0.0, 0.0)
+    e_dir = (e_share, 0.0, 0.0)
     contact_on_ball = _sub(_sub(_scale(-f_n, d), _scale(f_centre, slip_dir)), _scale(fr, e_dir))
     # FP opposes the centre's translation relative to the groove, taken in the inertial frame
     # (reference: rel_centre, D13).
     rel_centre = _add(
         _sub(v_centre, v_groove), _scale(screw_speed, _cross(zhat, _scale(-1.0, arm)))
     )
-    fp_sign = -1.0 if rel_centre[0] > 0.0 else 1.0
+    fp_sign = -rel_centre[0] / smoothed_speed(rel_centre[0])  # its share along t (D16)
     pressure_on_ball = (fp * fp_sign, 0.0, 0.0)
     spin_sign = 1.0 if spin > 0.0 else (-1.0 if spin < 0.0 else 0.0)
-    free_moment = _sub(_scale(-(mer + mc), roll_dir), _scale(mp * spin_sign, d))
+    free_moment = _sub(_scale(-(mer + mc) * roll_share, roll_dir), _scale(mp * spin_sign, d))
     on_ball = _add(contact_on_ball, pressure_on_ball)
     moment = _add(_cross(arm, contact_on_ball), free_moment)
     on_groove = _scale(-1.0, on_ball)
@@ -882,9 +891,9 @@ def contact_kinetics(j, constants, geometry, statics, w_ball, omega, v_centre, s
         _dot(groove_moment, zhat),
         lub_c * slip,
         dry_c * slip,
-        -fp * (fp_sign * rel_centre[0]) + fr * (e_sign * slip_vec[0]),
-        mer * roll,
-        mc * roll,
+        -fp * (fp_sign * rel_centre[0]) + fr * (e_share * slip_vec[0]),
+        mer * roll_share * roll,
+        mc * roll_share * roll,
         mp * abs(spin),
         damp_force * rate if active else 0.0,
     )

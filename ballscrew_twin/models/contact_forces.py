@@ -251,13 +251,16 @@ def evaluate_contacts(
     u1 = dot(v_ball_point - v_contact, that)
     u2 = dot(v_groove - v_contact, that)
     entrain = 0.5 * (u1 + u2)
-    srr = np.abs(u1 - u2) / np.maximum(np.abs(entrain), 1e-12)
-    e_dir = np.where(entrain >= 0.0, 1.0, -1.0)[..., None] * that
+    srr = np.abs(u1 - u2) / film.smoothed_speed(entrain)
+    e_dir = rolling.smoothed_sign(entrain)[..., None] * that
     omega_groove = np.where(nut, w_nut * zhat, 0.0)
     omega_rel = omega[:, None, :] - omega_groove
     spin = dot(omega_rel, d)
     roll_vec = omega_rel - spin[..., None] * d
     roll_dir, roll = unit(roll_vec)
+    # MER and MC oppose the rolling with a magnitude that does not vanish with it: their
+    # direction factor goes through 0 smoothly at the rolling speed r_b roll (D16).
+    roll_share = rolling.smoothed_sign(r_b * roll)
 
     # Lubrication (Eqs. 26-33, 37-38).
     lub = cfg.lubricant
@@ -315,10 +318,12 @@ def evaluate_contacts(
         - v_groove
         + scene.screw_speed * cross(np.broadcast_to(zhat, arm.shape), -arm)
     )
-    fp_dir = np.where(dot(rel_centre, that) > 0.0, -1.0, 1.0)[..., None] * that
+    fp_dir = -rolling.smoothed_sign(dot(rel_centre, that))[..., None] * that
     contact_on_ball = -f_n[..., None] * d - f_centre[..., None] * slip_dir - fr[..., None] * e_dir
     pressure_on_ball = fp[..., None] * fp_dir  # acts at the ball centre
-    free_moment = -(mer + mc)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
+    free_moment = (
+        -((mer + mc) * roll_share)[..., None] * roll_dir - (mp * np.sign(spin))[..., None] * d
+    )
     moment_contacts = cross(arm, contact_on_ball) + free_moment
     groove_force = -(contact_on_ball + pressure_on_ball)
     groove_moment = cross(r_point, groove_force) - free_moment
@@ -345,8 +350,8 @@ def evaluate_contacts(
         "lubricant_shear": lub_c * slip,
         "dry_contact": dry_c * slip,
         "rolling_resistance": -fp * dot(fp_dir, rel_centre) + fr * dot(e_dir, slip_vec),
-        "hysteresis": mer * roll,
-        "curvature": mc * roll,
+        "hysteresis": mer * roll_share * roll,
+        "curvature": mc * roll_share * roll,
         "spin": mp * np.abs(spin),
         "normal_damping": np.where(active, (f_n - hc.stiffness * delta**1.5) * approach_rate, 0.0),
     }

@@ -92,7 +92,7 @@ def sphere_pair_contact(
     mean_surface = 0.5 * ((surf_a - point_velocity) + (surf_b - point_velocity))
     mean_surface = mean_surface - dot(mean_surface, d)[:, None] * d
     entrain = np.sqrt(dot(mean_surface, mean_surface))
-    e_dir = mean_surface / np.maximum(entrain, 1e-300)[:, None]
+    e_dir = mean_surface / film.smoothed_speed(entrain)[:, None]  # FR's share: D16
 
     lub = cfg.lubricant
     h_iso = film.film_thickness_central_isothermal(

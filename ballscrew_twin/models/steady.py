@@ -844,11 +844,14 @@ class SteadyStateModel:
         over the speed move by more than :data:`BRANCH_JUMP` (:func:`rate_change`) or that does
         not converge is retried shorter (:meth:`_startup_step`). Where none down to
         :data:`STARTUP_MIN_RATIO` does, longer steps are tried (ratio excess times 4 each) and
-        the first that converges is taken: across a point the solver cannot converge at (a
-        sphere at zero entrainment on one groove, where the film laws have an infinite slope)
-        or, if its rates jump, to where the branch ends (a real screw jumps there too).
-        Raises SolverError when no step up to :data:`STARTUP_MAX_RATIO` converges. At or below
-        the start-up speed: :meth:`_speed_continuation`."""
+        the first that converges is taken (the last at :data:`STARTUP_MAX_RATIO` itself): to
+        where the branch ends (a real screw jumps there too).
+        A longer step that would end past the target speed, where the state the path was on
+        ends just below it, solves past it and follows the state reached back down to the
+        target (:meth:`_startup_return`; the target itself lies in the basin of the ended
+        state and does not converge). Raises SolverError when no step up to
+        :data:`STARTUP_MAX_RATIO` converges. At or below the start-up speed:
+        :meth:`_speed_continuation`."""
         target = abs(op.screw_speed)
         if target <= STARTUP_SPEED:
             return self._speed_continuation(op, balls, loads)
@@ -864,11 +867,11 @@ class SteadyStateModel:
             if step is None:  # no step converges on the branch: the longest converged one
                 ratio = STARTUP_MIN_RATIO
                 while step is None:
-                    ratio = 1.0 + 4.0 * (ratio - 1.0)
-                    if ratio > STARTUP_MAX_RATIO:
+                    if ratio >= STARTUP_MAX_RATIO:
                         raise SolverError(
                             f"steady state: start-up path stopped at {sign * speed:.6g} rad/s"
                         )
+                    ratio = min(1.0 + 4.0 * (ratio - 1.0), STARTUP_MAX_RATIO)
                     step = self._startup_step(
                         op, balls, loads, (previous, state), speed, ratio, jump=True
                     )
@@ -892,29 +895,87 @@ class SteadyStateModel:
         before it, or None, and the last) at |speed| [rad/s]: the longest speed ratio from
         ``ratio`` down (its excess halved each time) to :data:`STARTUP_MIN_RATIO` whose solve,
         started from :func:`secant_start`, converges with a :func:`rate_change` within
-        :data:`BRANCH_JUMP` (``jump``: ``ratio`` alone, any rate change). Returns (solve,
-        |speed| reached, ratio) or None."""
-        sign = math.copysign(1.0, op.screw_speed)
+        :data:`BRANCH_JUMP` (``jump``: ``ratio`` alone, any rate change, and past the target
+        when the step to the target does not converge). Returns (solve, |speed| reached,
+        ratio) or None."""
         target = abs(op.screw_speed)
-        previous, state = path
         while True:
             step_speed = min(speed * ratio, target)
-            scene = self.scene(op.temperature, sign * step_speed)
-            if previous is None:
-                start = self._rescaled(state, scene, balls, sign * step_speed)
-            else:
-                start = secant_start(previous, state, sign * step_speed)
-            try:
-                solve = self._newton(
-                    scene, balls, start, loads, warm=True, max_iterations=STARTUP_MAX_ITER
-                )
-            except SolverError:
-                solve = None
-            if solve is not None and (jump or rate_change(state, solve[0]) <= BRANCH_JUMP):
+            solve = self._startup_solve(op, balls, loads, path, step_speed, jump)
+            if solve is not None and (jump or rate_change(path[1], solve[0]) <= BRANCH_JUMP):
                 return solve, step_speed, ratio
+            if jump and solve is None and speed * ratio > target:
+                # The jump ends past the target: the state it reaches, followed back down.
+                solve = self._startup_solve(op, balls, loads, path, speed * ratio, jump)
+                if solve is not None:
+                    solve = self._startup_return(op, balls, loads, solve, speed * ratio)
+                return None if solve is None else (solve, target, ratio)
             if jump or ratio <= STARTUP_MIN_RATIO:
                 return None
             ratio = max(1.0 + 0.5 * (ratio - 1.0), STARTUP_MIN_RATIO)
+
+    def _startup_solve(
+        self,
+        op: OperatingPoint,
+        balls: BallSet,
+        loads: FloatArray,
+        path: tuple[SteadyState | None, SteadyState],
+        speed: float,
+        jump: bool = False,
+    ) -> tuple[SteadyState, ContactSource, int, float] | None:
+        """Newton solve at |speed| [rad/s] (``op``'s sign, temperature and ``loads``) started
+        from the last state of ``path`` (on the secant through both when the first is not
+        None) with at most :data:`STARTUP_MAX_ITER` iterations (``jump``, a step to another
+        state: :data:`NEWTON_MAX_ITER`); None when it does not converge."""
+        signed = math.copysign(speed, op.screw_speed)
+        scene = self.scene(op.temperature, signed)
+        previous, state = path
+        if previous is None:
+            start = self._rescaled(state, scene, balls, signed)
+        else:
+            start = secant_start(previous, state, signed)
+        try:
+            return self._newton(
+                scene,
+                balls,
+                start,
+                loads,
+                warm=True,
+                max_iterations=NEWTON_MAX_ITER if jump else STARTUP_MAX_ITER,
+            )
+        except SolverError:
+            return None
+
+    def _startup_return(
+        self,
+        op: OperatingPoint,
+        balls: BallSet,
+        loads: FloatArray,
+        solve: tuple[SteadyState, ContactSource, int, float],
+        speed: float,
+    ) -> tuple[SteadyState, ContactSource, int, float] | None:
+        """From ``solve``, solved at |speed| [rad/s] above ``op``'s, down to ``op``'s speed
+        along its state: steps in speed ratio as on the way up (the whole way first, the
+        excess halved after a step that does not converge or moves a rate by more than
+        :data:`BRANCH_JUMP`, grown by :data:`STARTUP_GROWTH` after one that does). Returns the
+        solve at ``op``'s speed (iterations summed over the steps), or None where no step
+        down to :data:`STARTUP_MIN_RATIO` stays on the state."""
+        target = abs(op.screw_speed)
+        previous: SteadyState | None = None
+        total = solve[2]
+        ratio = speed / target
+        while speed > target:
+            step_speed = max(speed / ratio, target)
+            step = self._startup_solve(op, balls, loads, (previous, solve[0]), step_speed)
+            if step is not None and rate_change(solve[0], step[0]) <= BRANCH_JUMP:
+                previous, solve, speed = solve[0], step, step_speed
+                total += step[2]
+                ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
+            elif ratio <= STARTUP_MIN_RATIO:
+                return None
+            else:
+                ratio = max(1.0 + 0.5 * (ratio - 1.0), STARTUP_MIN_RATIO)
+        return solve[0], solve[1], total, solve[3]
 
     def _preload_continuation(
         self, op: OperatingPoint, balls: BallSet, loads: FloatArray

@@ -16,6 +16,20 @@ MINIMUM_TO_CENTRAL = 0.75  # h_0 / h_c, Eq. 30
 #: Below this load no film is formed [N]: the rigid-isoviscous term of Eq. 26d grows as M^-2,
 #: so a vanishing load (a contact being released) would give an unbounded film (docs, D15).
 FILM_MIN_LOAD = 1e-6
+#: Speed scale u_e of the smoothed entrainment speed |u|_e = sqrt(u^2 + u_e^2) that the film
+#: laws take instead of |u| [m/s] (docs/model.md, D16): film, thermal loading, slide-to-roll
+#: ratio and rolling resistance go as |u|^(0.42..0.84) with an infinite slope at u = 0, where a
+#: sphere's entrainment can sit in a steady state; smoothed, the Newton residual stays
+#: differentiable.
+ENTRAINMENT_SMOOTHING_SPEED = 1e-4
+
+
+def smoothed_speed(mean_velocity: ArrayLike) -> FloatArray:
+    """Smoothed entrainment speed |u|_e = sqrt(u^2 + u_e^2) [m/s] (D16), u_e =
+    ENTRAINMENT_SMOOTHING_SPEED: |u| to a relative (u_e/u)^2/2 for |u| >> u_e, u_e at u = 0,
+    infinitely differentiable."""
+    u = np.asarray(mean_velocity, dtype=np.float64)
+    return np.asarray(np.sqrt(u * u + ENTRAINMENT_SMOOTHING_SPEED**2))
 
 
 def moes_groups(
@@ -87,9 +101,10 @@ def film_thickness_central_isothermal(
     reduced_modulus: float,
     pressure_viscosity: float,
 ) -> FloatArray:
-    """Isothermal central film thickness h_c [m], Eq. 26a: h_c = R_x sqrt(eta0 u_s/(E' R_x)) H_c.
+    """Isothermal central film thickness h_c [m], Eq. 26a: h_c = R_x sqrt(eta0 u_s/(E' R_x)) H_c,
+    u_s = 2 |u|_e (smoothed speed, D16).
 
-    Zero where the entrainment speed is zero or the load below FILM_MIN_LOAD (no film).
+    Zero where the load is below FILM_MIN_LOAD (no film).
 
     Args:
         normal_force: F_n [N].
@@ -100,11 +115,10 @@ def film_thickness_central_isothermal(
         reduced_modulus: E' = 2 E* [Pa].
         pressure_viscosity: alpha_pv [1/Pa].
     """
-    u_sum = 2.0 * np.abs(np.asarray(mean_velocity, dtype=np.float64))
+    u_safe = 2.0 * smoothed_speed(mean_velocity)
     f = np.asarray(normal_force, dtype=np.float64)
     rx = np.asarray(radius_x, dtype=np.float64)
-    active = (u_sum > 0.0) & (f > FILM_MIN_LOAD)
-    u_safe = np.where(active, u_sum, 1.0)
+    active = f > FILM_MIN_LOAD
     f_safe = np.where(active, f, 1.0)
     m, ell, lam = moes_groups(
         f_safe, u_safe, viscosity_atm, rx, radius_y, reduced_modulus, pressure_viscosity
@@ -117,7 +131,8 @@ def film_thickness_central_isothermal(
 def thermal_loading_parameter(
     viscosity_atm: ArrayLike, beta: float, mean_velocity: ArrayLike, conductivity: float
 ) -> FloatArray:
-    """L_th = eta_0T beta u^2 / k_h, Eq. 32 [-] (u: mean entrainment speed, Gupta et al. 1992).
+    """L_th = eta_0T beta |u|_e^2 / k_h, Eq. 32 [-] (u: mean entrainment speed, Gupta et al.
+    1992; |u|_e the smoothed speed, D16).
 
     Args:
         viscosity_atm: eta_0T [Pa s].
@@ -125,7 +140,7 @@ def thermal_loading_parameter(
         mean_velocity: u [m/s].
         conductivity: k_h [W/(m K)].
     """
-    u = np.asarray(mean_velocity, dtype=np.float64)
+    u = smoothed_speed(mean_velocity)
     return np.asarray(np.asarray(viscosity_atm) * beta * u**2 / conductivity)
 
 
@@ -146,7 +161,7 @@ def thermal_reduction_factor(
         max_pressure: p_h [Pa].
         reduced_modulus: E' [Pa].
         thermal_loading: L_th [-].
-        slide_to_roll: SRR = |u1 - u2| / u [-].
+        slide_to_roll: SRR = |u1 - u2| / |u|_e [-] (D16).
     """
     lth = np.maximum(np.asarray(thermal_loading, dtype=np.float64), 0.0)
     srr = np.abs(np.asarray(slide_to_roll, dtype=np.float64))

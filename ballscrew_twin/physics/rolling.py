@@ -35,8 +35,9 @@ def rolling_resistance_force(
     FR_EHL = 7.5826 E' R_x^2 lam^-0.4055 W^(1/3) U^(3/4)
     FR = (FR_IVR - FR_EHL) / (1 + 0.0841 lam^0.6029 W U^-0.75) + FR_EHL
 
-    with W = F/(E' R_x^2) and U = eta_0T u/(E' R_x) (mean velocity), which is what the paper's
-    W = M L^3 (alpha E')^-3 and U = 0.5 L^4 (alpha E')^-4 reduce to; lam = R_x / R_y.
+    with W = F/(E' R_x^2) and U = eta_0T |u|_e/(E' R_x) (mean velocity, smoothed: D16), which is
+    what the paper's W = M L^3 (alpha E')^-3 and U = 0.5 L^4 (alpha E')^-4 reduce to;
+    lam = R_x / R_y. It acts along u / |u|_e (:func:`smoothed_sign`).
 
     Args:
         normal_force: F_n [N].
@@ -47,17 +48,29 @@ def rolling_resistance_force(
         reduced_modulus: E' [Pa].
     """
     f = np.maximum(np.asarray(normal_force, dtype=np.float64), 0.0)
-    u = np.abs(np.asarray(mean_velocity, dtype=np.float64))
+    u = film.smoothed_speed(mean_velocity)
     rx = np.asarray(radius_x, dtype=np.float64)
     lam = rx / np.asarray(radius_y, dtype=np.float64)
-    active = (f > film.FILM_MIN_LOAD) & (u > 0.0)  # a film effect: none without a film
+    active = f > film.FILM_MIN_LOAD  # a film effect: none without a film
     load = np.where(active, f, 1.0) / (reduced_modulus * rx**2)
-    speed = np.asarray(viscosity_atm) * np.where(active, u, 1.0) / (reduced_modulus * rx)
+    speed = np.asarray(viscosity_atm) * u / (reduced_modulus * rx)
     scale = reduced_modulus * rx**2 * load ** (1.0 / 3.0)
     fr_ivr = 2.9766 * scale * lam**-0.3316 * speed ** (2.0 / 3.0)
     fr_ehl = 7.5826 * scale * lam**-0.4055 * speed**0.75
     blend = 1.0 + 0.0841 * lam**0.6029 * load * speed**-0.75
     return np.asarray(np.where(active, (fr_ivr - fr_ehl) / blend + fr_ehl, 0.0))
+
+
+def smoothed_sign(velocity: ArrayLike) -> FloatArray:
+    """v / |v|_e, the direction factor of FR (v = u, the entrainment) and FP (v = the centre's
+    velocity relative to the groove) [-] (D16): sign(v) where |v| >> u_e, through 0 smoothly, so
+    that FR and FP, finite at u = 0 once smoothed, change direction continuously.
+
+    Args:
+        velocity: v [m/s].
+    """
+    v = np.asarray(velocity, dtype=np.float64)
+    return np.asarray(v / film.smoothed_speed(v))
 
 
 def pressure_rolling_force(

@@ -200,6 +200,7 @@ def perturbed(case: Case, rng: np.random.Generator, size: float) -> Case:
 def test_law_constants_are_those_of_the_reference() -> None:
     """The kernel's copies of the law constants (frozen into its cached code) are current."""
     assert kernel.FILM_MIN_LOAD == film.FILM_MIN_LOAD
+    assert kernel.ENTRAINMENT_SMOOTHING_SPEED == film.ENTRAINMENT_SMOOTHING_SPEED
     assert kernel.ANTOINE_NUMERATOR == hertz._ANTOINE_NUMERATOR
     assert kernel.ANTOINE_DENOMINATOR == hertz._ANTOINE_DENOMINATOR
     assert kernel.K_POLY == hertz._K_POLY
@@ -226,6 +227,58 @@ def test_law_constants_are_those_of_the_reference() -> None:
     assert kernel.SPIN_SLIDING_FACTOR == contact_forces.SPIN_SLIDING_FACTOR
     rows = kernel.CONTACT_FIELDS[-len(DISSIPATION_KEYS) :]  # "spin" is a field name too
     assert rows == (*MECHANISMS[:-1], "spin_dissipation", "normal_damping")
+
+
+def test_smoothed_film_laws_equal_the_reference_through_zero_speed(config: TwinConfig) -> None:
+    """D16 in the kernel: film, thermal factor (with its slide-to-roll ratio on |u|_e) and FR
+    at entrainment speeds through 0 (and at +-u_e) equal the reference's laws to 1e-12."""
+    scene = make_scene(config, 253.15, 100.0)
+    lub = config.lubricant
+    u_e = film.ENTRAINMENT_SMOOTHING_SPEED
+    r_x, r_y, f_n, p_max, slide = 1.3e-3, 2.4e-2, 12.0, 1.1e9, 2e-3
+    speeds = [-0.3, -u_e, -1e-6, 0.0, 1e-7, u_e, 3e-4, 0.02, 1.5]
+    for u in speeds:
+        h_ref = film.film_thickness_central_isothermal(
+            f_n,
+            u,
+            scene.viscosity_atm,
+            r_x,
+            r_y,
+            scene.e_reduced,
+            lub.pressure_viscosity_coefficient,
+        )
+        h_kernel = kernel.film_central_isothermal(
+            f_n,
+            u,
+            scene.viscosity_atm,
+            r_x,
+            r_y,
+            scene.e_reduced,
+            lub.pressure_viscosity_coefficient,
+        )
+        assert h_kernel == pytest.approx(float(h_ref), rel=1e-12), u
+        srr = abs(slide) / float(film.smoothed_speed(u))
+        l_th = film.thermal_loading_parameter(
+            scene.viscosity_atm, lub.viscosity_temperature_coefficient, u, lub.thermal_conductivity
+        )
+        c_ref = film.thermal_reduction_factor(p_max, scene.e_reduced, l_th, srr)
+        c_kernel = kernel.thermal_reduction_factor(
+            p_max,
+            scene.e_reduced,
+            scene.viscosity_atm,
+            lub.viscosity_temperature_coefficient,
+            u,
+            lub.thermal_conductivity,
+            srr,
+        )
+        assert c_kernel == pytest.approx(float(c_ref), rel=1e-12), u
+        fr_ref = rolling.rolling_resistance_force(
+            f_n, u, scene.viscosity_atm, r_x, r_y, scene.e_reduced
+        ) * rolling.smoothed_sign(u)
+        fr_kernel = kernel.rolling_resistance_force(
+            f_n, u, scene.viscosity_atm, r_x, r_y, scene.e_reduced
+        ) * (u / kernel.smoothed_speed(u))
+        assert fr_kernel == pytest.approx(float(fr_ref), rel=1e-12, abs=1e-300), u
 
 
 def test_scene_arrays_fill_the_kernel_signature(config: TwinConfig) -> None:

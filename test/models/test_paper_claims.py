@@ -407,7 +407,17 @@ def _split(master: Contact, celsius: float, rpm: float, preload: float) -> float
     ("celsius", "low_preload"),
     [
         (-20.0, 0.0),
-        (20.0, 0.0),
+        pytest.param(
+            20.0,
+            0.0,
+            marks=pytest.mark.xfail(
+                strict=True,
+                reason="at 20 C, 0 N the start-up state at 4000 rpm has the spheres travelling "
+                "with their nut (w_B / Omega = -1.000, zero entrainment on the nut grooves, "
+                "reached continuously from rolling between 240 and 450 rpm since D16): split "
+                "0.05 deg more than at 100 rpm (3000 N: -0.08 deg)",
+            ),
+        ),
         pytest.param(
             -20.0,
             100.0,

@@ -22,7 +22,7 @@ RPM = 2 * math.pi / 60
 SCENE = default_config_path().parent / "scenarios" / "steady_check.yaml"
 
 #: (rpm, C, N) where the speed continuation of a symmetric cold solve fails (measured).
-CONTINUATION_FAILS = ((1350.0, -20.0, 10.0), (3900.0, -20.0, 150.0), (3900.0, 20.0, 10.0))
+CONTINUATION_FAILS = ((1350.0, -20.0, 10.0), (2600.0, -20.0, 100.0), (3900.0, 20.0, 2.0))
 
 
 @pytest.fixture(scope="module")
@@ -68,13 +68,14 @@ def test_cold_solve_depends_on_the_operating_point_alone(config) -> None:  # typ
 
 
 #: Smooth paths through the multi-valued region, in steps small enough for a warm solve of
-#: branch="path" to follow its start's branch (measured with 150 steps: 19 and 41 of 150 points
-#: on another branch than the cold solve); the cold solve is compared at every CHECK_EVERY-th.
+#: branch="path" to follow its start's branch. With the smoothed laws of D16 the paths cross
+#: zero entrainment instead of leaving their state there, and the path's state differs from the
+#: start-up state at few points (measured: the temperature path at -17 C only, the preload path
+#: at 1 of its 150 points), so the cold solve is compared at every point.
 PATHS = {
     "temperature down": [(3900.0, c, 50.0) for c in np.linspace(60.0, -20.0, 81)],
-    "preload down": [(3900.0, -20.0, f) for f in np.linspace(200.0, 0.0, 81)],
+    "preload down": [(3900.0, -20.0, f) for f in np.linspace(200.0, 0.0, 150)],
 }
-CHECK_EVERY = 4
 
 
 @pytest.mark.parametrize("path", sorted(PATHS))
@@ -83,14 +84,12 @@ def test_warm_solves_along_a_path_return_the_cold_solution(config, path: str) ->
     history = SteadyStateModel(config, mode="symmetric", branch="path")
     cold = SteadyStateModel(config, mode="symmetric")
     apart = 0
-    for k, (rpm, celsius, preload) in enumerate(PATHS[path]):
+    for rpm, celsius, preload in PATHS[path]:
         point = op(rpm, celsius, preload)
         try:
             followed: float | None = history.solve(point).output.drag_torque
         except SolverError:
             followed = None
-        if k % CHECK_EVERY:
-            continue
         cold.forget_warm_start()
         try:
             expected = cold.solve(point).output.drag_torque

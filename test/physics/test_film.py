@@ -65,12 +65,71 @@ def test_film_weak_load_dependence() -> None:
     assert -0.2 <= slope <= 0.0
 
 
-def test_film_zero_at_zero_speed_or_load() -> None:
-    assert float(_h_central(0.0)) == 0.0
+def test_film_zero_at_zero_load_and_finite_at_zero_speed() -> None:
     assert float(_h_central(0.1, f=0.0)) == 0.0
     assert float(_h_central(0.1)) > 0.0
+    # At rest the film is the one at the smoothing speed (D16), not zero.
+    assert float(_h_central(0.0)) == pytest.approx(float(moes_central(U_SMOOTH)), rel=1e-12)
     # Sign of the entrainment speed is irrelevant.
     assert float(_h_central(-0.1)) == float(_h_central(0.1))
+
+
+# D16 as documented: |u|_e = sqrt(u^2 + u_e^2) with u_e = 0.1 mm/s, written out here.
+U_SMOOTH = 1e-4
+
+
+def moes_central(u_mean: float | np.ndarray, f: float = LOAD, eta: float = ETA_20C) -> np.ndarray:
+    """The paper's film (Eqs. 26a-g on the sum velocity, D4) unsmoothed, written out by hand."""
+    u_sum = 2.0 * np.abs(np.asarray(u_mean, dtype=np.float64))
+    speed = eta * u_sum / (E_PRIME * RX)  # dimensionless speed on the sum velocity
+    m = f / (E_PRIME * RX**2) * speed**-0.75
+    ell = ALPHA_PV * E_PRIME * speed**0.25
+    lam = RX / RY
+    h_ri = 145.0 * (1.0 + 0.796 * lam ** (14.0 / 15.0)) ** (-15.0 / 7.0) / (lam * m * m)
+    h_rp = 1.29 * (1.0 + 0.691 * lam) ** (-2.0 / 3.0) * ell ** (2.0 / 3.0)
+    shape = 1.0 + 0.006 * math.log(lam) + 0.63 * lam ** (4.0 / 7.0)
+    h_ei = 3.18 * shape ** (-0.56) * lam ** (-1.0 / 15.0) * m ** (-2.0 / 15.0)
+    h_ep = 1.48 * shape ** (-0.35) * lam ** (-1.0 / 24.0) * m ** (-1.0 / 12.0) * ell**0.75
+    s = 1.5 * (1.0 + np.exp(-1.2 * h_ei / h_ri))
+    rigid = (h_ri**1.5 + (h_ei**-4 + (1.8 / lam) ** -4) ** -0.375) ** (2.0 * s / 3.0)
+    piezo = (h_rp**-8 + h_ep**-8) ** (-s / 8.0)
+    return np.asarray(RX * np.sqrt(speed) * (rigid + piezo) ** (1.0 / s))
+
+
+@pytest.mark.parametrize("eta", [ETA_20C, 1.7])
+def test_smoothed_film_is_the_papers_away_from_zero_speed(eta: float) -> None:
+    """D16: for |u| >= 100 u_e the film equals the unsmoothed law (written out above) to
+    (u_e/u)^2 relative (h ~ u^p, p < 1, moves by p (u_e/u)^2 / 2), within 1e-9 far from 0,
+    for either sign; at -20 C viscosity too."""
+    speeds = np.geomspace(100.0 * U_SMOOTH, 2.0, 40)
+    for sign in (1.0, -1.0):
+        got = _h_central(sign * speeds, eta=eta)
+        ref = moes_central(speeds, eta=eta)
+        assert np.all(np.abs(got / ref - 1.0) <= (U_SMOOTH / speeds) ** 2)
+    assert float(_h_central(0.5, eta=eta)) == pytest.approx(
+        float(moes_central(0.5, eta=eta)), rel=1e-9
+    )
+
+
+def test_smoothed_film_has_a_finite_slope_at_zero_speed() -> None:
+    """D16: the film is even and smooth in u: its difference quotient at 0 vanishes with the
+    step (second order), where the paper's law, ~|u|^0.67, has an unbounded one."""
+    h0 = float(_h_central(0.0))
+    for du in (1e-6, 1e-7, 1e-8):
+        quotient = (float(_h_central(du)) - h0) / du
+        assert abs(quotient) <= 10.0 * h0 / U_SMOOTH**2 * du  # bounded curvature
+        assert float(_h_central(-du)) == pytest.approx(float(_h_central(du)), rel=1e-12)
+    # The oracle's slope grows without bound, as u^-0.25 (piezoviscous-elastic): 3.2 times per
+    # factor 100.
+    unsmoothed = [float(moes_central(du)) / du for du in (1e-6, 1e-8, 1e-10)]
+    assert unsmoothed[1] > 2.0 * unsmoothed[0]
+    assert unsmoothed[2] > 2.0 * unsmoothed[1]
+
+
+def test_smoothed_speed() -> None:
+    u = np.array([-1.0, -1e-3, 0.0, 1e-4, 0.3])
+    assert np.array_equal(film.smoothed_speed(u), np.sqrt(u * u + U_SMOOTH**2))
+    assert film.ENTRAINMENT_SMOOTHING_SPEED == U_SMOOTH
 
 
 def hamrock_dowson_central(u_mean: float, f: float, eta: float) -> float:
@@ -98,9 +157,11 @@ def test_central_film_against_hamrock_dowson(u_mean: float) -> None:
 
 
 def test_thermal_loading_parameter_hand_written() -> None:
-    assert float(film.thermal_loading_parameter(0.09, 0.05, 2.0, 0.14)) == pytest.approx(
-        0.09 * 0.05 * 4.0 / 0.14, rel=1e-12
-    )
+    """Eq. 32 on the smoothed speed (D16): eta beta (u^2 + u_e^2) / k_h, finite slope at 0."""
+    for u in (2.0, -0.01, 0.0):
+        assert float(film.thermal_loading_parameter(0.09, 0.05, u, 0.14)) == pytest.approx(
+            0.09 * 0.05 * (u * u + U_SMOOTH**2) / 0.14, rel=1e-12
+        )
 
 
 def test_thermal_factor_one_at_zero_loading() -> None:
