@@ -42,7 +42,7 @@ over each step's own length, window sums; ``_account``), so that a whole output 
 one call from Python; a step with implicit sphere positions that does not converge is redone
 there as semi-implicit substeps (``fallback``).
 
-numba freezes the solver constants (imported from :mod:`ballscrew_twin.models.dynamic`) and the
+numba freezes the solver constants (:mod:`ballscrew_twin.kernels.solver_settings`) and the
 machine code of ``contacts_kernel`` into the cache, which is invalidated only by a change of this
 file; :data:`DEPENDENCY_STAMP` (a hash of contacts.py and the constants) is frozen with them and
 :func:`ensure_fresh_cache` recompiles once when it is stale (as kernels/steady_newton.py).
@@ -56,15 +56,6 @@ import math
 import numpy as np
 from numba import njit
 
-from ..models.dynamic import (
-    HELIX_NEWTON_STEPS,
-    JACOBIAN_REFRESH_RATIO,
-    PREDICTOR_ORDER,
-    STEP_BACKTRACKS,
-    STEP_NEWTON_MAX,
-    STEP_TOLERANCE,
-    VELOCITY_STEP,
-)
 from . import contacts as _contacts_module
 from .cache_stamp import dependency_stamp
 from .contacts import (
@@ -77,6 +68,15 @@ from .contacts import (
     R_MOMENT,
     contacts_kinetics_kernel,
     contacts_statics_kernel,
+)
+from .solver_settings import (
+    HELIX_NEWTON_STEPS,
+    JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
+    STEP_BACKTRACKS,
+    STEP_NEWTON_MAX,
+    STEP_TOLERANCE,
+    VELOCITY_STEP,
 )
 
 SOLVER_CONSTANTS = (

@@ -46,10 +46,20 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError, OperatingPointError
+from ..kernels.solver_settings import (
+    HELIX_NEWTON_STEPS,
+    JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
+    STEP_BACKTRACKS,
+    STEP_NEWTON_MAX,
+    STEP_TOLERANCE,
+    VELOCITY_STEP,
+)
 from ..params import TwinConfig
 from ..physics import geometry
+from ..physics.contact_types import ContactEvaluation
 from .base import DISSIPATION_KEYS, OperatingPoint
-from .contact_forces import ContactEvaluation, evaluate_contacts, make_scene
+from .contact_forces import evaluate_contacts, make_scene
 from .faults import Faults
 from .sphere_contact import SpherePairContact, sphere_pair_contact
 from .steady import SteadyStateModel
@@ -57,18 +67,6 @@ from .steady import SteadyStateModel
 FloatArray = NDArray[np.float64]
 ContactFunction = Callable[..., ContactEvaluation]
 
-VELOCITY_STEP = 1e-7  # m/s and rad/s x r_b: finite-difference step of the velocity Jacobian
-HELIX_NEWTON_STEPS = 3  # Newton iterations locating each sphere on the helix (Eq. 4)
-STEP_NEWTON_MAX = 10  # Newton iterations of one backward-Euler step at most
-STEP_TOLERANCE = 1e-6  # scaled residual of the step equations that ends the iterations
-STEP_BACKTRACKS = 4  # halvings of a Newton correction that would raise the residual
-#: Within a step the Jacobian is re-evaluated at the iterate only when the last iteration
-#: reduced the scaled residual by less than this factor (0: at every iterate, plain Newton).
-JACOBIAN_REFRESH_RATIO = 0.1
-#: Newton's first guess: the velocities extrapolated from the starts of the last steps by a
-#: polynomial of order up to this (0: the last velocities), the order that predicted the last
-#: step best; a guess that already meets STEP_TOLERANCE ends the step without a correction.
-PREDICTOR_ORDER = 3
 #: Extrapolation u_n, u_{n-1}, ... -> u_{n+1} of each order (kernels/dynamic_step.py has a copy).
 PREDICTOR_COEFFICIENTS = ((1.0,), (2.0, -1.0), (3.0, -3.0, 1.0), (4.0, -6.0, 4.0, -1.0))
 

@@ -30,10 +30,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import SolverError
+from ..kernels.solver_settings import STEP_TOLERANCE
 from ..params import TwinConfig, load_config
+from ..physics.contact_types import ContactEvaluation
 from .base import DISSIPATION_KEYS, OperatingPoint
-from .contact_forces import ContactEvaluation, make_scene
-from .dynamic import STEP_TOLERANCE, Commands, DynamicModel, DynamicState, StepReport
+from .contact_forces import make_scene
+from .dynamic import Commands, DynamicModel, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
 from .validity import ValidityEnvelope, refuse_outside

@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ballscrew_twin.kernels import dynamic_step
+from ballscrew_twin.kernels import dynamic_step, solver_settings
 from ballscrew_twin.models import dynamic
 from ballscrew_twin.models.dynamic import Commands, DynamicModel
 from ballscrew_twin.models.faults import Faults, RacewaySpall, SphereDefect, SphereJam
@@ -34,13 +34,13 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 
 def test_frozen_constants_are_those_of_the_reference() -> None:
     assert dynamic_step.frozen_constants() == (
-        dynamic.HELIX_NEWTON_STEPS,
-        dynamic.JACOBIAN_REFRESH_RATIO,
-        dynamic.PREDICTOR_ORDER,
-        dynamic.STEP_BACKTRACKS,
-        dynamic.STEP_NEWTON_MAX,
-        dynamic.STEP_TOLERANCE,
-        dynamic.VELOCITY_STEP,
+        solver_settings.HELIX_NEWTON_STEPS,
+        solver_settings.JACOBIAN_REFRESH_RATIO,
+        solver_settings.PREDICTOR_ORDER,
+        solver_settings.STEP_BACKTRACKS,
+        solver_settings.STEP_NEWTON_MAX,
+        solver_settings.STEP_TOLERANCE,
+        solver_settings.VELOCITY_STEP,
     )
 
 
@@ -100,7 +100,7 @@ def test_predictor_coefficients_are_those_of_the_reference() -> None:
         dynamic_step.PREDICTOR_COEFFICIENTS, dynamic.PREDICTOR_COEFFICIENTS, strict=True
     ):
         assert compiled == reference + (0.0,) * (len(compiled) - len(reference))
-    assert len(dynamic_step.PREDICTOR_COEFFICIENTS) == dynamic.PREDICTOR_ORDER + 1
+    assert len(dynamic_step.PREDICTOR_COEFFICIENTS) == solver_settings.PREDICTOR_ORDER + 1
 
 
 def _polynomial_velocities(
@@ -132,7 +132,7 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
     consts[dynamic_step.K_DT] = dt
     consts[dynamic_step.K_BALL_RADIUS] = model.geometry.ball_radius
     consts[dynamic_step.K_PITCH_RADIUS] = model.geometry.pitch_radius
-    history = np.zeros((dynamic.PREDICTOR_ORDER, count + 1, 6))
+    history = np.zeros((solver_settings.PREDICTOR_ORDER, count + 1, 6))
     meta = np.array([np.nan, 0.0, 0.0])
     jammed = np.array([False, True, False])
     samples = _polynomial_velocities(order, count, 8)
