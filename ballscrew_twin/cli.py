@@ -34,7 +34,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
     "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
-    "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
+    "report": ("ballscrew_twin.report.command", "reproduce the paper's figures (PNG + CSV)"),
     "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
     "scene": ("ballscrew_twin.run_scene", "run a scene with the cheapest model within tolerance"),
     "sweep": ("ballscrew_twin.sweep", "evaluate a grid or sample of operating points"),
