@@ -35,20 +35,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import BallscrewTwinError
+from ..errors import RecordError, ReplayError
 from .command_args import add_ros_arguments, ros_argv
 from .executors import spin_once
-from .replay import ReplayError, message_class
+from .replay import message_class
 
 QOS_MODES = ("auto", "reliable", "best_effort")
 #: Interval between looks at the ROS graph for topics not yet subscribed [s].
 GRAPH_POLL = 0.2
 #: Interval between progress lines (messages so far per topic, printed when they change) [s].
 PROGRESS_PERIOD = 0.5
-
-
-class RecordError(BallscrewTwinError, ValueError):
-    """Invalid recording request (topic, type, output) or a bag that cannot be written."""
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,7 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import BallscrewTwinError
+from ..errors import ReplayError
 from ..health.bags import RawBag, RawMessage, open_raw_bag
 from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
@@ -67,10 +67,6 @@ SUBSCRIBER_CHECK = 0.05
 #: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
 #: best-effort subscriber drops what arrives before it has matched the publisher in turn.
 MATCH_SETTLE = 0.5
-
-
-class ReplayError(BallscrewTwinError, ValueError):
-    """Invalid replay request (rate, topics) or a bag that cannot be played."""
 
 
 def message_class(msgtype: str) -> Any:

@@ -29,6 +29,7 @@ from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Header
 
+from ballscrew_twin.errors import MessageEncodingError
 from ballscrew_twin.results import make_typestore
 from ballscrew_twin.ros.cdr import CONTACT_FLOAT_FIELDS, DragTorqueEncoder, encode_contact_states
 
@@ -404,12 +405,12 @@ def _encode_drag(**change: Any) -> bytes:
     ],
 )
 def test_drag_torque_bad_input(change: dict[str, Any], match: str) -> None:
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(MessageEncodingError, match=match):
         _encode_drag(**change)
 
 
 def test_drag_torque_bad_frame_id() -> None:
-    with pytest.raises(ValueError, match=r"frame_id .*NUL"):
+    with pytest.raises(MessageEncodingError, match=r"frame_id .*NUL"):
         DragTorqueEncoder("screw\x00")
 
 
@@ -450,7 +451,7 @@ Change = Callable[[Contacts], Contacts]
     ],
 )
 def test_contact_states_bad_input(change: Change, match: str) -> None:
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(MessageEncodingError, match=match):
         change(_contacts(4, "screw", "quasi-static")).encode()
 
 
