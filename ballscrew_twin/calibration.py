@@ -6,7 +6,7 @@ Targets are operating points with a drag torque:
   with mu_lit = 0.002 at 20 C and 60 C;
 - a user's CSV with columns ``speed_rpm, temperature_C, preload_N, torque_Nm``;
 - a bench bag (the bench-bag schema of docs/bench_data.md, topics as ``detect`` takes them, read by
-  :func:`ballscrew_twin.health.bags.read_bench_bag`): its steady segments, found by
+  :func:`ballscrew_twin.bags.bench.read_bench_bag`): its steady segments, found by
   :func:`steady_segments`, each one target (mean torque, speed, temperature and load-cell
   preload over the segment).
 
@@ -41,8 +41,9 @@ import yaml
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from .bags.bench import read_bench_bag
+from .bags.recording import BenchRecording, BenchTopics
 from .errors import BallscrewTwinError, ConfigError
-from .health.bags import BenchRecording, BenchTopics, read_bench_bag
 from .health.detect import add_topic_arguments
 from .models.base import OperatingPoint
 from .models.catalog import CatalogModel

@@ -4,7 +4,7 @@ and injected faults, and their ground truth.
 Subcommands:
 
 - ``generate --scene FILE --out BAG [--seed N] [--storage mcap|sqlite3] [--plot PNG]``: one bag
-  (schema of :mod:`~ballscrew_twin.health.bags`) and its side file ``BAG.truth.json``;
+  (schema of :mod:`~ballscrew_twin.bags.bench`) and its side file ``BAG.truth.json``;
 - ``samples [--out DIR]``: the committed sample bags ``data/samples/<name>`` from
   ``config/bench_scenes/<name>.yaml`` (healthy and one per fault class), deterministically
   (also ``python -m ballscrew_twin.health.bench_data samples``);
@@ -38,11 +38,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..bags.bench import TRUTH_KEY, read_bench_bag, truth_path
+from ..bags.recording import BenchTopics
 from ..errors import BagError, ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO, ns_to_stamp
-from .bags import TRUTH_KEY, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
 from .bench_units import BenchUnit, UnitTorqueTable, presliding_reference
 from .duty_cycles import Trajectory
@@ -523,14 +524,11 @@ def write_bench_bag(
     Raises:
         BagError: the bag folder exists already or cannot be written; unknown storage.
     """
-    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
     from rosbags.typesys import Stores, get_typestore
 
-    from ..bag_writer import BagWriter
+    from ..bags.writer import BagWriter, storage_plugin
 
-    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
-    if storage not in plugins:
-        raise BagError(f"storage = {storage!r} must be one of {sorted(plugins)}")
+    plugin = storage_plugin(storage, BagError)
     folder = Path(path)
     if folder.exists():
         raise BagError(f"{folder}: bag folder exists already")
@@ -583,9 +581,7 @@ def write_bench_bag(
     ]
     truth_json = json.dumps(data.truth, sort_keys=True)
     try:
-        writer = BagWriter(folder, plugins[storage])
-        if storage == "mcap":
-            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer = BagWriter(folder, plugin, compressed=True)
         writer.set_custom_data(TRUTH_KEY, truth_json)
         with writer:
             records: list[tuple[int, int, bytes]] = []

@@ -29,9 +29,10 @@ from typing import Any
 
 import numpy as np
 
+from ..bags.bench import read_bench_bag
+from ..bags.recording import BenchRecording, BenchTopics
 from ..errors import BallscrewTwinError, ConfigError
 from ..params import TwinConfig, load_config
-from .bags import BenchRecording, BenchTopics, read_bench_bag
 from .baseline import Baseline, load_baseline
 from .monitor import (
     DETECTORS,

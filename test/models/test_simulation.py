@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 import yaml
 
+from ballscrew_twin.bags.writer import project_typestore
 from ballscrew_twin.errors import ConfigError, ResultsError, SolverError
 from ballscrew_twin.models import dynamic
 from ballscrew_twin.models.scenario import Scenario
@@ -25,7 +26,6 @@ from ballscrew_twin.models.simulation import MECHANISMS, SimulationResult, simul
 from ballscrew_twin.results import (
     CONTACT_TOPIC,
     DRAG_TOPIC,
-    make_typestore,
     plot_result,
     write_bag,
     write_csv,
@@ -420,7 +420,7 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     info = meta["rosbag2_bagfile_information"]
     assert info["ros_distro"] == "jazzy"
     assert info["starting_time"]["nanoseconds_since_epoch"] == result.summary["start_time_unix_ns"]
-    store = make_typestore()
+    store = project_typestore()
     drags: list[tuple[int, Any]] = []
     arrays: list[tuple[int, Any]] = []
     with AnyReader([bag], default_typestore=store) as reader:

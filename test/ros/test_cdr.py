@@ -6,7 +6,7 @@
   the message's own field types (``get_fields_and_field_types``), not from the encoder; every
   other byte of the encoding must be zero.
 - rosbags, which writes zero padding: ``serialize_cdr`` of the same message built in the
-  project's rosbags type store (:func:`ballscrew_twin.results.make_typestore`) is equal byte
+  project's rosbags type store (:func:`ballscrew_twin.bags.writer.project_typestore`) is equal byte
   for byte.
 - DDS: published as ``bytes`` on loopback, a subscription receives the message.
 """
@@ -29,8 +29,8 @@ from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Header
 
+from ballscrew_twin.bags.writer import project_typestore
 from ballscrew_twin.errors import MessageEncodingError
-from ballscrew_twin.results import make_typestore
 from ballscrew_twin.ros.cdr import CONTACT_FLOAT_FIELDS, DragTorqueEncoder, encode_contact_states
 
 from .conftest import OPERATING_POINT, TORQUES, SpinUntil
@@ -47,7 +47,7 @@ TEXT = st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size
 @pytest.fixture(scope="module")
 def store() -> Any:
     """rosbags type store with the project's messages."""
-    return make_typestore()
+    return project_typestore()
 
 
 @dataclass(frozen=True)
