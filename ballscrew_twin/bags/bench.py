@@ -20,8 +20,9 @@ Bench bag schema (``BenchTopics`` defaults):
   [N] (or ``std_msgs/msg/Float64``).
 
 Sample times are header stamps (log time for ``Float64``, which has no header), in seconds
-since the earliest sample of the recording. The ground truth of a generated bag is in the side file
-``<bag>.truth.json`` (:func:`truth_path`) and in ``metadata.yaml`` ``custom_data``.
+since the earliest sample of the recording. The ground truth of a generated bag is in the side
+file ``<bag>.truth.json`` (:func:`~ballscrew_twin.bags.recording.truth_path`) and in
+``metadata.yaml`` ``custom_data``.
 """
 
 from __future__ import annotations
@@ -38,12 +39,8 @@ import numpy as np
 from ..errors import BagError
 from ..units import CELSIUS_ZERO, stamp_to_ns
 from .reader import RawBag, open_raw_bag
-from .recording import CHANNELS, BenchRecording, BenchTopics, Series
+from .recording import CHANNELS, TRUTH_KEY, BenchRecording, BenchTopics, Series, read_truth
 
-#: Key of the ground truth (a JSON string) in the bag's ``metadata.yaml`` ``custom_data``.
-TRUTH_KEY = "ballscrew_twin.truth"
-#: Suffix of the ground-truth side file next to the bag folder.
-TRUTH_SUFFIX = ".truth.json"
 #: Header stamps further than this from the bag time [ns] are reported (they are still used).
 STAMP_TOLERANCE_NS = 1_000_000_000
 
@@ -54,30 +51,6 @@ ACCEPTED_TYPES: dict[str, tuple[str, ...]] = {
     "temperature": ("sensor_msgs/msg/Temperature",),
     "preload": ("geometry_msgs/msg/WrenchStamped", "std_msgs/msg/Float64"),
 }
-
-
-def truth_path(bag: str | Path) -> Path:
-    """Ground-truth side file of a bag: ``<bag>.truth.json`` next to the bag folder."""
-    path = Path(bag)
-    return path.with_name(path.name + TRUTH_SUFFIX)
-
-
-def read_truth(bag: str | Path) -> dict[str, Any] | None:
-    """Ground truth of a generated bag from its side file, or None when there is none.
-
-    Raises:
-        BagError: the side file exists but is not valid JSON of a mapping.
-    """
-    file = truth_path(bag)
-    if not file.is_file():
-        return None
-    try:
-        data = json.loads(file.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as err:
-        raise BagError(f"{file}: ground truth unreadable ({err})") from err
-    if not isinstance(data, dict):
-        raise BagError(f"{file}: ground truth must be a JSON object")
-    return data
 
 
 @dataclass

@@ -1,12 +1,15 @@
-"""A bench recording in SI units: its channels, their series and the bench topics they come from.
+"""A bench recording in SI units: its channels, their series, the bench topics they come from,
+and the ground truth of a generated one.
 
 :func:`ballscrew_twin.bags.bench.read_bench_bag` builds a :class:`BenchRecording` from a bag;
-the health monitor, calibration and the nodes use these types without reading any bag.
+the health monitor, calibration, the generator and the nodes use these types without reading
+any bag.
 """
 
 from __future__ import annotations
 
 import heapq
+import json
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +26,10 @@ FloatArray = NDArray[np.float64]
 CHANNELS = ("torque", "speed", "angle", "temperature", "preload")
 #: Unit of each channel's values.
 UNITS = {"torque": "N m", "speed": "rad/s", "angle": "rad", "temperature": "K", "preload": "N"}
+#: Key of the ground truth (a JSON string) in the bag's ``metadata.yaml`` ``custom_data``.
+TRUTH_KEY = "ballscrew_twin.truth"
+#: Suffix of the ground-truth side file next to the bag folder.
+TRUTH_SUFFIX = ".truth.json"
 
 
 @dataclass(frozen=True)
@@ -120,3 +127,27 @@ class BenchRecording:
 
         for t, rank, v in heapq.merge(*(stream(s) for s in self.channels.values())):
             yield Sample(t, CHANNELS[rank], v)
+
+
+def truth_path(bag: str | Path) -> Path:
+    """Ground-truth side file of a bag: ``<bag>.truth.json`` next to the bag folder."""
+    path = Path(bag)
+    return path.with_name(path.name + TRUTH_SUFFIX)
+
+
+def read_truth(bag: str | Path) -> dict[str, Any] | None:
+    """Ground truth of a generated bag from its side file, or None when there is none.
+
+    Raises:
+        BagError: the side file exists but is not valid JSON of a mapping.
+    """
+    file = truth_path(bag)
+    if not file.is_file():
+        return None
+    try:
+        data = json.loads(file.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as err:
+        raise BagError(f"{file}: ground truth unreadable ({err})") from err
+    if not isinstance(data, dict):
+        raise BagError(f"{file}: ground truth must be a JSON object")
+    return data

@@ -35,13 +35,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from tqdm import tqdm
 
-from ..cli import HALF_GROOVES
 from ..errors import SolverError
 from ..models.base import ContactStates, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyState, SteadyStateModel
 from ..models.validity import ValidityEnvelope, refuse_outside
 from ..params import TwinConfig
+from ..physics.geometry import HALF_GROOVE_NAMES
 from ..units import CELSIUS_ZERO, RPM, celsius_to_kelvin
 
 Side = Literal["screw", "nut"]
@@ -167,7 +167,7 @@ def contact_side(contacts: ContactStates, nut: int, side: Side) -> dict[str, flo
         "max_pressure_Pa": float(contacts.max_pressure[i]),
     }
     result: dict[str, float | str] = {
-        f"{side}_half_groove": HALF_GROOVES[int(contacts.half_groove[i])]
+        f"{side}_half_groove": HALF_GROOVE_NAMES[int(contacts.half_groove[i])]
     }
     result.update({f"{side}_{name}": value for name, value in values.items()})
     return result

@@ -12,8 +12,8 @@ import time
 from pathlib import Path
 
 from ..params import load_config
-from . import gaps
-from .paper import CSV_NAME, paper_sweep, plot_paper, write_csv
+from ..report import gaps
+from ..report.paper import CSV_NAME, paper_sweep, plot_paper, write_csv
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
