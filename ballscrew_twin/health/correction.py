@@ -99,7 +99,9 @@ class ResidualSurface:
 
     Attributes:
         values: c at the nodes, shape (x nodes, T nodes) [-].
-        support: sum of each node's basis weights over the fitted blocks [blocks].
+        support: sum of each node's basis weights over the fitted blocks [blocks] (a
+            commissioned baseline stores the support both folds of its cross-validation
+            gave, :func:`~ballscrew_twin.health.commission.validated_support`).
     """
 
     values: FloatArray

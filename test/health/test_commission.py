@@ -15,8 +15,20 @@ from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import ERROR_BAND_EDGES, Baseline, load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
-from ballscrew_twin.health.commission import _settling_angle, commission
-from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
+from ballscrew_twin.health.commission import (
+    FOLD_CHUNK,
+    SurfaceStudy,
+    _settling_angle,
+    commission,
+    validated_support,
+)
+from ballscrew_twin.health.correction import (
+    LOG_SPEED_NODES,
+    MIN_SUPPORT,
+    TEMPERATURE_NODES,
+    ResidualSurface,
+    basis,
+)
 from ballscrew_twin.health.residuals import Block, UnitTwin
 from ballscrew_twin.params import load_config
 
@@ -237,3 +249,27 @@ def test_the_settling_angle_is_where_the_presliding_has_died_out(
     # 2 exp(-a / phi_c) <= 2 x 0.7 %: a >= phi_c ln(143) = 4.96 phi_c, on a 0.1 rad grid
     assert low <= angle <= high
     assert _settling_angle(twin, theta, flat, [], bands, 2.0) == 2.0
+
+
+def test_a_corner_taught_in_one_stretch_alone_is_not_validated() -> None:
+    # Blocks of 0.1 s: the first 20 s at 170 rad/s and -10 C (a cold start's corner), then
+    # 100 s alternating between 170 rad/s at 25 C and 20 rad/s at 25 C. The cold node lies
+    # in the first fold only, so both folds never taught it; the warm ones, in both.
+    cold = np.arange(0.0, 20.0, 0.1)
+    warm = np.arange(20.0, 120.0, 0.1)
+    times = np.concatenate([cold, warm])
+    speeds = np.concatenate([np.full(len(cold), 170.0), np.where(warm % 2.0 < 1.0, 170.0, 20.0)])
+    temperatures = np.concatenate([np.full(len(cold), 263.15), np.full(len(warm), 298.15)])
+    design = basis(speeds, temperatures)
+    study = SurfaceStudy(times, speeds, np.zeros(len(times)), design)
+    validated = np.ravel(validated_support(study))
+    plain = np.sum(design, axis=0)
+    cold_node = int(np.argmax(basis(np.array([170.0]), np.array([263.15]))[0]))
+    assert plain[cold_node] >= MIN_SUPPORT  # the surface alone would call it learnt
+    assert validated[cold_node] == 0.0
+    # a warm node: twice the count of the fold that saw it less (an independent count)
+    warm_node = int(np.argmax(basis(np.array([170.0]), np.array([298.15]))[0]))
+    folds = np.floor((times - times[0]) / FOLD_CHUNK).astype(int) % 2
+    counts = [float(np.sum(design[folds == k, warm_node])) for k in (0, 1)]
+    assert validated[warm_node] == pytest.approx(2.0 * min(counts))
+    assert validated[warm_node] >= MIN_SUPPORT
