@@ -1,4 +1,5 @@
-"""Writers of a :class:`~ballscrew_twin.models.simulation.SimulationResult`: CSV, NPZ, rosbag2, PNG.
+"""Writers of a run of the dynamic model (a
+:class:`~ballscrew_twin.models.simulation_result.SimulationResult`): CSV, NPZ, rosbag2, PNG.
 
 - :func:`write_csv`: the time series, one row per output sample, units in the header.
 - :func:`write_npz`: every array, plus the summary and the scenario as JSON strings.
@@ -30,7 +31,7 @@ import numpy as np
 
 from .errors import BallscrewTwinError, ResultsError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
-from .models.simulation import MECHANISMS, SimulationResult
+from .models.simulation_result import MECHANISMS, SimulationResult
 from .units import CELSIUS_ZERO, ns_to_stamp
 
 DRAG_TOPIC = "/drag_torque"

@@ -207,7 +207,8 @@ def run_dynamic(
     scene: Scene, config: TwinConfig, bounds: Bounds, progress: Any, result: SceneResult
 ) -> dict[str, Any]:
     """Step the dynamic model from rest and sample it at the output times."""
-    from ..models.dynamic import Commands, DynamicModel
+    from ..models.dynamic import DynamicModel
+    from ..models.dynamic_state import Commands
 
     time_step = bounds.dynamic.get("time_step_s", 1e-6)
     temperature = scene.range("temperature")[0]

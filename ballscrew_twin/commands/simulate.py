@@ -15,7 +15,8 @@ from typing import Any
 
 from ..errors import BallscrewTwinError
 from ..models.scenario import load_scenario
-from ..models.simulation import SimulationResult, simulate
+from ..models.simulation import simulate
+from ..models.simulation_result import SimulationResult
 
 NMM_PER_NM = 1e3
 UNRELIABLE_BREAKDOWN = 0.01  # relative power-balance error above which the breakdown is flagged

@@ -23,132 +23,30 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import SolverError
-from ..kernels.solver_settings import STEP_TOLERANCE
 from ..params import TwinConfig, load_config
 from ..physics.contact_types import ContactEvaluation
-from .base import DISSIPATION_KEYS, OperatingPoint
+from .base import OperatingPoint
 from .contact_forces import make_scene
-from .dynamic import Commands, DynamicModel, DynamicState, StepReport
+from .dynamic import DynamicModel
+from .dynamic_state import Commands, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
+from .simulation_result import MECHANISMS, SimulationResult
+from .simulation_summary import run_summary, unconverged_summary
 from .validity import ValidityEnvelope, refuse_outside
 
 FloatArray = NDArray[np.float64]
 ProgressCallback = Callable[[float, float], None]
 
-#: Dissipation mechanisms of the contact laws, in the order of the result's columns.
-MECHANISMS = DISSIPATION_KEYS
-
 #: Progress is reported about every this fraction of the run [-].
 PROGRESS_FRACTION = 0.005
-
-#: Speeds below this are treated as standstill when dividing a power by the speed [rad/s].
-STANDSTILL_SPEED = 1e-9
-
-#: The run has settled once |screw speed - command| stays within this fraction of the command
-#: [-] (with the commands no longer ramping) ...
-SETTLED_SPEED = 0.01
-#: ... and the mean drag of the averaging window's two halves differ by at most this fraction
-#: of the window's mean drag [-].
-SETTLED_DRIFT = 0.02
-#: Unconverged steps listed one by one in the summary (the rest are only counted).
-LISTED_UNCONVERGED = 10
-
-
-@dataclass
-class SimulationResult:
-    """Recorded time series, contact states and summary of one run (SI units).
-
-    Time series (length N, every output interval): ``time`` [s], ``speed_command`` [rad/s],
-    ``preload_command`` [N], ``screw_speed`` [rad/s], ``motor_torque`` [N m], ``screw_torque``
-    (spheres on the screw about z) [N m], ``nut_force`` (N, 2) [N], ``nut_position`` (N, 2) [m],
-    ``dissipation`` [W], ``mechanism_dissipation`` (N, 7) [W] in :data:`MECHANISMS` order,
-    ``nut_dissipation`` (N, 2) [W], ``kinetic_energy``, ``elastic_energy``,
-    ``gravitational_energy`` [J], ``gravitational_power`` (dE_grav/dt) [W], ``input_energy``
-    (cumulative int P_in dt) [J], ``dissipated_energy`` [J], ``power_balance_error`` [J].
-
-    Contact states (M samples, B spheres, 4 half grooves S1, S2, N1, N2): ``contact_time`` [s],
-    ``normal_force`` (elastic part K delta^1.5) [N], ``friction_force`` [N], ``contact_angle``
-    [rad], ``tallian`` [-], ``film_thickness`` [m], ``slip`` [m/s], ``max_pressure`` [Pa],
-    ``semi_axis_x``, ``semi_axis_y`` [m], ``lubricant_share``, ``dry_share`` [-] of the
-    friction, ``in_contact`` (bool); ``ball_nut`` (B,) 0 master / 1 slave and ``ball_index`` (B,)
-    index within its nut.
-    """
-
-    scenario: Scenario
-    time: FloatArray
-    speed_command: FloatArray
-    preload_command: FloatArray
-    screw_speed: FloatArray
-    motor_torque: FloatArray
-    screw_torque: FloatArray
-    nut_force: FloatArray
-    nut_position: FloatArray
-    dissipation: FloatArray
-    mechanism_dissipation: FloatArray
-    nut_dissipation: FloatArray
-    kinetic_energy: FloatArray
-    elastic_energy: FloatArray
-    gravitational_energy: FloatArray
-    gravitational_power: FloatArray
-    input_energy: FloatArray
-    dissipated_energy: FloatArray
-    power_balance_error: FloatArray
-    contact_time: FloatArray
-    normal_force: FloatArray
-    friction_force: FloatArray
-    contact_angle: FloatArray
-    tallian: FloatArray
-    film_thickness: FloatArray
-    slip: FloatArray
-    max_pressure: FloatArray
-    semi_axis_x: FloatArray
-    semi_axis_y: FloatArray
-    lubricant_share: FloatArray
-    dry_share: FloatArray
-    in_contact: NDArray[np.bool_]
-    ball_nut: NDArray[np.int64]
-    ball_index: NDArray[np.int64]
-    summary: dict[str, Any] = field(default_factory=dict)
-    screw_inertia: float = 0.0  # I_s [kg m^2] of the run's parameter set
-
-    @property
-    def gravity_torque(self) -> FloatArray:
-        """Gravitational power / screw speed at each sample, 0 at standstill [N m]."""
-        return _per_speed(self.gravitational_power, self.screw_speed)
-
-    @property
-    def inertia_torque(self) -> FloatArray:
-        """I_s dOmega/dt at each sample (central differences of the recorded speed) [N m]."""
-        if len(self.time) < 2:
-            return np.zeros_like(self.time)
-        return self.screw_inertia * np.gradient(self.screw_speed, self.time)
-
-    @property
-    def drag_torque(self) -> FloatArray:
-        """Motor torque minus gravity torque minus I_s dOmega/dt at each sample [N m]."""
-        return self.motor_torque - self.gravity_torque - self.inertia_torque
-
-    def nut_torque(self) -> FloatArray:
-        """(N, 2) dissipation of each nut's spheres / screw speed, 0 at standstill [N m]."""
-        return _per_speed(self.nut_dissipation, self.screw_speed[:, None])
-
-    def breakdown_torque(self) -> FloatArray:
-        """(N, 7) dissipation per mechanism / screw speed at each sample, 0 at standstill [N m]."""
-        return _per_speed(self.mechanism_dissipation, self.screw_speed[:, None])
-
-
-def _per_speed(power: FloatArray, speed: FloatArray) -> FloatArray:
-    """power / speed where |speed| > STANDSTILL_SPEED, else 0."""
-    moving = np.abs(speed) > STANDSTILL_SPEED
-    return np.asarray(np.where(moving, power / np.where(moving, speed, 1.0), 0.0))
 
 
 def build_config(scenario: Scenario) -> TwinConfig:
@@ -309,7 +207,7 @@ def simulate(
         screw_inertia=config.screw.screw_inertia,
     )
     steps = scenario.steps
-    result.summary = _summary(
+    result.summary = run_summary(
         result,
         run.window,
         run.window_mechanisms,
@@ -322,7 +220,7 @@ def simulate(
     result.summary["start_time_unix_ns"] = started_unix_ns
     result.summary["unconverged_steps"] = model.unconverged_steps
     result.summary["fallback_steps"] = run.fallbacks
-    result.summary["unconverged"] = _unconverged_summary(
+    result.summary["unconverged"] = unconverged_summary(
         run.unconverged, model.unconverged_steps, steps, scenario
     )
     result.summary["work_per_step"] = {
@@ -762,183 +660,3 @@ def _record_contacts(rec: _Recorder, report: StepReport, t: float) -> None:
     c["dry_share"][j] = np.where(active & (friction > 0.0), ev.friction_dry / safe, 0.0)
     rec.in_contact[j] = active
     rec.m += 1
-
-
-def _summary(
-    result: SimulationResult,
-    window: dict[str, float],
-    mechanisms: FloatArray,
-    nuts: FloatArray,
-    abs_input_energy: float,
-    wall: float,
-    steps: int,
-    config: TwinConfig,
-) -> dict[str, Any]:
-    """The paper's averages over the last window plus run statistics (SI, JSON-ready).
-
-    drag = mean motor torque - gravity torque - I_s (Omega_end - Omega_start) / T: the mean of
-    I_s dOmega/dt over the window's steps telescopes to the speed change over the window. The
-    breakdown closes on it through the energy balance of everything but the screw (see
-    :func:`_closure`).
-    """
-    sc = result.scenario
-    dt = sc.time_step
-    count = max(int(window["count"]), 1)
-    motor = float(window["motor"]) / count
-    speed = float(window["speed"]) / count
-    gravity_power = float(window["gravity"]) / count
-    moving = abs(speed) > STANDSTILL_SPEED
-    gravity_torque = gravity_power / speed if moving else 0.0
-    span = count * dt  # s: the window's steps, from the state before its first one
-    start, end = sc.duration - span, sc.duration
-    speeds = np.interp([start, end], result.time, result.screw_speed)
-    inertia_torque = result.screw_inertia * float(speeds[1] - speeds[0]) / span
-    drag = motor - gravity_torque - inertia_torque
-    breakdown = {
-        name: (float(value) / count / speed if moving else 0.0)
-        for name, value in zip(MECHANISMS, mechanisms, strict=True)
-    }
-    dissipation_drag = float(sum(breakdown.values()))
-    closure = _closure(result, start, end, speed if moving else math.inf)
-    closure["remainder"] = drag - dissipation_drag - sum(closure.values())
-    breakdown.update(closure)
-    settling = _settling(result, start)
-    final_error = float(result.power_balance_error[-1])
-    abs_input_energy = float(abs_input_energy)
-    return {
-        "window_start_s": sc.duration - sc.average_window,
-        "window_end_s": sc.duration,
-        "mean_screw_speed_rad_s": speed,
-        "mean_motor_torque_Nm": motor,
-        "mean_gravitational_power_W": gravity_power,
-        "gravity_torque_Nm": float(gravity_torque),
-        "inertia_torque_Nm": inertia_torque,
-        "drag_torque_Nm": drag,
-        "dissipation_drag_Nm": dissipation_drag,
-        **settling,
-        "breakdown_Nm": breakdown,
-        "breakdown_total_Nm": float(sum(breakdown.values())),
-        "nut_torque_Nm": {
-            "master": float(nuts[0]) / count / speed if moving else 0.0,
-            "slave": float(nuts[1]) / count / speed if moving else 0.0,
-        },
-        "mean_dissipation_W": float(mechanisms.sum()) / count,
-        "power_balance_error_J": final_error,
-        "input_energy_J": float(result.input_energy[-1]),
-        "gross_input_energy_J": abs_input_energy,
-        "dissipated_energy_J": float(result.dissipated_energy[-1]),
-        "power_balance_error_relative": (
-            final_error / abs_input_energy if abs_input_energy > 0.0 else 0.0
-        ),
-        "wall_time_s": wall,
-        "real_time_factor": sc.duration / wall if wall > 0.0 else math.inf,
-        "steps": steps,
-        "step_cost_s": wall / max(steps, 1),
-        "balls_per_nut": config.screw.balls_per_nut,
-        "config": config.source,
-    }
-
-
-def _closure(result: SimulationResult, start: float, end: float, speed: float) -> dict[str, float]:
-    """The non-dissipative terms of the drag over [start, end] [s], as torques [N m].
-
-    Energy balance of the nuts, spheres and contacts (everything but the screw): the spheres'
-    torque on the screw times its speed equals the dissipation, plus the rate of their stored
-    energy (kinetic energy without the screw's, elastic energy), plus the gravitational power,
-    minus the preload's power F_p (v_master - v_slave). Divided by the mean speed ``speed``:
-    ``stored_energy`` = change of that energy / duration / speed and ``preload_work`` = -(work
-    of the preload) / duration / speed; the rest of the drag beyond these and the mechanisms
-    (numerical balance error, speed fluctuation within the window) is the caller's
-    ``remainder``. Values between recorded samples are interpolated linearly.
-    """
-    inside = (result.time > start) & (result.time < end)
-    times = np.concatenate([[start], result.time[inside], [end]])
-
-    def at(values: FloatArray) -> FloatArray:
-        return np.asarray(np.interp(times, result.time, values))
-
-    screw_kinetic = 0.5 * result.screw_inertia * result.screw_speed**2
-    stored = at(result.kinetic_energy - screw_kinetic + result.elastic_energy)
-    separation = at(result.nut_position[:, 0] - result.nut_position[:, 1])
-    preload = at(result.preload_command)
-    preload_work = float(np.sum(0.5 * (preload[1:] + preload[:-1]) * np.diff(separation)))
-    duration = end - start
-    return {
-        "stored_energy": float(stored[-1] - stored[0]) / duration / speed,
-        "preload_work": -preload_work / duration / speed,
-    }
-
-
-def _settling(result: SimulationResult, start: float) -> dict[str, Any]:
-    """Whether the run has settled by the averaging window's ``start`` [s], since when, and the
-    drag's standard deviation over the settled part of the window (recorded samples).
-
-    Settled: the commands have stopped ramping, |screw speed - command| has stayed within
-    SETTLED_SPEED of the command since ``settled_since_s``, which is before the window, and the
-    mean drag of the window's two halves differ by at most SETTLED_DRIFT of the window mean.
-    """
-    sc = result.scenario
-    t, drag = result.time, result.drag_torque
-    reasons: list[str] = []
-    ramps_end = max(sc.speed_ramp_end, sc.preload_ramp_end)
-    tolerance = SETTLED_SPEED * max(abs(sc.speed), STANDSTILL_SPEED)
-    off = (np.abs(result.screw_speed - result.speed_command) > tolerance) | (t < ramps_end)
-    since: float | None = None
-    if not off[-1]:
-        last_off = np.flatnonzero(off)
-        since = float(t[last_off[-1] + 1]) if len(last_off) else float(t[0])
-    if ramps_end > start:
-        reasons.append(f"the commands ramp until {ramps_end:.6g} s, inside the window")
-    if since is None:
-        deviation = float(np.abs(result.screw_speed - result.speed_command)[-1])
-        reasons.append(
-            f"the screw speed ends {deviation:.3g} rad/s from its command "
-            f"(tolerance {tolerance:.3g} rad/s)"
-        )
-    elif since > start + 0.5 * sc.time_step:
-        reasons.append(
-            f"the screw speed stays within {SETTLED_SPEED:.0%} of its command only from "
-            f"{since:.6g} s, inside the window"
-        )
-    in_window = t >= start - 0.5 * sc.time_step
-    window_drag = drag[in_window]
-    halves = np.array_split(window_drag, 2) if len(window_drag) >= 2 else []
-    drift = abs(float(np.mean(halves[1]) - np.mean(halves[0]))) if halves else 0.0
-    level = abs(float(np.mean(window_drag))) if len(window_drag) else 0.0
-    if drift > SETTLED_DRIFT * level:
-        reasons.append(
-            f"the mean drag of the window's halves differ by {drift:.3g} N m, more than "
-            f"{SETTLED_DRIFT:.0%} of its mean {level:.3g} N m"
-        )
-    settled_from = start if since is None else max(start, since)
-    settled = t >= settled_from - 0.5 * sc.time_step
-    samples = drag[settled] if settled.any() else window_drag
-    return {
-        "settled": not reasons,
-        "settled_since_s": since,
-        "not_settled_because": reasons,
-        "drag_torque_std_window_s": [settled_from, sc.duration],
-        "drag_torque_std_Nm": float(np.std(samples)) if len(samples) else 0.0,
-        "window_drift_Nm": drift,
-    }
-
-
-def _unconverged_summary(
-    unconverged: list[tuple[int, float]], total: int, steps: int, scenario: Scenario
-) -> dict[str, Any]:
-    """Where the Newton iterations of a step ended above STEP_TOLERANCE (JSON-ready, SI):
-    ``unconverged`` lists (step index, final scaled residual) of every such step."""
-    dt = scenario.time_step
-    window_first = steps - scenario.steps_per(scenario.average_window)
-    return {
-        "count": total,
-        "steps": steps + 1,
-        "in_window": sum(step >= window_first for step, _ in unconverged),
-        "tolerance": STEP_TOLERANCE,
-        "largest_residual": max((r for _, r in unconverged), default=0.0),
-        "listed": [
-            {"step": step, "time_s": step * dt, "residual": r}
-            for step, r in unconverged[:LISTED_UNCONVERGED]
-        ],
-        "unlisted": max(len(unconverged) - LISTED_UNCONVERGED, 0),
-    }

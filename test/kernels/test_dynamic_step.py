@@ -12,7 +12,8 @@ import pytest
 
 from ballscrew_twin.kernels import dynamic_step, solver_settings
 from ballscrew_twin.models import dynamic
-from ballscrew_twin.models.dynamic import Commands, DynamicModel
+from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_state import Commands
 from ballscrew_twin.models.faults import Faults, RacewaySpall, SphereDefect, SphereJam
 from ballscrew_twin.params import load_config
 
