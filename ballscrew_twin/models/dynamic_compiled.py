@@ -25,11 +25,12 @@ class CompiledStep:
     """The compiled step (kernels/dynamic_step.py) with its constants and kept Jacobian."""
 
     def __init__(self, model: DynamicModel) -> None:
-        from ..kernels import dynamic_step as ks  # numba: imported when a model steps compiled
+        from ..kernels import dynamic_layouts as kl  # numba: imported when a model steps compiled
+        from ..kernels import dynamic_step as ks
         from ..kernels.contacts import scene_arrays
 
         ks.ensure_fresh_cache()
-        self.ks = ks
+        self.ks, self.kl = ks, kl
         self.model = model
         screw = model.config.screw
         geom = model.geometry
@@ -37,24 +38,24 @@ class CompiledStep:
         weight = screw.nut_mass * model.config.environment.gravity
         if screw.orientation != "vertical":
             weight = 0.0
-        consts = np.zeros(ks.N_CONST)
-        consts[ks.K_DT] = model.time_step
-        consts[ks.K_MASS] = scene.ball_mass
-        consts[ks.K_INERTIA] = scene.ball_inertia
-        consts[ks.K_GX : ks.K_GZ + 1] = model.gravity
-        consts[ks.K_G] = model.config.environment.gravity
-        consts[ks.K_SCREW_INERTIA] = screw.screw_inertia
-        consts[ks.K_NUT_MASS] = screw.nut_mass
-        consts[ks.K_WEIGHT] = weight
-        consts[ks.K_KP] = model.controller.proportional
-        consts[ks.K_KI] = model.controller.integral
-        consts[ks.K_BALL_RADIUS] = geom.ball_radius
-        consts[ks.K_PITCH_RADIUS] = geom.pitch_radius
-        consts[ks.K_LEAD_RATE] = model.lead_rate
-        consts[ks.K_SIN_HELIX] = model.zhat[0]
-        consts[ks.K_COS_HELIX] = math.cos(geom.helix_angle)
-        consts[ks.K_NUT_OFFSET0 : ks.K_NUT_OFFSET0 + 2] = model._nut_offset0
-        consts[ks.K_IMPLICIT] = float(model.implicit_positions)
+        consts = np.zeros(kl.N_CONST)
+        consts[kl.K_DT] = model.time_step
+        consts[kl.K_MASS] = scene.ball_mass
+        consts[kl.K_INERTIA] = scene.ball_inertia
+        consts[kl.K_GX : kl.K_GZ + 1] = model.gravity
+        consts[kl.K_G] = model.config.environment.gravity
+        consts[kl.K_SCREW_INERTIA] = screw.screw_inertia
+        consts[kl.K_NUT_MASS] = screw.nut_mass
+        consts[kl.K_WEIGHT] = weight
+        consts[kl.K_KP] = model.controller.proportional
+        consts[kl.K_KI] = model.controller.integral
+        consts[kl.K_BALL_RADIUS] = geom.ball_radius
+        consts[kl.K_PITCH_RADIUS] = geom.pitch_radius
+        consts[kl.K_LEAD_RATE] = model.lead_rate
+        consts[kl.K_SIN_HELIX] = model.zhat[0]
+        consts[kl.K_COS_HELIX] = math.cos(geom.helix_angle)
+        consts[kl.K_NUT_OFFSET0 : kl.K_NUT_OFFSET0 + 2] = model._nut_offset0
+        consts[kl.K_IMPLICIT] = float(model.implicit_positions)
         self.consts = consts
         self.params = np.array(scene_arrays(scene), dtype=np.float64)
         count = len(model.ball_nut)
@@ -68,22 +69,22 @@ class CompiledStep:
         self.jac_meta = np.array([0, 0, model.jacobian_interval], dtype=np.int64)
         self.history = np.zeros((PREDICTOR_ORDER, count + 1, 6))
         self.history_meta = np.array([math.nan, 0.0, 0.0])
-        self.stats = np.zeros(ks.S_COUNT)
+        self.stats = np.zeros(kl.S_COUNT)
 
     def set_integrator(self, time_step: float, implicit_positions: bool) -> None:
         """The step [s] and sphere-position treatment of the next steps; the kept Jacobian
         and the predictor's history are dropped (DynamicModel.set_integrator)."""
-        ks = self.ks
-        self.consts[ks.K_DT] = time_step
-        self.consts[ks.K_IMPLICIT] = float(implicit_positions)
-        self.jac_meta[ks.J_VALID] = 0
-        self.history_meta[ks.H_NEXT_TIME] = math.nan
+        kl = self.kl
+        self.consts[kl.K_DT] = time_step
+        self.consts[kl.K_IMPLICIT] = float(implicit_positions)
+        self.jac_meta[kl.J_VALID] = 0
+        self.history_meta[kl.H_NEXT_TIME] = math.nan
 
     def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
         """One compiled step; the same result as :meth:`DynamicModel._step` (to rounding)."""
         from ..kernels.contacts import evaluation_from_buffer
 
-        ks, model = self.ks, self.model
+        ks, kl, model = self.ks, self.kl, self.model
         body = np.array(
             [
                 state.time,
@@ -98,7 +99,7 @@ class CompiledStep:
         )
         count = len(state.helix_parameter)
         pos, vel, omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
-        theta, new_body = np.empty(count), np.empty(ks.N_BODY)
+        theta, new_body = np.empty(count), np.empty(kl.N_BODY)
         stats = self.stats
         active, buffer = ks.step_kernel(
             np.ascontiguousarray(state.ball_position, dtype=np.float64),
@@ -126,31 +127,31 @@ class CompiledStep:
             new_body,
             stats,
         )
-        model.unconverged_steps += int(stats[ks.S_UNCONVERGED])
-        model.last_step_residual = float(stats[ks.S_RESIDUAL])
+        model.unconverged_steps += int(stats[kl.S_UNCONVERGED])
+        model.last_step_residual = float(stats[kl.S_RESIDUAL])
         work = model.work
-        work["contact_evaluations"] += int(stats[ks.S_EVALS])
-        work["jacobians"] += int(stats[ks.S_JACOBIANS])
-        work["newton_iterations"] += int(stats[ks.S_ITERATIONS])
+        work["contact_evaluations"] += int(stats[kl.S_EVALS])
+        work["jacobians"] += int(stats[kl.S_JACOBIANS])
+        work["newton_iterations"] += int(stats[kl.S_ITERATIONS])
         new = DynamicState(
-            time=float(new_body[ks.B_TIME]),
-            screw_angle=float(new_body[ks.B_ANGLE]),
-            screw_speed=float(new_body[ks.B_SPEED]),
-            controller_integral=float(new_body[ks.B_INTEGRAL]),
-            nut_position=new_body[ks.B_NUT_POS : ks.B_NUT_POS + 2].copy(),
-            nut_velocity=new_body[ks.B_NUT_VEL : ks.B_NUT_VEL + 2].copy(),
+            time=float(new_body[kl.B_TIME]),
+            screw_angle=float(new_body[kl.B_ANGLE]),
+            screw_speed=float(new_body[kl.B_SPEED]),
+            controller_integral=float(new_body[kl.B_INTEGRAL]),
+            nut_position=new_body[kl.B_NUT_POS : kl.B_NUT_POS + 2].copy(),
+            nut_velocity=new_body[kl.B_NUT_VEL : kl.B_NUT_VEL + 2].copy(),
             ball_position=pos,
             ball_velocity=vel,
             ball_omega=omega,
             helix_parameter=theta,
         )
         report = StepReport(
-            motor_torque=float(stats[ks.S_MOTOR]),
+            motor_torque=float(stats[kl.S_MOTOR]),
             contacts=evaluation_from_buffer(active, buffer),
-            nut_force=stats[ks.S_NUT_FORCE : ks.S_NUT_FORCE + 2].copy(),
-            screw_torque=float(stats[ks.S_SCREW_TORQUE]),
-            dissipation=float(stats[ks.S_DISSIPATION]),
-            mechanism_dissipation=stats[ks.S_MECHANISMS : ks.S_MECHANISMS + ks.N_MECHANISMS].copy(),
-            nut_dissipation=stats[ks.S_NUT_DISSIPATION : ks.S_NUT_DISSIPATION + 2].copy(),
+            nut_force=stats[kl.S_NUT_FORCE : kl.S_NUT_FORCE + 2].copy(),
+            screw_torque=float(stats[kl.S_SCREW_TORQUE]),
+            dissipation=float(stats[kl.S_DISSIPATION]),
+            mechanism_dissipation=stats[kl.S_MECHANISMS : kl.S_MECHANISMS + kl.N_MECHANISMS].copy(),
+            nut_dissipation=stats[kl.S_NUT_DISSIPATION : kl.S_NUT_DISSIPATION + 2].copy(),
         )
         return new, report

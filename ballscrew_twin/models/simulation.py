@@ -159,7 +159,7 @@ def simulate(
         progress: called as ``progress(fraction_done, elapsed_wall_seconds)`` about every 0.5 %
             of the run and once at the end.
         compiled_loop: with the compiled step, run the steps between two records in one
-            compiled call (kernels/dynamic_step.run_steps); False: one Python iteration per step
+            compiled call (kernels/dynamic_run.run_steps); False: one Python iteration per step
             (the reference, tested equal). Ignored when the model runs the Python step.
 
     Raises:
@@ -406,15 +406,15 @@ class _Run:
         if k % self.contact_every == 0:
             _record_contacts(self.rec, report, t)
 
-    def _note_unconverged(self, ks: Any, step: int, acc: FloatArray, done: int) -> None:
+    def _note_unconverged(self, kr: Any, step: int, acc: FloatArray, done: int) -> None:
         """Record step ``step``, just run alone by the compiled loop, if it ended unconverged
         (``done``: the unconverged count before it)."""
-        if acc[ks.A_UNCONVERGED] > done:
-            self.unconverged.append((step, float(acc[ks.A_RESIDUAL])))
+        if acc[kr.A_UNCONVERGED] > done:
+            self.unconverged.append((step, float(acc[kr.A_RESIDUAL])))
 
     def _replay(
         self,
-        ks: Any,
+        kr: Any,
         steps_from: Callable[[int, int], tuple[Any, Any]],
         k: int,
         n: int,
@@ -424,15 +424,15 @@ class _Run:
         """Run steps k .. k + n - 1 one compiled call each, noting every unconverged step;
         return the first step's contact arrays and leave ``first_stats`` and the first-step
         accumulators as one call over the stretch leaves them."""
-        firsts = (ks.A_FIRST_GRAVITY, ks.A_FIRST_INPUT, ks.A_FIRST_DISSIPATED)
+        firsts = (kr.A_FIRST_GRAVITY, kr.A_FIRST_INPUT, kr.A_FIRST_DISSIPATED)
         kept: tuple[Any, Any] | None = None
         saved_stats, saved_firsts = first_stats, acc[list(firsts)]
         for step in range(k, k + n):
-            done = int(acc[ks.A_UNCONVERGED])
+            done = int(acc[kr.A_UNCONVERGED])
             out = steps_from(step, step + 1)
-            if acc[ks.A_FAILED]:
+            if acc[kr.A_FAILED]:
                 return out
-            self._note_unconverged(ks, step, acc, done)
+            self._note_unconverged(kr, step, acc, done)
             if kept is None:
                 kept, saved_stats, saved_firsts = out, first_stats.copy(), acc[list(firsts)]
         first_stats[:] = saved_stats
@@ -443,9 +443,11 @@ class _Run:
     def compiled(self) -> None:
         """One compiled call (run_steps) per stretch of steps between two records (or two
         progress reports); a stretch with unconverged steps is replayed step by step."""
-        from ..kernels import dynamic_step as ks
+        from ..kernels import dynamic_layouts as kl
+        from ..kernels import dynamic_run as kr
         from ..kernels.contacts import evaluation_from_buffer
 
+        kr.ensure_fresh_cache()
         model, scenario, state = self.model, self.scenario, self.state
         kernel = model._kernel
         assert kernel is not None
@@ -470,8 +472,8 @@ class _Run:
         for jam in model.faults.jams:
             hit = (model.ball_nut == jam.nut) & (model.ball_index == jam.index)
             jam_start[hit] = np.minimum(jam_start[hit], jam.start)
-        acc = np.zeros(ks.A_COUNT)
-        first_stats = np.zeros(ks.S_COUNT)
+        acc = np.zeros(kr.A_COUNT)
+        first_stats = np.zeros(kl.S_COUNT)
         jacobian = (
             kernel.jac_own,
             kernel.jac_shared,
@@ -500,7 +502,7 @@ class _Run:
                 times, scenario.speed_ramp_start, scenario.speed_ramp_end
             )
             commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
-            motor = float(acc[ks.A_MOTOR])
+            motor = float(acc[kr.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
             snapshot = [a.copy() for a in mutable]
@@ -516,7 +518,7 @@ class _Run:
                 parts: int = parts,
                 window_first: int = window_first,
             ) -> tuple[Any, Any]:
-                return ks.run_steps(
+                return kr.run_steps(
                     first, window_first, commands[(first - k) * parts : (last - k) * parts], pos,
                     vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
@@ -524,40 +526,40 @@ class _Run:
                 )  # fmt: skip
 
             active, buffer = steps_from(k, k + n)
-            if acc[ks.A_UNCONVERGED] > done[3] and n > 1 and not acc[ks.A_FAILED]:
+            if acc[kr.A_UNCONVERGED] > done[3] and n > 1 and not acc[kr.A_FAILED]:
                 # Replay the stretch one step at a time from the snapshot (same arithmetic,
                 # same state) to locate each unconverged step and keep its residual.
                 for array, saved in zip(mutable, snapshot, strict=True):
                     array[...] = saved
-                active, buffer = self._replay(ks, steps_from, k, n, first_stats, acc)
+                active, buffer = self._replay(kr, steps_from, k, n, first_stats, acc)
             else:
-                self._note_unconverged(ks, k, acc, done[3])  # n == 1 or nothing new
-            if acc[ks.A_FAILED] > 0.0:
+                self._note_unconverged(kr, k, acc, done[3])  # n == 1 or nothing new
+            if acc[kr.A_FAILED] > 0.0:
                 # body is left at the start of the failed step
-                failed_at = acc[ks.A_FAILED_STEP] * dt if parts == 1 else body[ks.B_TIME]
+                failed_at = acc[kr.A_FAILED_STEP] * dt if parts == 1 else body[kl.B_TIME]
                 raise SolverError(
                     f"dynamic model diverged at t = {failed_at:.7g} s: "
-                    f"{ks.FINITE_CHECKS[int(acc[ks.A_FAILED]) - 1]} is "
-                    f"{acc[ks.A_FAILED_VALUE]} (last screw speed {body[ks.B_SPEED]:.6g} rad/s)"
+                    f"{kr.FINITE_CHECKS[int(acc[kr.A_FAILED]) - 1]} is "
+                    f"{acc[kr.A_FAILED_VALUE]} (last screw speed {body[kl.B_SPEED]:.6g} rad/s)"
                 )
             totals = [
-                int(acc[ks.A_EVALS]),
-                int(acc[ks.A_JACOBIANS]),
-                int(acc[ks.A_ITERATIONS]),
-                int(acc[ks.A_UNCONVERGED]),
+                int(acc[kr.A_EVALS]),
+                int(acc[kr.A_JACOBIANS]),
+                int(acc[kr.A_ITERATIONS]),
+                int(acc[kr.A_UNCONVERGED]),
             ]
             work = model.work
             work["contact_evaluations"] += totals[0] - done[0]
             work["jacobians"] += totals[1] - done[1]
             work["newton_iterations"] += totals[2] - done[2]
             model.unconverged_steps += totals[3] - done[3]
-            model.last_step_residual = float(acc[ks.A_RESIDUAL])
+            model.last_step_residual = float(acc[kr.A_RESIDUAL])
             done = totals
             if record or record_contacts:
                 # The first step's contacts: at the positions of ``before`` (semi-implicit) or
                 # at its end (implicit positions; the record's energy is then evaluated anew).
                 contacts = evaluation_from_buffer(active, buffer)
-                report = _report_from_stats(ks, first_stats, contacts)
+                report = _report_from_stats(kl, first_stats, contacts)
                 t = k * dt
                 if record:
                     assert before is not None
@@ -567,8 +569,8 @@ class _Run:
                         before,
                         motor,
                         report,
-                        float(acc[ks.A_FIRST_GRAVITY]),
-                        (float(acc[ks.A_FIRST_INPUT]), float(acc[ks.A_FIRST_DISSIPATED])),
+                        float(acc[kr.A_FIRST_GRAVITY]),
+                        (float(acc[kr.A_FIRST_INPUT]), float(acc[kr.A_FIRST_DISSIPATED])),
                         None if model.implicit_positions else contacts,
                     )
                 if record_contacts:
@@ -577,14 +579,14 @@ class _Run:
             if self.progress is not None and k % self.progress_every == 0 and k <= steps:
                 self.progress(k / steps, time.perf_counter() - self.started)
         window = self.window
-        window["motor"] = float(acc[ks.A_W_MOTOR])
-        window["speed"] = float(acc[ks.A_W_SPEED])
-        window["gravity"] = float(acc[ks.A_W_GRAVITY])
-        window["count"] = int(acc[ks.A_W_COUNT])
-        self.window_mechanisms = acc[ks.A_W_MECHANISMS : ks.A_W_MECHANISMS + len(MECHANISMS)].copy()
-        self.window_nuts = acc[ks.A_W_NUTS : ks.A_W_NUTS + 2].copy()
-        self.abs_input_energy = float(acc[ks.A_ABS_INPUT])
-        self.fallbacks = int(acc[ks.A_FALLBACKS])
+        window["motor"] = float(acc[kr.A_W_MOTOR])
+        window["speed"] = float(acc[kr.A_W_SPEED])
+        window["gravity"] = float(acc[kr.A_W_GRAVITY])
+        window["count"] = int(acc[kr.A_W_COUNT])
+        self.window_mechanisms = acc[kr.A_W_MECHANISMS : kr.A_W_MECHANISMS + len(MECHANISMS)].copy()
+        self.window_nuts = acc[kr.A_W_NUTS : kr.A_W_NUTS + 2].copy()
+        self.abs_input_energy = float(acc[kr.A_ABS_INPUT])
+        self.fallbacks = int(acc[kr.A_FALLBACKS])
 
 
 def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
@@ -623,16 +625,16 @@ def _body_state(
     )
 
 
-def _report_from_stats(ks: Any, stats: FloatArray, contacts: Any) -> StepReport:
-    """The :class:`StepReport` of a step from step_kernel's statistics (layout ks.S_*)."""
+def _report_from_stats(kl: Any, stats: FloatArray, contacts: Any) -> StepReport:
+    """The :class:`StepReport` of a step from step_kernel's statistics (layout kl.S_*)."""
     return StepReport(
-        motor_torque=float(stats[ks.S_MOTOR]),
+        motor_torque=float(stats[kl.S_MOTOR]),
         contacts=contacts,
-        nut_force=stats[ks.S_NUT_FORCE : ks.S_NUT_FORCE + 2].copy(),
-        screw_torque=float(stats[ks.S_SCREW_TORQUE]),
-        dissipation=float(stats[ks.S_DISSIPATION]),
-        mechanism_dissipation=stats[ks.S_MECHANISMS : ks.S_MECHANISMS + ks.N_MECHANISMS].copy(),
-        nut_dissipation=stats[ks.S_NUT_DISSIPATION : ks.S_NUT_DISSIPATION + 2].copy(),
+        nut_force=stats[kl.S_NUT_FORCE : kl.S_NUT_FORCE + 2].copy(),
+        screw_torque=float(stats[kl.S_SCREW_TORQUE]),
+        dissipation=float(stats[kl.S_DISSIPATION]),
+        mechanism_dissipation=stats[kl.S_MECHANISMS : kl.S_MECHANISMS + kl.N_MECHANISMS].copy(),
+        nut_dissipation=stats[kl.S_NUT_DISSIPATION : kl.S_NUT_DISSIPATION + 2].copy(),
     )
 
 
