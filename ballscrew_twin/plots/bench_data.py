@@ -4,19 +4,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import BagError
 from ..health.bench_data import BenchData
 from ..units import CELSIUS_ZERO
 
 
 def plot_bench_data(data: BenchData, path: str | Path) -> Path:
     """PNG of the four recorded channels, the twin's drag torque and the fault onsets."""
-    import matplotlib
+    from matplotlib.figure import Figure  # matplotlib: imported when a figure is drawn
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .save import save_png
 
-    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
+    fig = Figure(figsize=(9, 9))
+    axes = fig.subplots(4, 1, sharex=True)
     ax = axes[0]
     ax.plot(data.torque_time, data.torque * 1e3, lw=0.5, label="torque meter")
     ax.plot(data.model_time, data.model_torque * 1e3, "k", lw=1, label="twin drag (faulted)")
@@ -41,11 +40,4 @@ def plot_bench_data(data: BenchData, path: str | Path) -> Path:
         )
     fig.suptitle(f"bench data {data.name} (seed {data.seed})")
     fig.tight_layout()
-    file = Path(path)
-    try:
-        fig.savefig(file, dpi=100)
-    except OSError as err:
-        raise BagError(f"{file}: cannot write plot ({err.strerror})") from err
-    finally:
-        plt.close(fig)
-    return file
+    return save_png(fig, path, dpi=100)

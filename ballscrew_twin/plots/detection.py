@@ -18,10 +18,9 @@ from ..health.monitor import DETECTORS, FAULT, OK, UNKNOWN, WARN
 
 def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> list[Path]:
     """Residual and statistic plots (PNG) into ``out``."""
-    import matplotlib
+    from matplotlib.figure import Figure  # matplotlib: imported when a figure is drawn
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .save import save_png
 
     samples = result.samples
     t = np.array([s.time - result.start for s in samples])
@@ -38,7 +37,8 @@ def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> li
         if len(t):
             ax.axvspan(t[0], warmup_end, color="0.85", label="warm-up")
 
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    fig = Figure(figsize=(9, 8))
+    axes = fig.subplots(3, 1, sharex=True)
     axes[0].plot(t, [s.measured * 1e3 for s in samples], lw=0.8, label="measured (block mean)")
     axes[0].plot(t, [s.predicted * 1e3 for s in samples], lw=0.8, label="twin")
     axes[0].set_ylabel("drive torque [mN m]")
@@ -52,11 +52,10 @@ def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> li
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    residual_png = out / "residuals.png"
-    fig.savefig(residual_png, dpi=110)
-    plt.close(fig)
+    residual_png = save_png(fig, out / "residuals.png")
 
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig = Figure(figsize=(9, 6))
+    axes = fig.subplots(2, 1, sharex=True)
     for name in DETECTORS:
         ratio = [
             s.statistics[name][0] / s.statistics[name][1] if name in s.statistics else math.nan
@@ -79,26 +78,24 @@ def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> li
         marks(ax)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    stats_png = out / "statistics.png"
-    fig.savefig(stats_png, dpi=110)
-    plt.close(fig)
+    stats_png = save_png(fig, out / "statistics.png")
     return [residual_png, stats_png, *plot_classification(result, out)]
 
 
 def plot_classification(result: DetectionResult, out: Path) -> list[Path]:
     """PNG of each class's log-likelihood ratio and fitted severity while the alarm's class is
     refined (nothing without an alarm)."""
-    import matplotlib
+    from matplotlib.figure import Figure  # matplotlib: imported when a figure is drawn
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .save import save_png
 
     history = result.monitor.classifications
     if not history:
         return []
     t = np.array([time - result.start for time, _ in history])
     names = sorted({n for _, c in history for n in (*c.scores, *c.severities)})
-    fig, axes = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig = Figure(figsize=(9, 6))
+    axes = fig.subplots(2, 1, sharex=True)
     for name in names:
         axes[0].plot(t, [c.scores.get(name, math.nan) for _, c in history], label=name)
         axes[1].plot(t, [c.severities.get(name, math.nan) for _, c in history], label=name)
@@ -113,7 +110,4 @@ def plot_classification(result: DetectionResult, out: Path) -> list[Path]:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
     fig.tight_layout()
-    path = out / "classification.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return [path]
+    return [save_png(fig, out / "classification.png")]
