@@ -24,7 +24,7 @@ unexport _ROS_WHEELS_BOOTSTRAP_COMPLETE
 
 help:
 	@echo "make demo       set up if needed, run the twin node, a command script and a console view ($(DEMO_DURATION) s)"
-	@echo "make test       set up if needed, then ruff check and format check, mypy, pytest"
+	@echo "make test       set up if needed, then ruff check and format check, the import contract, mypy, pytest"
 	@echo "make setup      create/update .venv (ROS 2 Jazzy wheels, messages, editable install)"
 	@echo "make node       run the twin node with config/twin_node.yaml until Ctrl-C"
 	@echo "make clean      remove caches and the message build dir; distclean also removes .venv"
@@ -37,10 +37,15 @@ setup:
 # cache) runs beside it. Its report is printed after pytest's, and either failing fails the target.
 TEST_WORKERS ?= 2
 PYTEST := $(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadscope
+# The import contract of pyproject.toml ([tool.importlinter]: layers, forbidden imports, no
+# circles; docs/architecture.md). It reads the package in this directory; under a second its
+# graph is rebuilt each run, so no cache directory is kept.
+LINT_IMPORTS := $(BIN)/lint-imports --no-cache --no-logo pyproject.toml
 
 test: setup
 	$(BIN)/ruff check ballscrew_twin test
 	$(BIN)/ruff format --check ballscrew_twin test
+	$(LINT_IMPORTS)
 	@echo "$(BIN)/mypy ballscrew_twin (beside pytest) & $(ROS_ENV) $(PYTEST)"
 	@report=$$(mktemp); \
 	$(BIN)/mypy ballscrew_twin > "$$report" 2>&1 & checker=$$!; \
@@ -52,6 +57,7 @@ test: setup
 lint: setup
 	$(BIN)/ruff check ballscrew_twin test
 	$(BIN)/ruff format --check ballscrew_twin test
+	$(LINT_IMPORTS)
 
 typecheck: setup
 	$(BIN)/mypy ballscrew_twin

@@ -6,7 +6,7 @@ Targets are operating points with a drag torque:
   with mu_lit = 0.002 at 20 C and 60 C;
 - a user's CSV with columns ``speed_rpm, temperature_C, preload_N, torque_Nm``;
 - a bench bag (the bench-bag schema of docs/bench_data.md, topics as ``detect`` takes them, read by
-  :func:`ballscrew_twin.health.bags.read_bench_bag`): its steady segments, found by
+  :func:`ballscrew_twin.bags.bench.read_bench_bag`): its steady segments, found by
   :func:`steady_segments`, each one target (mean torque, speed, temperature and load-cell
   preload over the segment).
 
@@ -27,9 +27,7 @@ import argparse
 import csv
 import dataclasses
 import itertools
-import json
 import math
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -41,9 +39,9 @@ import yaml
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
+from .bags.bench import read_bench_bag
+from .bags.recording import BenchRecording, BenchTopics
 from .errors import BallscrewTwinError, ConfigError
-from .health.bags import BenchRecording, BenchTopics, read_bench_bag
-from .health.detect import add_topic_arguments
 from .models.base import OperatingPoint
 from .models.catalog import CatalogModel
 from .models.steady import SteadyState, SteadyStateModel
@@ -551,101 +549,3 @@ def plot_calibration(
         ax.grid(True, alpha=0.3)
     fig.suptitle(f"calibration against {title}")
     return save_png(fig, path)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``calibrate``."""
-    parser.add_argument("--config", default=None, help="starting parameter YAML (default: paper)")
-    parser.add_argument(
-        "--data",
-        default=None,
-        help="CSV of speed_rpm,temperature_C,preload_N,torque_Nm, or a bench bag (folder, "
-        ".mcap or .db3; its steady segments are the targets) (default: the paper's Eq. 52 "
-        "statement at 100 rpm, 20 and 60 C)",
-    )
-    parser.add_argument(
-        "--steady-window",
-        type=float,
-        default=SteadyCriteria.window,
-        help="bag: length of the windows a steady segment is made of [s] (default: %(default)s)",
-    )
-    add_topic_arguments(parser)
-    parser.add_argument(
-        "--parameters",
-        nargs="+",
-        default=list(DEFAULT_PARAMETERS),
-        help="lubricant/contact parameters to fit (default: %(default)s)",
-    )
-    parser.add_argument("--out", default=None, help="write the fitted parameter set here (YAML)")
-    parser.add_argument(
-        "--plot",
-        default=None,
-        metavar="PNG",
-        help="measured vs predicted, residuals, fitted values",
-    )
-    parser.add_argument(
-        "--save-targets", default=None, metavar="CSV", help="write the targets used here (CSV)"
-    )
-    parser.add_argument("--json", action="store_true", help="print the result as JSON")
-
-
-def run(args: argparse.Namespace) -> int:
-    """Fit, print the misfit; optionally write the YAML, the targets and the plot."""
-    if not args.steady_window > 0.0:
-        raise ConfigError(f"--steady-window = {args.steady_window} must be > 0 s")
-    config = load_config(args.config)
-
-    def log(line: str) -> None:  # with --json, stdout carries the JSON only
-        print(line, file=sys.stderr if args.json else sys.stdout, flush=True)
-
-    targets, name = load_targets(args, log)
-    if args.data is not None:
-        refuse_outside_envelope(targets, config, args.data)
-    if args.save_targets:
-        log(f"wrote {write_targets(targets, args.save_targets)}")
-    log(f"calibrating {', '.join(args.parameters)} against {len(targets)} targets: {name}")
-    result = calibrate(config, targets, args.parameters, progress=not args.json)
-    summary = {
-        "parameters": result.values,
-        "uncertainty": result.uncertainty,
-        "initial": result.initial,
-        "rms_relative_error": result.rms_relative_error,
-        "max_relative_error": result.max_relative_error,
-        "evaluations": result.evaluations,
-        "wall_time_s": result.wall_time,
-        "targets": [
-            {
-                "speed_rad_s": t.point.screw_speed,
-                "temperature_K": t.point.temperature,
-                "preload_N": t.point.preload,
-                "target_Nm": t.torque,
-                "predicted_Nm": p,
-                "relative_error": e,
-            }
-            for t, p, e in zip(targets, result.predicted, result.relative_errors, strict=True)
-        ],
-    }
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    else:
-        for t, e in zip(targets, result.relative_errors, strict=True):
-            print(
-                f"  {t.point.screw_speed / RPM:7.1f} rpm "
-                f"{t.point.temperature - CELSIUS_ZERO:6.1f} C "
-                f"{t.point.preload:7.1f} N: target {t.torque * 1e3:8.3f} mN m, error {e:+.4f}"
-            )
-        fitted = ", ".join(
-            f"{k} = {v:.6g} +- {result.uncertainty[k]:.2g} {parameter_unit(k)}"
-            for k, v in result.values.items()
-        )
-        print(
-            f"fitted {fitted}; rms relative error {result.rms_relative_error:.4f}, max "
-            f"{result.max_relative_error:.4f} ({result.evaluations} evaluations, "
-            f"{result.wall_time:.1f} s)"
-        )
-    if args.out:
-        write_config(result, name, args.out)
-        log(f"wrote {args.out}")
-    if args.plot:
-        log(f"wrote {plot_calibration(result, targets, name, args.plot)}")
-    return 0

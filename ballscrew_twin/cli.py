@@ -1,221 +1,51 @@
-"""Command line: ``ballscrew-twin <command> ...``.
+"""Command line: ``ballscrew-twin <command> ...``, the entry point that wires the commands.
 
-SI units in and out, except that speeds are given in rpm and temperatures in degrees Celsius on
-the command line, as the paper and the catalogues state them; both are converted here, at the
-edge. Each command lives in its own module with ``add_arguments(parser)`` and ``run(args)``;
-this file only wires them (imported lazily, so ``--help`` stays fast).
+Each command is a module with ``add_arguments(parser)`` and ``run(args)``: those of
+:mod:`ballscrew_twin.commands` (one module per command), ``bench``
+(:mod:`ballscrew_twin.benchmarks`) and the ROS commands of :mod:`ballscrew_twin.ros`. Only the
+module of the command being run is imported (by name, so ``--help`` stays fast); a
+:class:`BallscrewTwinError` it raises is printed as one line and exits with status 2. SI units
+in and out, except speeds in rpm and temperatures in degrees Celsius on the command line,
+converted by the commands at the edge.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
-import json
-import math
 import sys
 from collections.abc import Sequence
 from typing import Any
 
 from .errors import BallscrewTwinError
-from .models.base import OperatingPoint, TwinOutput
-from .models.validity import (
-    ValidatedModel,
-    ValidityEnvelope,
-    kelvin_from_command_line,
-)
-from .params import TwinConfig, load_config
-from .units import CELSIUS_ZERO, RPM
 
-__all__ = ["build_model", "main"]
+__all__ = ["COMMANDS", "main"]
 
-#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args);
-#: ``module:name`` takes them from the object ``name`` of the module instead.
+#: command -> (module, one-line help). Modules provide add_arguments(parser) and run(args).
 COMMANDS: dict[str, tuple[str, str]] = {
-    "drag": ("ballscrew_twin.cli", "drag torque and contact states at one operating point"),
-    "calibrate": ("ballscrew_twin.calibration", "fit the parameters the paper omits"),
+    "drag": (
+        "ballscrew_twin.commands.drag",
+        "drag torque and contact states at one operating point",
+    ),
+    "calibrate": ("ballscrew_twin.commands.calibrate", "fit the parameters the paper omits"),
     "bench": ("ballscrew_twin.benchmarks", "benchmarks that print their numbers"),
-    "report": ("ballscrew_twin.report.paper", "reproduce the paper's figures (PNG + CSV)"),
-    "simulate": ("ballscrew_twin.simulate", "run a scenario through the dynamic model"),
-    "scene": ("ballscrew_twin.run_scene", "run a scene with the cheapest model within tolerance"),
-    "sweep": ("ballscrew_twin.sweep", "evaluate a grid or sample of operating points"),
-    "map": ("ballscrew_twin.map_command", "build or find the real-time table of a screw"),
+    "report": ("ballscrew_twin.commands.report", "reproduce the paper's figures (PNG + CSV)"),
+    "simulate": ("ballscrew_twin.commands.simulate", "run a scenario through the dynamic model"),
+    "scene": (
+        "ballscrew_twin.commands.scene",
+        "run a scene with the cheapest model within tolerance",
+    ),
+    "sweep": ("ballscrew_twin.commands.sweep", "evaluate a grid or sample of operating points"),
+    "map": ("ballscrew_twin.commands.map", "build or find the real-time table of a screw"),
     "node": ("ballscrew_twin.ros.node_command", "run the twin node (accepts --ros-args)"),
     "launch": ("ballscrew_twin.ros.launcher", "start several nodes from a launch file"),
     "replay": ("ballscrew_twin.ros.replay", "publish a recorded bag on its topics"),
     "record": ("ballscrew_twin.ros.record", "record topics into a bag"),
-    "bench-data": (
-        "ballscrew_twin.checked_commands:bench_data_command",
-        "generate recorded bench data",
-    ),
-    "detect": ("ballscrew_twin.health.detect", "run the fault detector on a bag"),
-    "commission": ("ballscrew_twin.health.commission", "fit a healthy unit's baseline to a bag"),
+    "bench-data": ("ballscrew_twin.commands.bench_data", "generate recorded bench data"),
+    "detect": ("ballscrew_twin.commands.detect", "run the fault detector on a bag"),
+    "commission": ("ballscrew_twin.commands.commission", "fit a healthy unit's baseline to a bag"),
     "health-node": ("ballscrew_twin.ros.health_node", "run the health monitor node"),
 }
-
-HALF_GROOVES = ("S1", "S2", "N1", "N2")
-NUTS = ("master", "slave")
-
-
-def build_model(name: str, config: TwinConfig, mode: str = "auto") -> Any:
-    """A model by its command-line name: catalog (Eq. 51), zhou (Eq. 52) or steady."""
-    if name == "catalog":
-        from .models.catalog import CatalogModel
-
-        return CatalogModel(config, formula="literature")
-    if name == "zhou":
-        from .models.catalog import CatalogModel
-
-        return CatalogModel(config, formula="zhou")
-    if name == "steady":
-        from .models.steady import SteadyStateModel
-
-        return SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
-    raise BallscrewTwinError(f"unknown model {name!r}: use catalog, zhou or steady")
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``drag``."""
-    parser.add_argument("--preload", type=float, required=True, help="preload force [N]")
-    parser.add_argument("--speed", type=float, required=True, help="screw speed [rpm]")
-    parser.add_argument("--temperature", type=float, required=True, help="temperature [deg C]")
-    parser.add_argument("--axial-load", type=float, default=0.0, help="external load [N]")
-    parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
-    parser.add_argument("--model", default="steady", choices=("catalog", "zhou", "steady"))
-    parser.add_argument("--mode", default="auto", choices=("auto", "symmetric", "full"))
-    parser.add_argument("--json", action="store_true", help="machine-readable output (SI)")
-    parser.add_argument(
-        "--plot",
-        default=None,
-        metavar="PNG",
-        help="write the contact states per sphere of each nut here (steady model)",
-    )
-
-
-def output_to_dict(out: TwinOutput) -> dict[str, Any]:
-    """JSON-ready dictionary of a model output, SI units, loaded contacts only."""
-    op = out.operating_point
-    result: dict[str, Any] = {
-        "operating_point": {
-            "screw_speed_rad_s": op.screw_speed,
-            "temperature_K": op.temperature,
-            "preload_N": op.preload,
-            "axial_load_N": op.axial_load,
-        },
-        "fidelity": out.fidelity,
-        "drag_torque_Nm": out.drag_torque,
-        "nut_torque_Nm": {"master": out.nut_torque[0], "slave": out.nut_torque[1]},
-        "breakdown_Nm": {
-            "lubricant_shear": out.breakdown.lubricant_shear,
-            "dry_contact": out.breakdown.dry_contact,
-            "rolling_resistance": out.breakdown.rolling_resistance,
-            "hysteresis": out.breakdown.hysteresis,
-            "curvature": out.breakdown.curvature,
-            "spin": out.breakdown.spin,
-        },
-        "notes": list(out.notes),
-        "contacts": [],
-    }
-    cs = out.contacts
-    if cs is not None:
-        seen: set[tuple[int, int]] = set()
-        for i in range(len(cs.sphere)):
-            key = (int(cs.nut[i]), int(cs.half_groove[i]))
-            if not cs.in_contact[i] or key in seen:
-                continue
-            seen.add(key)
-            result["contacts"].append(
-                {
-                    "nut": NUTS[key[0]],
-                    "half_groove": HALF_GROOVES[key[1]],
-                    "sphere": int(cs.sphere[i]),
-                    "normal_force_N": float(cs.normal_force[i]),
-                    "contact_angle_rad": float(cs.contact_angle[i]),
-                    "semi_axis_x_m": float(cs.semi_axis_x[i]),
-                    "semi_axis_y_m": float(cs.semi_axis_y[i]),
-                    "max_pressure_Pa": float(cs.max_pressure[i]),
-                    "stiffness_N_m1_5": float(cs.stiffness[i]),
-                    "film_thickness_m": float(cs.film_thickness[i]),
-                    "tallian_parameter": float(cs.tallian_parameter[i]),
-                    "load_share": float(cs.load_share[i]),
-                    "shear_stress_Pa": float(cs.shear_stress[i]),
-                    "friction_force_N": float(cs.friction_force[i]),
-                    "slip_speed_m_s": float(cs.slip_speed[i]),
-                }
-            )
-    return result
-
-
-def format_output(data: dict[str, Any]) -> str:
-    """Human-readable report of :func:`output_to_dict`'s result."""
-    op = data["operating_point"]
-    lines = [
-        f"model {data['fidelity']}: speed {op['screw_speed_rad_s']:.4g} rad/s "
-        f"({op['screw_speed_rad_s'] / RPM:.4g} rpm), T {op['temperature_K']:.2f} K "
-        f"({op['temperature_K'] - CELSIUS_ZERO:.2f} C), preload {op['preload_N']:.4g} N",
-        f"drag torque      {data['drag_torque_Nm']:.6g} N m",
-        f"  master nut     {data['nut_torque_Nm']['master']:.6g} N m",
-        f"  slave nut      {data['nut_torque_Nm']['slave']:.6g} N m",
-    ]
-    for name, value in data["breakdown_Nm"].items():
-        lines.append(f"  {name:<16} {value:.6g} N m")
-    if data["contacts"]:
-        header = (
-            f"{'nut':<7}{'hg':<4}{'Fn[N]':>9}{'alpha[deg]':>11}{'ax[um]':>8}{'ay[um]':>8}"
-            f"{'pmax[GPa]':>10}{'K[N/m^1.5]':>12}{'h[nm]':>8}{'Lambda':>8}{'f':>7}"
-            f"{'tau[MPa]':>9}{'Ft[N]':>9}"
-        )
-        lines += ["", header]
-        for c in data["contacts"]:
-            lines.append(
-                f"{c['nut']:<7}{c['half_groove']:<4}{c['normal_force_N']:9.3f}"
-                f"{math.degrees(c['contact_angle_rad']):11.3f}{c['semi_axis_x_m'] * 1e6:8.2f}"
-                f"{c['semi_axis_y_m'] * 1e6:8.1f}{c['max_pressure_Pa'] * 1e-9:10.3f}"
-                f"{c['stiffness_N_m1_5']:12.4e}{c['film_thickness_m'] * 1e9:8.2f}"
-                f"{c['tallian_parameter']:8.3f}{c['load_share']:7.3f}"
-                f"{c['shear_stress_Pa'] * 1e-6:9.3f}{c['friction_force_N']:9.4f}"
-            )
-    lines += [f"note: {n}" for n in data["notes"]]
-    return "\n".join(lines)
-
-
-def run(args: argparse.Namespace) -> int:
-    """``drag``: one operating point through the chosen model, inside the validity envelope.
-
-    Outside the envelope (docs/model.md section 13) the point is clamped and every clamp is a
-    note of the output, also printed on stderr; a temperature that reads as kelvin typed as
-    degrees Celsius is refused with that hint.
-    """
-    if args.plot is not None and args.model != "steady":
-        raise BallscrewTwinError(
-            f"--plot: the {args.model} model does not resolve contacts; use --model steady"
-        )
-    config = load_config(args.config)
-    envelope = ValidityEnvelope.for_config(config)
-    op = OperatingPoint(
-        screw_speed=args.speed * RPM,
-        temperature=kelvin_from_command_line(args.temperature, "--temperature", envelope),
-        preload=args.preload,
-        axial_load=args.axial_load,
-    )
-    model = ValidatedModel(build_model(args.model, config, args.mode), envelope)
-    out = model.evaluate(op)
-    for note in out.notes:
-        if note.startswith("validity:"):
-            print(f"ballscrew-twin drag: {note}", file=sys.stderr)
-    data = output_to_dict(out)
-    print(json.dumps(data, indent=2) if args.json else format_output(data))
-    if args.plot is not None and out.contacts is not None:
-        from .plots.contact_states import from_contact_states, plot_sphere_states
-
-        title = (
-            f"{out.fidelity}: {args.speed:g} rpm, {args.temperature:g} °C, "
-            f"preload {args.preload:g} N, axial load {args.axial_load:g} N"
-        )
-        path = plot_sphere_states(
-            from_contact_states(out.contacts), config.screw.balls_per_nut, title, args.plot
-        )
-        print(f"wrote {path}", file=sys.stderr if args.json else sys.stdout)
-    return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -228,10 +58,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for name, (module_name, help_text) in COMMANDS.items():
         sub_parser = sub.add_parser(name, help=help_text)
         if wanted == name:  # import only the module of the command being run
-            path, _, attribute = module_name.partition(":")
-            module = importlib.import_module(path)
-            if attribute:
-                module = getattr(module, attribute)
+            module = importlib.import_module(module_name)
             module.add_arguments(sub_parser)
             modules[name] = module
     args = parser.parse_args(argv)

@@ -43,3 +43,24 @@ class ResultsError(BallscrewTwinError):
 
 class NonFiniteOutputError(SolverError):
     """A model returned a NaN or infinite number; the message names the quantity."""
+
+
+class FidelityError(BallscrewTwinError, ValueError):
+    """No model can serve what was asked: none meets a scene's tolerance, the bounds file is
+    unusable, or the fidelity a node was given cannot be built here."""
+
+
+class BuildCancelledError(BallscrewTwinError):
+    """A table build was stopped on purpose (the node that started it is shutting down)."""
+
+
+class MessageEncodingError(BallscrewTwinError, ValueError):
+    """A value does not fit its ROS message field (type, range, array shape, text)."""
+
+
+class ReplayError(BallscrewTwinError, ValueError):
+    """Invalid replay request (rate, topics) or a bag that cannot be played."""
+
+
+class RecordError(BallscrewTwinError, ValueError):
+    """Invalid recording request (topic, type, output) or a bag that cannot be written."""

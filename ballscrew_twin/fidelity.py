@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import BallscrewTwinError, ConfigError
+from .errors import ConfigError, FidelityError
 from .models.base import OperatingPoint
 from .params import TwinConfig, default_config_path, read_yaml
 from .scene import QUANTITIES, Scene
@@ -48,10 +48,6 @@ METRICS = ("drag_torque", "nut_torque", "contact_force")
 AXES = ("preload_N", "speed_rad_s", "temperature_K")
 #: Relative difference below which a scene value sits on a grid value (the file keeps 7 digits).
 GRID_MATCH = 1e-6
-
-
-class FidelityError(BallscrewTwinError, ValueError):
-    """No model meets the scene's tolerance, or the bounds file is unusable."""
 
 
 def config_fingerprint(config: TwinConfig) -> str:

@@ -1,4 +1,5 @@
-"""Writers of a :class:`~ballscrew_twin.models.simulation.SimulationResult`: CSV, NPZ, rosbag2, PNG.
+"""Writers of a run of the dynamic model (a
+:class:`~ballscrew_twin.models.simulation_result.SimulationResult`): CSV, NPZ, rosbag2, PNG.
 
 - :func:`write_csv`: the time series, one row per output sample, units in the header.
 - :func:`write_npz`: every array, plus the summary and the scenario as JSON strings.
@@ -9,7 +10,7 @@
   ``msg_defs/msg/*.msg`` and stored in the bag, so any reader can decode them. Bag times and
   header stamps are the run's wall-clock start (``summary["start_time_unix_ns"]``) plus the
   simulated time, in integer nanoseconds; the metadata name the ROS distribution (jazzy,
-  :mod:`ballscrew_twin.bag_writer`).
+  :mod:`ballscrew_twin.bags.writer`).
 - :func:`plot_result`: speed, motor torque and drag over time, and the power-balance error.
 - :func:`plot_contacts`: the contact states per sphere of each nut at the last contact sample
   (normal force, contact angle, film thickness, Tallian parameter; screw and nut side).
@@ -30,12 +31,9 @@ import numpy as np
 
 from .errors import BallscrewTwinError, ResultsError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
-from .models.simulation import MECHANISMS, SimulationResult
+from .models.simulation_result import MECHANISMS, SimulationResult
 from .units import CELSIUS_ZERO, ns_to_stamp
 
-#: Folder of the message definitions (repository layout).
-MSG_DIR = Path(__file__).resolve().parents[1] / "msg_defs" / "msg"
-MSG_PACKAGE = "ballscrew_twin_msgs"
 DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
 FRAME_ID = "screw"
@@ -124,24 +122,6 @@ def write_npz(result: SimulationResult, path: str | Path) -> Path:
     return file
 
 
-def make_typestore(msg_dir: str | Path = MSG_DIR) -> Any:
-    """A ROS 2 Jazzy type store with this package's messages registered from their .msg text."""
-    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-
-    folder = Path(msg_dir)
-    files = sorted(folder.glob("*.msg")) if folder.is_dir() else []
-    if not files:
-        raise ResultsError(f"{folder}: message definitions folder does not exist or has no *.msg")
-    store = get_typestore(Stores.ROS2_JAZZY)
-    types: dict[str, Any] = {}
-    for file in files:
-        types.update(
-            get_types_from_msg(file.read_text(encoding="utf-8"), f"{MSG_PACKAGE}/msg/{file.stem}")
-        )
-    store.register(types)
-    return store
-
-
 def _nanoseconds(seconds: float) -> int:
     """Simulated time as integer nanoseconds (bag and header time)."""
     return round(seconds * 1e9)
@@ -158,7 +138,7 @@ def write_bag(
     result: SimulationResult,
     path: str | Path,
     storage: str = "mcap",
-    msg_dir: str | Path = MSG_DIR,
+    msg_dir: str | Path | None = None,
 ) -> Path:
     """A rosbag2 with ``/drag_torque`` and ``/contact_states`` of the run.
 
@@ -166,7 +146,7 @@ def write_bag(
         result: the simulation result.
         path: the bag folder to create (must not exist).
         storage: ``"mcap"`` or ``"sqlite3"``.
-        msg_dir: folder of the ``*.msg`` definitions.
+        msg_dir: folder of the ``*.msg`` definitions (default: the package's, msg_defs/msg).
 
     ``DragTorque.total`` is the motor torque minus the gravity torque at that sample; the
     breakdown is each mechanism's dissipation / screw speed and the per-nut torques each nut's
@@ -174,14 +154,10 @@ def write_bag(
     only in the CSV/NPZ outputs). ``real_time_factor`` is simulated time per wall time (>= 1
     keeps up).
     """
-    from rosbags.rosbag2 import StoragePlugin
+    from .bags.writer import MSG_DIR, MSG_PACKAGE, BagWriter, project_typestore, storage_plugin
 
-    from .bag_writer import BagWriter
-
-    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
-    if storage not in plugins:
-        raise ResultsError(f"storage = {storage!r} must be one of {sorted(plugins)}")
-    store = make_typestore(msg_dir)
+    plugin = storage_plugin(storage, ResultsError)
+    store = project_typestore(MSG_DIR if msg_dir is None else msg_dir)
     folder = Path(path)
     if folder.exists():
         raise ResultsError(f"{folder}: bag folder exists already")
@@ -198,7 +174,7 @@ def write_bag(
     nut_torque = result.nut_torque()
     index = {name: k for k, name in enumerate(MECHANISMS)}
     try:
-        with BagWriter(folder, plugins[storage]) as writer:
+        with BagWriter(folder, plugin) as writer:
             drag_conn = writer.add_connection(DRAG_TOPIC, drag_cls.__msgtype__, typestore=store)
             contact_conn = writer.add_connection(
                 CONTACT_TOPIC, array_cls.__msgtype__, typestore=store

@@ -10,6 +10,7 @@ import pytest
 from conftest import SavedFigures
 from scipy.optimize import curve_fit
 
+from ballscrew_twin.bags.recording import BenchRecording, Series
 from ballscrew_twin.calibration import (
     SteadyCriteria,
     Target,
@@ -22,7 +23,6 @@ from ballscrew_twin.calibration import (
 )
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.health.bags import BenchRecording, Series
 from ballscrew_twin.health.bench_data import SAMPLE_DIR as SAMPLES
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.benchmarks.skips import RULES
+from ballscrew_twin.errors import FidelityError
 from ballscrew_twin.fidelity import (
     METRICS,
     Bounds,
-    FidelityError,
     distinct_points,
     load_bounds,
     select,

@@ -178,8 +178,8 @@ def test_bad_scene_exits_2_naming_the_file(
 
 
 def test_time_stepping_models_step_at_most_1_ms_and_are_sampled_on_time(tmp_path: Path) -> None:
+    from ballscrew_twin.commands.scene import REALTIME_STEP, _empty, run_time_stepping
     from ballscrew_twin.models.base import TorqueBreakdown, TwinOutput
-    from ballscrew_twin.run_scene import REALTIME_STEP, _empty, run_time_stepping
     from ballscrew_twin.scene import load_scene
 
     class Recorder:

@@ -65,12 +65,12 @@ def test_simulate_without_bag(
 def test_simulate_with_bag(tmp_path: Path) -> None:
     from rosbags.highlevel import AnyReader
 
-    from ballscrew_twin.results import make_typestore
+    from ballscrew_twin.bags.writer import project_typestore
 
     out = tmp_path / "run"
     assert main(["simulate", "--scenario", str(SHORT), "--out", str(out), "--quiet"]) == 0
     check_common_outputs(out)
-    with AnyReader([out / "simulation.mcap"], default_typestore=make_typestore()) as reader:
+    with AnyReader([out / "simulation.mcap"], default_typestore=project_typestore()) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
         start, distro = reader.start_time, reader.readers[0].ros_distro
     assert counts == {"/drag_torque": 301, "/contact_states": 31}

@@ -13,9 +13,7 @@ import pytest
 from conftest import SavedFigures
 
 from ballscrew_twin.cli import main
-from ballscrew_twin.errors import ConfigError, SweepError
-from ballscrew_twin.params import load_config
-from ballscrew_twin.sweep import (
+from ballscrew_twin.commands.sweep import (
     SweepTask,
     evaluate_point,
     grid_points,
@@ -24,6 +22,8 @@ from ballscrew_twin.sweep import (
     random_points,
     with_overrides,
 )
+from ballscrew_twin.errors import ConfigError, SweepError
+from ballscrew_twin.params import load_config
 
 CONFIG = load_config()
 RPM = 2.0 * math.pi / 60.0

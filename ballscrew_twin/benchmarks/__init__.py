@@ -13,6 +13,7 @@ import importlib
 
 #: benchmark name -> module of this package.
 BENCHMARKS: dict[str, str] = {
+    "contacts": "contact_laws",
     "steady": "steady",
     "protocol": "protocol",
     "accuracy": "accuracy",

@@ -38,7 +38,8 @@ import numpy as np
 
 from ..errors import BallscrewTwinError
 from ..models.scenario import Scenario, load_scenario
-from ..models.simulation import SimulationResult, simulate
+from ..models.simulation import simulate
+from ..models.simulation_result import SimulationResult
 from ..units import CELSIUS_ZERO, RPM
 
 #: One-line help of this benchmark.

@@ -352,7 +352,8 @@ def _display_path(path: Path) -> str:
 def measure_dynamic(scenario_path: Path, config: TwinConfig, quiet: bool) -> dict[str, Any]:
     """Steady model against the dynamic model on a scenario, the reference's own numerical
     error, and the cost of one dynamic step of the full parameter set."""
-    from ..models.dynamic import Commands, DynamicModel
+    from ..models.dynamic import DynamicModel
+    from ..models.dynamic_state import Commands
     from ..models.scenario import load_scenario
     from ..models.simulation import build_config, simulate
 

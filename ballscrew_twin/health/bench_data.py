@@ -1,17 +1,5 @@
-"""``ballscrew-twin bench-data``: recorded bench bags generated from the twin, with sensor models
-and injected faults, and their ground truth.
-
-Subcommands:
-
-- ``generate --scene FILE --out BAG [--seed N] [--storage mcap|sqlite3] [--plot PNG]``: one bag
-  (schema of :mod:`~ballscrew_twin.health.bags`) and its side file ``BAG.truth.json``;
-- ``samples [--out DIR]``: the committed sample bags ``data/samples/<name>`` from
-  ``config/bench_scenes/<name>.yaml`` (healthy and one per fault class), deterministically
-  (also ``python -m ballscrew_twin.health.bench_data samples``);
-- ``unit --unit N --seed S --duration D --out BAG [--fault CLASS:SEVERITY:ONSET]``: a bag of
-  a drawn unit that is not the twin (:mod:`.units`) through a random EMA duty cycle
-  (:mod:`.duty_cycles`), truth side file included;
-- ``info BAG``: channels, sample counts and rates, ground truth and reading issues of a bag.
+"""Recorded bench bags generated from the twin, with sensor models and injected faults, and
+their ground truth (the command: :mod:`ballscrew_twin.commands.bench_data`).
 
 How a bag is made (:func:`generate`): the operating profile gives the true speed, temperature
 and set preload; the steady-state model, with the fault state of each instant applied
@@ -26,11 +14,10 @@ fixed order, and the bag starts at the fixed time :data:`START_NS`, so a seed re
 
 from __future__ import annotations
 
-import argparse
 import json
 import shutil
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -38,11 +25,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..bags.recording import TRUTH_KEY, BenchTopics, truth_path
 from ..errors import BagError, ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
 from ..units import CELSIUS_ZERO, ns_to_stamp
-from .bags import TRUTH_KEY, BenchTopics, read_bench_bag, truth_path
 from .bench_scene import BenchScene, load_bench_scene
 from .bench_units import BenchUnit, UnitTorqueTable, presliding_reference
 from .duty_cycles import Trajectory
@@ -523,14 +510,11 @@ def write_bench_bag(
     Raises:
         BagError: the bag folder exists already or cannot be written; unknown storage.
     """
-    from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
     from rosbags.typesys import Stores, get_typestore
 
-    from ..bag_writer import BagWriter
+    from ..bags.writer import BagWriter, storage_plugin
 
-    plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
-    if storage not in plugins:
-        raise BagError(f"storage = {storage!r} must be one of {sorted(plugins)}")
+    plugin = storage_plugin(storage, BagError)
     folder = Path(path)
     if folder.exists():
         raise BagError(f"{folder}: bag folder exists already")
@@ -583,9 +567,7 @@ def write_bench_bag(
     ]
     truth_json = json.dumps(data.truth, sort_keys=True)
     try:
-        writer = BagWriter(folder, plugins[storage])
-        if storage == "mcap":
-            writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        writer = BagWriter(folder, plugin, compressed=True)
         writer.set_custom_data(TRUTH_KEY, truth_json)
         with writer:
             records: list[tuple[int, int, bytes]] = []
@@ -621,48 +603,6 @@ def generate_bag(
     return data
 
 
-def plot_bench_data(data: BenchData, path: str | Path) -> Path:
-    """PNG of the four recorded channels, the twin's drag torque and the fault onsets."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(4, 1, figsize=(9, 9), sharex=True)
-    ax = axes[0]
-    ax.plot(data.torque_time, data.torque * 1e3, lw=0.5, label="torque meter")
-    ax.plot(data.model_time, data.model_torque * 1e3, "k", lw=1, label="twin drag (faulted)")
-    ax.set_ylabel("torque [N mm]")
-    ax.legend(loc="best")
-    axes[1].plot(data.speed_time, data.speed, lw=0.7)
-    axes[1].set_ylabel("speed [rad/s]")
-    axes[2].plot(data.temperature_time, data.temperature - CELSIUS_ZERO, lw=0.7)
-    axes[2].set_ylabel("temperature [C]")
-    axes[3].plot(data.preload_time, data.preload, lw=0.7)
-    axes[3].set_ylabel("load cell [N]")
-    axes[3].set_xlabel("time [s]")
-    for spec in data.faults:
-        for a in axes:
-            a.axvline(spec.onset, color="r", ls="--", lw=1)
-        axes[0].annotate(
-            spec.fault_class,
-            (spec.onset, 0.95),
-            xycoords=("data", "axes fraction"),
-            color="r",
-            fontsize=8,
-        )
-    fig.suptitle(f"bench data {data.name} (seed {data.seed})")
-    fig.tight_layout()
-    file = Path(path)
-    try:
-        fig.savefig(file, dpi=100)
-    except OSError as err:
-        raise BagError(f"{file}: cannot write plot ({err.strerror})") from err
-    finally:
-        plt.close(fig)
-    return file
-
-
 def regenerate_samples(out: str | Path = SAMPLE_DIR, progress: bool = False) -> list[Path]:
     """Write every sample bag ``<out>/<name>`` (+ side file) from its scene, replacing old ones."""
     folder = Path(out)
@@ -676,164 +616,3 @@ def regenerate_samples(out: str | Path = SAMPLE_DIR, progress: bool = False) -> 
         generate_bag(SCENE_DIR / f"{name}.yaml", bag, progress=progress)
         written.append(bag)
     return written
-
-
-# ---------------------------------------------------------------------------------------------
-# Command line
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``bench-data``."""
-    sub = parser.add_subparsers(dest="action", required=True)
-    gen = sub.add_parser("generate", help="generate one bench bag from a scene file")
-    gen.add_argument("--scene", required=True, help="bench scene YAML (config/bench_scenes/)")
-    gen.add_argument("--out", required=True, help="bag folder to create (must not exist)")
-    gen.add_argument("--seed", type=int, default=None, help="noise seed (default: the scene's)")
-    gen.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
-    gen.add_argument("--plot", default=None, help="also write a PNG of the channels here")
-    unit = sub.add_parser(
-        "unit",
-        help="a bag of a drawn unit (not the twin) through a random EMA duty cycle",
-    )
-    unit.add_argument("--out", required=True, help="bag folder to create (must not exist)")
-    unit.add_argument("--unit", type=int, default=0, help="unit number (seeds the unit) [-]")
-    unit.add_argument("--seed", type=int, default=0, help="seed of the duty cycle and noise [-]")
-    unit.add_argument("--duration", type=float, default=60.0, help="length [s]")
-    unit.add_argument("--preload", type=float, default=1500.0, help="set preload [N]")
-    unit.add_argument(
-        "--temperature",
-        choices=("ambient", "cold-start", "random", "warm-up"),
-        default="random",
-        help="ambient 10-35 C, a cold start from -20..5 C, 1 in 4 cold (random), or a "
-        "commissioning warm-up from -20..-10 C to 35..45 C within a few minutes",
-    )
-    unit.add_argument(
-        "--fault",
-        default=None,
-        metavar="CLASS:SEVERITY:ONSET",
-        help="inject one fault, e.g. preload_loss:0.05:30 (onset in s, growth the class's)",
-    )
-    unit.add_argument("--storage", default="mcap", choices=("mcap", "sqlite3"))
-    unit.add_argument("--plot", default=None, help="also write a PNG of the channels here")
-    samples = sub.add_parser("samples", help="regenerate the sample bags of data/samples")
-    samples.add_argument("--out", default=str(SAMPLE_DIR), help="folder of the sample bags")
-    info = sub.add_parser("info", help="channels, rates, truth and issues of a bag")
-    info.add_argument("bag", help="bag folder or .mcap/.db3 file")
-
-
-def _info(bag: str) -> int:
-    """Print what :func:`read_bench_bag` finds in ``bag``."""
-    rec = read_bench_bag(bag, required=())
-    print(f"{rec.path}: {rec.storage}, {rec.duration:.3f} s")
-    for name, series in rec.channels.items():
-        rate = (len(series) - 1) / (series.time[-1] - series.time[0]) if len(series) > 1 else 0.0
-        print(
-            f"  {name:<12} {series.topic:<22} {len(series):7d} samples  {rate:8.2f} Hz  "
-            f"mean {float(np.mean(series.value)):.6g} {series.unit}"
-        )
-    if rec.truth is not None:
-        faults = rec.truth.get("faults", [])
-        print(
-            f"  truth: scene {rec.truth.get('scene')}, seed {rec.truth.get('seed')}, "
-            f"faults {[(f['class'], f['onset_s'], f['severity']) for f in faults] or 'none'}"
-        )
-    for issue in rec.issues:
-        print(f"  issue: {issue}")
-    return 0
-
-
-def _fault_argument(text: str) -> FaultSpec:
-    """``CLASS:SEVERITY:ONSET`` -> a fault with the class's default growth."""
-    from .fault_profiles import DEFAULT_GROWTH
-
-    parts = text.split(":")
-    if len(parts) != 3 or parts[0] not in DEFAULT_GROWTH:
-        raise ConfigError(
-            f"--fault {text!r}: expected CLASS:SEVERITY:ONSET with CLASS one of "
-            f"{sorted(DEFAULT_GROWTH)}"
-        )
-    growth = DEFAULT_GROWTH[parts[0]]
-    return faults_from_list(
-        [
-            {
-                "class": parts[0],
-                "severity": parts[1],
-                "onset": parts[2],
-                "growth": growth,
-                "growth_time": 0.0 if growth == "step" else 1.0,
-            }
-        ],
-        "--fault",
-    )[0]
-
-
-def _unit_bag(args: argparse.Namespace) -> BenchData:
-    """``bench-data unit``: a drawn unit through a random duty cycle, written as a bag."""
-    from .bench_units import draw_unit
-    from .duty_cycles import COMMISSIONING_WARMUP, draw_trajectory
-
-    cold = {"ambient": False, "cold-start": True, "random": None, "warm-up": True}
-    trajectory = draw_trajectory(
-        args.seed,
-        args.duration,
-        cold_start=cold[args.temperature],
-        preload=args.preload,
-        warmup=COMMISSIONING_WARMUP if args.temperature == "warm-up" else None,
-    )
-    faults = (_fault_argument(args.fault),) if args.fault else ()
-    config = load_config(None)
-    data = generate_unit_data(
-        config,
-        draw_unit(args.unit),
-        trajectory,
-        faults=faults,
-        seed=args.seed,
-        name=f"unit {args.unit}",
-    )
-    write_bench_bag(data, args.out, storage=args.storage)
-    return data
-
-
-def run(args: argparse.Namespace) -> int:
-    """``bench-data``: generate, unit, samples or info."""
-    if args.action == "info":
-        return _info(args.bag)
-    if args.action == "unit":
-        data = _unit_bag(args)
-        print(
-            f"wrote {args.out} (unit {args.unit}, {len(data.torque)} torque samples, "
-            f"{len(data.faults)} fault(s)) and {truth_path(args.out)}"
-        )
-        if args.plot:
-            print(f"wrote {plot_bench_data(data, args.plot)}")
-        return 0
-    if args.action == "samples":
-        for bag in regenerate_samples(args.out, progress=True):
-            print(f"wrote {bag} and {truth_path(bag).name}")
-        return 0
-    data = generate_bag(args.scene, args.out, seed=args.seed, storage=args.storage, progress=True)
-    print(
-        f"wrote {args.out} ({len(data.torque)} torque samples, "
-        f"{len(data.faults)} fault(s)) and {truth_path(args.out)}"
-    )
-    if args.plot:
-        print(f"wrote {plot_bench_data(data, args.plot)}")
-    return 0
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m ballscrew_twin.health.bench_data``: the same as ``ballscrew-twin bench-data``."""
-    from ..errors import BallscrewTwinError
-
-    parser = argparse.ArgumentParser(prog="python -m ballscrew_twin.health.bench_data")
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    try:
-        return run(args)
-    except BallscrewTwinError as err:
-        print(f"bench-data: error: {err}", file=sys.stderr)
-        return 2
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -26,7 +26,6 @@ fitted), the relative residual, and the fitted values with their uncertainties.
 
 from __future__ import annotations
 
-import argparse
 import itertools
 import math
 from collections.abc import Mapping
@@ -40,7 +39,7 @@ from scipy.optimize import least_squares
 
 from ..errors import BallscrewTwinError, ConfigError
 from ..models.steady_map import config_fingerprint
-from ..params import TwinConfig, load_config
+from ..params import TwinConfig
 from ..units import CELSIUS_ZERO
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
@@ -659,51 +658,3 @@ def _draw_surface(fig: Any, surface: ResidualSurface) -> None:
     ax.set_title("residual surface c (hatched: not learnt, support < 10 blocks)", fontsize=9)
     bar = fig.colorbar(image, cax=fig.add_axes((0.85, 0.04, 0.02, 0.18)))
     bar.set_label("c [%]")
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``commission``."""
-    from .detect import add_topic_arguments
-
-    parser.add_argument("bag", help="healthy recording: bag folder or file (mcap or sqlite3)")
-    parser.add_argument("--out", required=True, help="baseline YAML file to write")
-    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
-    parser.add_argument("--plot", default=None, help="also write a PNG of the fit here")
-    parser.add_argument(
-        "--error-scale",
-        type=float,
-        default=ERROR_SCALE,
-        help="model error = this x the fit's 95th-percentile error / 1.96 [-]",
-    )
-    add_topic_arguments(parser)
-
-
-def run(args: argparse.Namespace) -> int:
-    """Fit, write the baseline (and the plot), print the fitted values."""
-    from .detect import read_recording, recording_channels
-
-    recording = read_recording(args)
-    config = load_config(args.config)
-    result = commission(
-        recording_channels(recording),
-        config,
-        source=str(Path(args.bag).name),
-        error_scale=args.error_scale,
-    )
-    for issue in recording.issues:
-        print(f"note: {issue}")
-    b, u = result.baseline, result.uncertainty
-    print(
-        f"fitted on {b.blocks} blocks ({result.gated_share:.1%} of the recording gated): "
-        f"gain {b.torque_gain:.4f} +- {u['torque_gain']:.4f}, "
-        f"bias {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m, "
-        f"preload scale {b.preload_scale:.3f} +- {u['preload_scale']:.3f}, "
-        f"temperature shift {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K, "
-        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; "
-        f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
-        f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
-    )
-    print(f"wrote {b.save(args.out)}")
-    if args.plot:
-        print(f"wrote {plot_commissioning(result, args.plot)}")
-    return 0

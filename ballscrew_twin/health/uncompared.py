@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from .bags import BenchRecording
+from ..bags.recording import BenchRecording
 from .monitor import HealthSample, MonitorSettings
 
 #: Channels the monitor needs at the same time.

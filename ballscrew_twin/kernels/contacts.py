@@ -37,18 +37,14 @@ the test checks that they equal the reference's.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from functools import partial
-from typing import Any, cast
 
 import numpy as np
 from numba import njit
 from numpy.typing import NDArray
 
-from ..models.contact_forces import ContactEvaluation, ContactScene
 from ..params import ScrewGeometry
+from ..physics.contact_types import ContactEvaluation, ContactScene
 from ..physics.hertz import HertzContact
-from ..timing import median_time
 
 FloatArray = NDArray[np.float64]
 
@@ -1345,67 +1341,3 @@ def evaluation_from_buffer(active: NDArray[np.bool_], c: FloatArray) -> ContactE
             "normal_damping": c[F_DISS_DAMPING],
         },
     )
-
-
-# ----------------------------------------------------------------------------- benchmark
-def benchmark(repeat: int = 200) -> str:
-    """Median time per call of the reference and the compiled contact laws (printed, not asserted).
-
-    States: the steady state at 20 C / 100 rpm / 1500 N of the paper's screw (symmetric, B = 2),
-    and the same sphere states on the full set of azimuths of both nuts (B = 50). Compilation
-    and warm-up happen before timing.
-    """
-    from ..models.base import OperatingPoint
-    from ..models.contact_forces import evaluate_contacts, make_scene
-    from ..models.steady import SteadyStateModel
-    from ..params import load_config
-
-    config = load_config()
-    point = OperatingPoint(screw_speed=100 * 2 * math.pi / 60, temperature=293.15, preload=1500.0)
-    model = SteadyStateModel(config, mode="symmetric")
-    solution = model.solve(point)
-    state = solution.state
-    scene = make_scene(config, point.temperature, point.screw_speed)
-    full = model.ball_set("full")
-    lines = [f"contact laws, median of {repeat} calls per case (numba {_numba_version()})"]
-    for label, index, gravity in (
-        ("B=2 ", np.array([0, 1]), solution.balls.gravity),
-        ("B=50", full.nut, full.gravity),
-    ):
-        args = (
-            scene,
-            np.ascontiguousarray(state.ball_nb[index]),
-            np.ascontiguousarray(state.kinematics[index]),
-            np.ascontiguousarray(state.nut_offset[index]),
-            np.ascontiguousarray(gravity),
-        )
-        params = scene_arrays(scene)
-        raw_args = tuple(_as_input(a) for a in args[1:])
-        cases: tuple[tuple[str, Callable[[], object]], ...] = (
-            ("reference evaluate_contacts  ", partial(evaluate_contacts, *args)),
-            ("evaluate_contacts_compiled   ", partial(evaluate_contacts_compiled, *args)),
-            (
-                "contacts_kernel (raw)        ",
-                partial(
-                    cast(Any, contacts_kernel),
-                    *raw_args,
-                    _NO_VELOCITY,
-                    np.zeros(len(raw_args[0])),
-                    _NO_OFFSET,
-                    False,
-                    *params,
-                ),
-            ),
-        )
-        for name, func in cases:
-            for _ in range(3):  # compile (first call) and warm up
-                func()
-            seconds = median_time(func, repeat)
-            lines.append(f"  {label} {name} {seconds * 1e6:10.2f} us")
-    return "\n".join(lines)
-
-
-def _numba_version() -> str:
-    import numba
-
-    return str(numba.__version__)

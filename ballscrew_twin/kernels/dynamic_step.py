@@ -7,6 +7,7 @@ operation for operation, with the contact laws of
 - the spheres are located on the helix once (Newton on (r - B(theta)) . dB/dtheta = 0, Eq. 4;
   ``_locate``), the defect offsets of the approach follow (``_approach_offsets``, as
   :meth:`Faults.approach_offsets`);
+- the array layouts are those of :mod:`.dynamic_layouts`;
 - the velocity-independent part of the contact laws once per step (``_statics``:
   :func:`~ballscrew_twin.kernels.contacts.contacts_statics_kernel`, geometry, Hertz ellipse and
   stiffness, contact normal and point, pressure viscosity; the positions do not move within a
@@ -16,7 +17,7 @@ operation for operation, with the contact laws of
   (:func:`~ballscrew_twin.kernels.contacts.contacts_kinetics_kernel`, bit for bit
   ``contacts_kernel``'s dynamic path), forces and moments back to the world frame, each
   sphere's moment on the screw and axial force on its nut;
-- Newton's first guess (``_predict``, ``_remember``): the velocities extrapolated from the
+- Newton's first guess (``predict``, ``remember``): the velocities extrapolated from the
   starts of the last steps (kept in caller-owned arrays) at the order, 0 to PREDICTOR_ORDER,
   that predicted the last step best; a guess that meets the tolerance ends the step;
 - the velocity Jacobian by forward differences (``_jacobians``: 6 + 1 + 1 evaluations), kept
@@ -36,16 +37,13 @@ operation for operation, with the contact laws of
 Results agree with the reference to rounding (different summation order in a few sums and a
 different LU): test/kernels/test_dynamic_step.py runs both side by side.
 
-:func:`run_steps` loops :func:`step_kernel` over many steps (commands from the scenario's
-smooth steps) and accumulates what the simulation runner records per step (energy integrals
-over each step's own length, window sums; ``_account``), so that a whole output interval is
-one call from Python; a step with implicit sphere positions that does not converge is redone
-there as semi-implicit substeps (``fallback``).
+:mod:`ballscrew_twin.kernels.dynamic_run` loops :func:`step_kernel` over the steps of a run.
 
-numba freezes the solver constants (imported from :mod:`ballscrew_twin.models.dynamic`) and the
-machine code of ``contacts_kernel`` into the cache, which is invalidated only by a change of this
-file; :data:`DEPENDENCY_STAMP` (a hash of contacts.py and the constants) is frozen with them and
-:func:`ensure_fresh_cache` recompiles once when it is stale (as kernels/steady_newton.py).
+numba freezes the solver constants (:mod:`ballscrew_twin.kernels.solver_settings`) and the
+machine code of ``contacts_kernel`` and of the predictor (:mod:`.dynamic_predictor`) into the
+cache, which is invalidated only by a change of this file; :data:`DEPENDENCY_STAMP` (a hash of
+contacts.py, dynamic_layouts.py, dynamic_predictor.py and the constants) is frozen with them and
+:func:`ensure_fresh_cache` recompiles once when it is stale (as kernels/steady_solver.py).
 Everything is SI: m, s, rad, N, N m, kg, W, J.
 """
 
@@ -56,16 +54,9 @@ import math
 import numpy as np
 from numba import njit
 
-from ..models.dynamic import (
-    HELIX_NEWTON_STEPS,
-    JACOBIAN_REFRESH_RATIO,
-    PREDICTOR_ORDER,
-    STEP_BACKTRACKS,
-    STEP_NEWTON_MAX,
-    STEP_TOLERANCE,
-    VELOCITY_STEP,
-)
 from . import contacts as _contacts_module
+from . import dynamic_layouts as _layouts_module
+from . import dynamic_predictor as _predictor_module
 from .cache_stamp import dependency_stamp
 from .contacts import (
     F_DISS_DAMPING,
@@ -78,6 +69,56 @@ from .contacts import (
     contacts_kinetics_kernel,
     contacts_statics_kernel,
 )
+from .dynamic_layouts import (
+    B_ANGLE,
+    B_INTEGRAL,
+    B_NUT_POS,
+    B_NUT_VEL,
+    B_SPEED,
+    B_TIME,
+    J_AGE,
+    J_INTERVAL,
+    J_VALID,
+    K_BALL_RADIUS,
+    K_COS_HELIX,
+    K_DT,
+    K_G,
+    K_GX,
+    K_IMPLICIT,
+    K_INERTIA,
+    K_KI,
+    K_KP,
+    K_LEAD_RATE,
+    K_MASS,
+    K_NUT_MASS,
+    K_NUT_OFFSET0,
+    K_PITCH_RADIUS,
+    K_SCREW_INERTIA,
+    K_SIN_HELIX,
+    K_WEIGHT,
+    N_STACK,
+    S_DISSIPATION,
+    S_EVALS,
+    S_ITERATIONS,
+    S_JACOBIANS,
+    S_MECHANISMS,
+    S_MOTOR,
+    S_NUT_DISSIPATION,
+    S_NUT_FORCE,
+    S_RESIDUAL,
+    S_SCREW_TORQUE,
+    S_UNCONVERGED,
+)
+from .dynamic_predictor import extrapolate, predict, remember
+from .solver_settings import (
+    HELIX_NEWTON_STEPS,
+    JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
+    STEP_BACKTRACKS,
+    STEP_NEWTON_MAX,
+    STEP_TOLERANCE,
+    VELOCITY_STEP,
+)
 
 SOLVER_CONSTANTS = (
     HELIX_NEWTON_STEPS,
@@ -89,68 +130,10 @@ SOLVER_CONSTANTS = (
     VELOCITY_STEP,
 )
 
-# ----------------------------------------------------------------------------- layouts
-# Body state (8,): time [s], screw angle [rad], screw speed [rad/s], controller integral [rad],
-# nut positions (2) [m], nut velocities (2) [m/s].
-B_TIME, B_ANGLE, B_SPEED, B_INTEGRAL, B_NUT_POS, B_NUT_VEL = 0, 1, 2, 3, 4, 6
-N_BODY = 8
-# Constants (N_CONST,): step [s], sphere mass [kg] and inertia [kg m^2], gravity vector (3)
-# [m/s^2] and magnitude [m/s^2], screw inertia [kg m^2], nut mass [kg], nut weight along -z
-# [N] (0 for a horizontal screw), PI gains k_p [N m s/rad], k_i [N m/rad], ball radius [m],
-# pitch radius [m], lead / (2 pi) [m], sin and cos of the helix angle, initial nut offsets (2)
-# [m], 1 when the positions are implicit (contact actions with the sphere centres at
-# x_n + dt v_{n+1} and the screw at phi_n + dt Omega_{n+1}) else 0 (at x_n, phi_n) [-].
-(
-    K_DT,
-    K_MASS,
-    K_INERTIA,
-    K_GX,
-    K_GY,
-    K_GZ,
-    K_G,
-    K_SCREW_INERTIA,
-    K_NUT_MASS,
-    K_WEIGHT,
-    K_KP,
-    K_KI,
-    K_BALL_RADIUS,
-    K_PITCH_RADIUS,
-    K_LEAD_RATE,
-    K_SIN_HELIX,
-    K_COS_HELIX,
-    K_NUT_OFFSET0,
-) = range(18)
-K_IMPLICIT = 19
-N_CONST = 20
-# Jacobian bookkeeping (3,) int64: valid (0/1), age [steps], refresh interval [steps].
-J_VALID, J_AGE, J_INTERVAL = 0, 1, 2
-# Step statistics (S_COUNT,): motor torque at the end of the step [N m], moment of the spheres
-# on the screw [N m], axial force on each nut (2) [N], total dissipation [W], final scaled
-# residual [-], 1 when not converged, contact evaluations made [-], Jacobian evaluations made
-# [-], Newton iterations made [-], dissipation per mechanism (7, models.base.DISSIPATION_KEYS
-# order) [W], dissipation of each nut's spheres (2) [W].
-(
-    S_MOTOR,
-    S_SCREW_TORQUE,
-    S_NUT_FORCE,
-    S_DISSIPATION,
-    S_RESIDUAL,
-    S_UNCONVERGED,
-    S_EVALS,
-    S_JACOBIANS,
-    S_ITERATIONS,
-    S_MECHANISMS,
-    S_NUT_DISSIPATION,
-) = (0, 1, 2, 4, 5, 6, 7, 8, 9, 10, 17)
-N_MECHANISMS = F_DISS_DAMPING + 1 - F_DISS_LUBRICANT
-S_COUNT = 19
-# Rows of a sphere's stacked actions (8,): force (3) [N], moment (3) [N m], its moment on the
-# screw about z [N m], its axial force on its nut [N].
-N_STACK = 8
-
-
 #: frozen into the cached code by :func:`compiled_stamp`; compared at first use
-DEPENDENCY_STAMP = dependency_stamp((_contacts_module,), SOLVER_CONSTANTS)
+DEPENDENCY_STAMP = dependency_stamp(
+    (_contacts_module, _layouts_module, _predictor_module), SOLVER_CONSTANTS
+)
 
 
 @njit(cache=True)
@@ -541,85 +524,6 @@ def _correction(own, shared_jac, r_ball, r_shared, ball_nut, jammed, c, du, d_sh
 
 #: Extrapolation of the velocities from the starts of the last steps, u_n, u_{n-1}, ...: the
 #: coefficients of the polynomial predictor of each order (0: u_n; 3: cubic).
-PREDICTOR_COEFFICIENTS = ((1.0, 0.0, 0.0, 0.0), (2.0, -1.0, 0.0, 0.0), (3.0, -3.0, 1.0, 0.0),
-                          (4.0, -6.0, 4.0, -1.0))  # fmt: skip
-# Predictor bookkeeping (3,) float64: the time the next step starts at if it continues the last
-# one [s] (NaN: none), the number of earlier starts kept [-], the order to use [-].
-H_NEXT_TIME, H_COUNT, H_ORDER = 0, 1, 2
-
-
-@njit(cache=True)
-def _extrapolate(order, row, column, now, history):
-    """Velocity component extrapolated at ``order`` from ``now`` (u_n) and history[0..order-1]
-    (u_{n-1}, ...) at (row, column)."""
-    coefficients = PREDICTOR_COEFFICIENTS[order]
-    value = coefficients[0] * now
-    for j in range(order):
-        value += coefficients[j + 1] * history[j, row, column]
-    return value
-
-
-@njit(cache=True)
-def _predict(u0, shared0, time, jammed, history, meta, u, shared):
-    """Newton's first guess (DynamicModel._predict): u_n extrapolated at the order meta[H_ORDER]
-    from the starts of the last steps when the step continues the last one (``time`` [s] is
-    meta[H_NEXT_TIME]); else ``u``, ``shared`` are left as given (u_n). A jammed sphere's
-    rotation stays zero. Returns True when it extrapolated.
-
-    history (PREDICTOR_ORDER, B + 1, 6): u_{n-1}, u_{n-2}, ... (sphere rows; row B holds the
-    screw speed and nut velocities in columns 0-2); meta (3,): layout H_*.
-    """
-    count = u0.shape[0]
-    order = int(meta[H_ORDER])
-    if meta[H_NEXT_TIME] != time or order == 0:
-        return False
-    for i in range(count):
-        for k in range(6):
-            u[i, k] = _extrapolate(order, i, k, u0[i, k], history)
-            if jammed[i] and k >= 3:
-                u[i, k] = 0.0
-    for k in range(3):
-        shared[k] = _extrapolate(order, count, k, shared0[k], history)
-    return True
-
-
-@njit(cache=True)
-def _remember(u0, shared0, u, shared, time, c, history, meta):
-    """After a step from ``time`` [s]: the order for the next step is the one whose prediction
-    came closest to the converged velocities ``u``, ``shared`` (largest difference over all
-    components, angular velocities times the ball radius, screw speed times the pitch radius,
-    in m/s; ties to the lower order); u0, shared0 join the history (DynamicModel._remember)."""
-    count = u0.shape[0]
-    depth = history.shape[0]
-    kept = int(meta[H_COUNT]) if meta[H_NEXT_TIME] == time else 0
-    best = 0
-    best_error = math.inf
-    for order in range(min(kept, depth) + 1):
-        error = 0.0
-        for i in range(count):
-            for k in range(6):
-                weight = 1.0 if k < 3 else c[K_BALL_RADIUS]
-                guess = _extrapolate(order, i, k, u0[i, k], history)
-                error = max(error, weight * abs(guess - u[i, k]))
-        for k in range(3):
-            weight = c[K_PITCH_RADIUS] if k == 0 else 1.0
-            guess = _extrapolate(order, count, k, shared0[k], history)
-            error = max(error, weight * abs(guess - shared[k]))
-        if error < best_error:
-            best = order
-            best_error = error
-    for j in range(depth - 1, 0, -1):
-        history[j, :, :] = history[j - 1]
-    for i in range(count):
-        for k in range(6):
-            history[0, i, k] = u0[i, k]
-    for k in range(3):
-        history[0, count, k] = shared0[k]
-    meta[H_NEXT_TIME] = time + c[K_DT]
-    meta[H_COUNT] = min(kept + 1, depth)
-    meta[H_ORDER] = best
-
-
 # ----------------------------------------------------------------------------- the step
 @njit(cache=True, error_model="numpy")
 def step_kernel(
@@ -661,7 +565,7 @@ def step_kernel(
         jammed: (B,) bool, spheres whose rotation is blocked (held at zero).
         jac_own, jac_shared, jac_active, jac_meta: the Jacobian kept between steps (updated).
         history, history_meta: the velocities at the starts of the last steps and the
-            predictor's bookkeeping (see ``_predict``), kept between steps (updated).
+            predictor's bookkeeping (see ``predict``), kept between steps (updated).
         out_pos, out_vel, out_omega, out_theta, out_body: the new state (written).
         stats: (S_COUNT,) step statistics (layout S_*, written).
 
@@ -718,7 +622,7 @@ def step_kernel(
         sv[:] = shared0
         predicted = False
         if attempt == 0:
-            predicted = _predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
+            predicted = predict(u0, shared0, body[B_TIME], jammed, history, history_meta, u, sv)
         for i in range(count):
             for k in range(3):
                 v_start[i, k] = u[i, k]
@@ -803,7 +707,7 @@ def step_kernel(
         unconverged = (not converged_loop) and worst >= STEP_TOLERANCE
         if not unconverged or not predicted:
             break
-    _remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
+    remember(u0, shared0, u, sv, body[B_TIME], c, history, history_meta)
 
     kp = c[K_KP]
     ki = c[K_KI]
@@ -853,233 +757,14 @@ def step_kernel(
     return active, out
 
 
-# ----------------------------------------------------------------------------- time loop
-# Run accumulators (A_COUNT,) float64 of run_steps, carried from call to call: motor torque of
-# the last step [N m]; cumulative input energy, gross input energy int |P_in| dt and dissipated
-# energy [J] (trapezoid); input power and dissipation of the previous step [W] and 1 once there
-# is one; window sums of motor torque [N m], screw speed [rad/s], gravitational power [W],
-# step count [-], dissipation per mechanism (7) and per nut (2) [W]; work totals (contact
-# evaluations, Jacobians, Newton iterations, unconverged steps) [-]; the last scaled residual
-# [-]; the first step's gravitational power [W], input and dissipated energy after it [J]; on a
-# non-finite value: 1 + index into FINITE_CHECKS of the quantity, its value and the step; the
-# previous step's length [s] (the interval of the next trapezoid: the step may change between
-# calls, simulation.py's start phase); the number of steps redone as fallback substeps [-].
-(
-    A_MOTOR,
-    A_INPUT,
-    A_ABS_INPUT,
-    A_DISSIPATED,
-    A_PREV_POWER,
-    A_PREV_DISS,
-    A_HAS_PREV,
-    A_W_MOTOR,
-    A_W_SPEED,
-    A_W_GRAVITY,
-    A_W_COUNT,
-    A_W_MECHANISMS,
-    A_W_NUTS,
-    A_EVALS,
-    A_JACOBIANS,
-    A_ITERATIONS,
-    A_UNCONVERGED,
-    A_RESIDUAL,
-    A_FIRST_GRAVITY,
-    A_FIRST_INPUT,
-    A_FIRST_DISSIPATED,
-    A_FAILED,
-    A_FAILED_VALUE,
-    A_FAILED_STEP,
-    A_PREV_DT,
-    A_FALLBACKS,
-) = (0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 18, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29, 30, 31, 32)
-A_COUNT = 33
-#: Quantities checked for finiteness at every step, in the order of simulation._check_finite.
-FINITE_CHECKS = (
-    "screw speed",
-    "motor torque",
-    "dissipation",
-    "screw torque",
-    "nut velocity",
-    "sphere velocity",
-    "sphere angular velocity",
-)
-
-
-@njit(cache=True, error_model="numpy")
-def _account(step, command, c, pos, vel, omega, body, stats, acc, window_first):
-    """simulation.simulate's per-step bookkeeping of one step of length c[K_DT] [s] from the
-    state (pos, vel, omega, body) with statistics ``stats``: the finiteness checks, the input
-    power M Omega + F_p (v_1 - v_2), the trapezoid energy integrals over the last step's length,
-    the window sums (run step ``step`` >= ``window_first``; ``step`` < 0: not a window sample)
-    and the work counters. Returns the gravitational power [W]; on a non-finite value it sets
-    acc[A_FAILED] (1 + its FINITE_CHECKS index) and returns NaN."""
-    count = pos.shape[0]
-    gx, gy, gz = c[K_GX], c[K_GY], c[K_GZ]
-    sum_vel = 0.0
-    sum_omega = 0.0
-    gravity_power = 0.0
-    for i in range(count):
-        sum_vel += vel[i, 0] + vel[i, 1] + vel[i, 2]
-        sum_omega += omega[i, 0] + omega[i, 1] + omega[i, 2]
-        gravity_power -= c[K_MASS] * (vel[i, 0] * gx + vel[i, 1] * gy + vel[i, 2] * gz)
-    nut_vel = body[B_NUT_VEL] + body[B_NUT_VEL + 1]
-    gravity_power += c[K_WEIGHT] * nut_vel
-    checks = (
-        body[B_SPEED],
-        stats[S_MOTOR],
-        stats[S_DISSIPATION],
-        stats[S_SCREW_TORQUE],
-        nut_vel,
-        sum_vel,
-        sum_omega,
-    )
-    for j in range(len(checks)):
-        if not np.isfinite(checks[j]):
-            acc[A_FAILED] = 1.0 + j
-            acc[A_FAILED_VALUE] = checks[j]
-            return math.nan
-    motor = acc[A_MOTOR]
-    power_in = motor * body[B_SPEED] + command[1] * (body[B_NUT_VEL] - body[B_NUT_VEL + 1])
-    diss = stats[S_DISSIPATION]
-    if acc[A_HAS_PREV] > 0.0:
-        interval = acc[A_PREV_DT]
-        acc[A_INPUT] += 0.5 * interval * (acc[A_PREV_POWER] + power_in)
-        acc[A_ABS_INPUT] += 0.5 * interval * (abs(acc[A_PREV_POWER]) + abs(power_in))
-        acc[A_DISSIPATED] += 0.5 * interval * (acc[A_PREV_DISS] + diss)
-    acc[A_PREV_POWER] = power_in
-    acc[A_PREV_DISS] = diss
-    acc[A_PREV_DT] = c[K_DT]
-    acc[A_HAS_PREV] = 1.0
-    if step >= window_first:
-        acc[A_W_MOTOR] += motor
-        acc[A_W_SPEED] += body[B_SPEED]
-        acc[A_W_GRAVITY] += gravity_power
-        acc[A_W_COUNT] += 1.0
-        for j in range(N_MECHANISMS):
-            acc[A_W_MECHANISMS + j] += stats[S_MECHANISMS + j]
-        for j in range(2):
-            acc[A_W_NUTS + j] += stats[S_NUT_DISSIPATION + j]
-    acc[A_EVALS] += stats[S_EVALS]
-    acc[A_JACOBIANS] += stats[S_JACOBIANS]
-    acc[A_ITERATIONS] += stats[S_ITERATIONS]
-    acc[A_UNCONVERGED] += stats[S_UNCONVERGED]
-    acc[A_RESIDUAL] = stats[S_RESIDUAL]
-    acc[A_MOTOR] = stats[S_MOTOR]
-    return gravity_power
-
-
-@njit(cache=True, error_model="numpy")
-def run_steps(
-    first_step,
-    window_first,
-    commands,
-    pos,
-    vel,
-    omega,
-    theta,
-    body,
-    ball_nut,
-    c,
-    p,
-    sphere_offset,
-    spalls,
-    jam_start,
-    jac_own,
-    jac_shared,
-    jac_active,
-    jac_meta,
-    history,
-    history_meta,
-    acc,
-    first_stats,
-    fallback,
-    fine_step,
-):
-    """Steps ``first_step`` .. ``first_step + n - 1`` of a run (n = len(commands)), each as
-    simulation.simulate's per-step loop does with step_kernel: the step, the finiteness checks,
-    the input power M Omega + F_p (v_1 - v_2) and gravitational power, the trapezoid energy
-    integrals and the sums over the averaging window (steps >= ``window_first``).
-
-    Args:
-        commands: (n, 2) speed reference [rad/s] and preload [N] of each step.
-        pos, vel, omega, theta, body: the state (layouts of step_kernel), advanced in place.
-        jam_start: (B,) time from which each sphere's rotation is blocked [s] (inf: never).
-        acc: (A_COUNT,) run accumulators (layout A_*), updated; first_stats: (S_COUNT,) the
-            first step's statistics (written). Other arguments: see step_kernel.
-        fallback: a step that does not converge (with implicit sphere positions) is redone from
-            its start as this many semi-implicit steps of ``fine_step`` [s] with its commands
-            (1: never); the discarded attempt's work is counted, the kept Jacobian and the
-            predictor's history dropped before and after.
-
-    Returns:
-        active (B, 4) and the contact kernel's buffer of the first step (for the records).
-        Stops at the first non-finite value (acc[A_FAILED] = 1 + its FINITE_CHECKS index).
-    """
-    count = pos.shape[0]
-    jammed = np.zeros(count, dtype=np.bool_)
-    new_pos, new_vel, new_omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
-    new_theta, new_body = np.empty(count), np.empty(N_BODY)
-    stats = np.zeros(S_COUNT)
-    first_active = np.zeros((count, 4), dtype=np.bool_)
-    first_out = np.zeros((1, count, 4))
-    fine_c = c.copy()
-    fine_c[K_DT] = fine_step
-    fine_c[K_IMPLICIT] = 0.0
-    for n in range(commands.shape[0]):
-        parts = 1
-        step_c = c
-        j = 0
-        while j < parts:
-            for i in range(count):
-                jammed[i] = body[B_TIME] >= jam_start[i]
-            active, out = step_kernel(
-                pos, vel, omega, theta, body, commands[n], ball_nut, step_c, p, sphere_offset,
-                spalls, jammed, jac_own, jac_shared, jac_active, jac_meta, history, history_meta,
-                new_pos, new_vel, new_omega, new_theta, new_body, stats,
-            )  # fmt: skip
-            if parts == 1 and fallback > 1 and c[K_IMPLICIT] != 0.0 and stats[S_UNCONVERGED] > 0.0:
-                acc[A_EVALS] += stats[S_EVALS]
-                acc[A_JACOBIANS] += stats[S_JACOBIANS]
-                acc[A_ITERATIONS] += stats[S_ITERATIONS]
-                acc[A_FALLBACKS] += 1.0
-                jac_meta[J_VALID] = 0
-                history_meta[H_NEXT_TIME] = math.nan
-                parts = fallback
-                step_c = fine_c
-                continue
-            sample = first_step + n if j == 0 else -1
-            gravity_power = _account(
-                sample, commands[n], step_c, pos, vel, omega, body, stats, acc, window_first
-            )
-            if acc[A_FAILED] > 0.0:
-                acc[A_FAILED_STEP] = first_step + n
-                return first_active, first_out
-            if n == 0 and j == 0:
-                first_stats[:] = stats
-                first_active = active
-                first_out = out
-                acc[A_FIRST_GRAVITY] = gravity_power
-                acc[A_FIRST_INPUT] = acc[A_INPUT]
-                acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
-            pos[:, :] = new_pos
-            vel[:, :] = new_vel
-            omega[:, :] = new_omega
-            theta[:] = new_theta
-            body[:] = new_body
-            j += 1
-        if parts > 1:  # back to the run's step
-            jac_meta[J_VALID] = 0
-            history_meta[H_NEXT_TIME] = math.nan
-    return first_active, first_out
-
-
 # ----------------------------------------------------------------------------- cache
 _checked_cache = False
 
 
 def ensure_fresh_cache() -> bool:
-    """Recompile this module's kernels once when their cache predates contacts.py or the
-    constants (see the module docstring). Returns True when it recompiled."""
+    """Recompile this module's kernels (and the predictor's) once when their cache predates
+    contacts.py, the layouts, the predictor or the constants (see the module docstring).
+    Returns True when it recompiled."""
     global _checked_cache
     if _checked_cache:
         return False
@@ -1096,12 +781,10 @@ def ensure_fresh_cache() -> bool:
             _jacobians,
             _residual,
             _correction,
-            _extrapolate,
-            _predict,
-            _remember,
+            extrapolate,
+            predict,
+            remember,
             step_kernel,
-            _account,
-            run_steps,
             frozen_constants,
             compiled_stamp,
         ):

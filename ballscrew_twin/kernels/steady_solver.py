@@ -45,7 +45,6 @@ from numba import njit, types
 from numba.extending import overload
 from numpy.typing import NDArray
 
-from ..models.steady import DIAGONAL_SHIFT, LINE_SEARCH_STEPS, MIN_STEP, NEWTON_MAX_ITER
 from . import contacts as _contacts_module
 from . import dual as _dual_module
 from .cache_stamp import dependency_stamp
@@ -83,6 +82,7 @@ from .contacts import (
     scene_from_array,
 )
 from .dual import make_dual
+from .solver_settings import DIAGONAL_SHIFT, LINE_SEARCH_STEPS, MIN_STEP, NEWTON_MAX_ITER
 
 FloatArray = NDArray[np.float64]
 

@@ -30,7 +30,8 @@ actions are those with the sphere centres and the screw angle at the end of the 
 Euler in these positions, stable above the contact springs' ~3 us limit; docs/model.md section
 10).
 The step is the user's. :meth:`DynamicModel._step` is the readable reference; the default runs
-the same algorithm compiled (kernels/dynamic_step.py, tested equal).
+the same algorithm compiled (kernels/dynamic_step.py driven by dynamic_compiled.py, tested
+equal). The state, commands and step report types are in dynamic_state.py.
 
 Optional: contacts between neighbouring spheres of a nut (sphere_contact.py) in the implicit
 step, and a jammed sphere (rotation held at zero, faults.py).
@@ -46,10 +47,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError, OperatingPointError
+from ..kernels.solver_settings import (
+    HELIX_NEWTON_STEPS,
+    JACOBIAN_REFRESH_RATIO,
+    PREDICTOR_ORDER,
+    STEP_BACKTRACKS,
+    STEP_NEWTON_MAX,
+    STEP_TOLERANCE,
+    VELOCITY_STEP,
+)
 from ..params import TwinConfig
 from ..physics import geometry
+from ..physics.contact_types import ContactEvaluation
 from .base import DISSIPATION_KEYS, OperatingPoint
-from .contact_forces import ContactEvaluation, evaluate_contacts, make_scene
+from .contact_forces import evaluate_contacts, make_scene
+from .dynamic_compiled import CompiledStep
+from .dynamic_state import Commands, DynamicState, SpeedController, StepReport
 from .faults import Faults
 from .sphere_contact import SpherePairContact, sphere_pair_contact
 from .steady import SteadyStateModel
@@ -57,68 +70,8 @@ from .steady import SteadyStateModel
 FloatArray = NDArray[np.float64]
 ContactFunction = Callable[..., ContactEvaluation]
 
-VELOCITY_STEP = 1e-7  # m/s and rad/s x r_b: finite-difference step of the velocity Jacobian
-HELIX_NEWTON_STEPS = 3  # Newton iterations locating each sphere on the helix (Eq. 4)
-STEP_NEWTON_MAX = 10  # Newton iterations of one backward-Euler step at most
-STEP_TOLERANCE = 1e-6  # scaled residual of the step equations that ends the iterations
-STEP_BACKTRACKS = 4  # halvings of a Newton correction that would raise the residual
-#: Within a step the Jacobian is re-evaluated at the iterate only when the last iteration
-#: reduced the scaled residual by less than this factor (0: at every iterate, plain Newton).
-JACOBIAN_REFRESH_RATIO = 0.1
-#: Newton's first guess: the velocities extrapolated from the starts of the last steps by a
-#: polynomial of order up to this (0: the last velocities), the order that predicted the last
-#: step best; a guess that already meets STEP_TOLERANCE ends the step without a correction.
-PREDICTOR_ORDER = 3
 #: Extrapolation u_n, u_{n-1}, ... -> u_{n+1} of each order (kernels/dynamic_step.py has a copy).
 PREDICTOR_COEFFICIENTS = ((1.0,), (2.0, -1.0), (3.0, -3.0, 1.0), (4.0, -6.0, 4.0, -1.0))
-
-
-@dataclass
-class DynamicState:
-    """Positions and velocities of all bodies at time ``time`` (SI, inertial frame)."""
-
-    time: float  # s
-    screw_angle: float  # rad
-    screw_speed: float  # rad/s
-    controller_integral: float  # rad, integral of the speed error
-    nut_position: FloatArray  # (2,) m, axial displacement of master and slave nut from start
-    nut_velocity: FloatArray  # (2,) m/s
-    ball_position: FloatArray  # (B, 3) m
-    ball_velocity: FloatArray  # (B, 3) m/s
-    ball_omega: FloatArray  # (B, 3) rad/s, absolute angular velocity
-    helix_parameter: FloatArray  # (B,) rad, continuous azimuth of each sphere on the thread
-
-
-@dataclass(frozen=True)
-class Commands:
-    """Commanded inputs at one instant."""
-
-    screw_speed: float  # rad/s, reference of the speed controller
-    preload: float  # N, force pushing the nuts apart
-
-
-@dataclass(frozen=True)
-class SpeedController:
-    """PI speed controller of the screw (paper section 3): T = k_p e + k_i int e dt."""
-
-    proportional: float = 0.05  # N m s/rad
-    integral: float = 5.0  # N m/rad
-
-
-@dataclass
-class StepReport:
-    """What one step computed besides the new state (for outputs and checks)."""
-
-    motor_torque: float  # N m, at the end of the step
-    contacts: ContactEvaluation  # at the start of the step
-    nut_force: FloatArray  # (2,) N, axial force of the spheres on each nut
-    screw_torque: float  # N m, moment of the spheres on the screw about z
-    dissipation: float  # W, all contact mechanisms (sphere-to-sphere contacts included)
-    sphere_pairs: SpherePairContact | None = None  # sphere-to-sphere contacts, when modelled
-    sphere_dissipation: float = 0.0  # W, the part of ``dissipation`` between spheres
-    # W, ball-groove contacts: per mechanism (7, models.base.DISSIPATION_KEYS order) and per nut
-    mechanism_dissipation: FloatArray = field(default_factory=lambda: np.zeros(7))
-    nut_dissipation: FloatArray = field(default_factory=lambda: np.zeros(2))
 
 
 @dataclass
@@ -212,9 +165,9 @@ class DynamicModel:
         self._colours = [np.ones(2 * count, dtype=bool)]
         if self.sphere_contacts:
             self._colours = [parity == 0, parity == 1]
-        self._kernel: _CompiledStep | None = None
+        self._kernel: CompiledStep | None = None
         if self.compiled_step and self.backend == "compiled" and not self.sphere_contacts:
-            self._kernel = _CompiledStep(self)
+            self._kernel = CompiledStep(self)
 
     def set_integrator(self, time_step: float, implicit_positions: bool) -> None:
         """Change the step [s] and the treatment of the sphere positions between two steps (a
@@ -256,7 +209,7 @@ class DynamicModel:
         self._jacobian = None
         self._history, self._history_time, self._history_order = [], math.nan, 0
         if self._kernel is not None:
-            self._kernel = _CompiledStep(self)
+            self._kernel = CompiledStep(self)
         zeros = np.zeros((2 * count, 3))
         return DynamicState(
             time=0.0,
@@ -775,138 +728,3 @@ class Jacobians:
 
     own: FloatArray  # (B, 8, 6) with respect to its velocity and angular velocity
     shared: FloatArray  # (B, 8, 3) with respect to screw speed, master and slave nut velocity
-
-
-class _CompiledStep:
-    """The compiled step (kernels/dynamic_step.py) with its constants and kept Jacobian."""
-
-    def __init__(self, model: DynamicModel) -> None:
-        from ..kernels import dynamic_step as ks
-        from ..kernels.contacts import scene_arrays
-
-        ks.ensure_fresh_cache()
-        self.ks = ks
-        self.model = model
-        screw = model.config.screw
-        geom = model.geometry
-        scene = model._scene
-        weight = screw.nut_mass * model.config.environment.gravity
-        if screw.orientation != "vertical":
-            weight = 0.0
-        consts = np.zeros(ks.N_CONST)
-        consts[ks.K_DT] = model.time_step
-        consts[ks.K_MASS] = scene.ball_mass
-        consts[ks.K_INERTIA] = scene.ball_inertia
-        consts[ks.K_GX : ks.K_GZ + 1] = model.gravity
-        consts[ks.K_G] = model.config.environment.gravity
-        consts[ks.K_SCREW_INERTIA] = screw.screw_inertia
-        consts[ks.K_NUT_MASS] = screw.nut_mass
-        consts[ks.K_WEIGHT] = weight
-        consts[ks.K_KP] = model.controller.proportional
-        consts[ks.K_KI] = model.controller.integral
-        consts[ks.K_BALL_RADIUS] = geom.ball_radius
-        consts[ks.K_PITCH_RADIUS] = geom.pitch_radius
-        consts[ks.K_LEAD_RATE] = model.lead_rate
-        consts[ks.K_SIN_HELIX] = model.zhat[0]
-        consts[ks.K_COS_HELIX] = math.cos(geom.helix_angle)
-        consts[ks.K_NUT_OFFSET0 : ks.K_NUT_OFFSET0 + 2] = model._nut_offset0
-        consts[ks.K_IMPLICIT] = float(model.implicit_positions)
-        self.consts = consts
-        self.params = np.array(scene_arrays(scene), dtype=np.float64)
-        count = len(model.ball_nut)
-        self.ball_nut = model.ball_nut.astype(np.int64)
-        self.sphere_offset, self.spalls = model.faults.compiled_arrays(
-            count, self.ball_nut, model.ball_index
-        )
-        self.jac_own = np.zeros((count, 8, 6))
-        self.jac_shared = np.zeros((count, 8, 3))
-        self.jac_active = np.zeros((count, 4), dtype=np.bool_)
-        self.jac_meta = np.array([0, 0, model.jacobian_interval], dtype=np.int64)
-        self.history = np.zeros((PREDICTOR_ORDER, count + 1, 6))
-        self.history_meta = np.array([math.nan, 0.0, 0.0])
-        self.stats = np.zeros(ks.S_COUNT)
-
-    def set_integrator(self, time_step: float, implicit_positions: bool) -> None:
-        """The step [s] and sphere-position treatment of the next steps; the kept Jacobian
-        and the predictor's history are dropped (DynamicModel.set_integrator)."""
-        ks = self.ks
-        self.consts[ks.K_DT] = time_step
-        self.consts[ks.K_IMPLICIT] = float(implicit_positions)
-        self.jac_meta[ks.J_VALID] = 0
-        self.history_meta[ks.H_NEXT_TIME] = math.nan
-
-    def step(self, state: DynamicState, commands: Commands) -> tuple[DynamicState, StepReport]:
-        """One compiled step; the same result as :meth:`DynamicModel._step` (to rounding)."""
-        from ..kernels.contacts import evaluation_from_buffer
-
-        ks, model = self.ks, self.model
-        body = np.array(
-            [
-                state.time,
-                state.screw_angle,
-                state.screw_speed,
-                state.controller_integral,
-                state.nut_position[0],
-                state.nut_position[1],
-                state.nut_velocity[0],
-                state.nut_velocity[1],
-            ]
-        )
-        count = len(state.helix_parameter)
-        pos, vel, omega = np.empty((count, 3)), np.empty((count, 3)), np.empty((count, 3))
-        theta, new_body = np.empty(count), np.empty(ks.N_BODY)
-        stats = self.stats
-        active, buffer = ks.step_kernel(
-            np.ascontiguousarray(state.ball_position, dtype=np.float64),
-            np.ascontiguousarray(state.ball_velocity, dtype=np.float64),
-            np.ascontiguousarray(state.ball_omega, dtype=np.float64),
-            np.ascontiguousarray(state.helix_parameter, dtype=np.float64),
-            body,
-            np.array([commands.screw_speed, commands.preload]),
-            self.ball_nut,
-            self.consts,
-            self.params,
-            self.sphere_offset,
-            self.spalls,
-            model.faults.jammed(state.time, self.ball_nut, model.ball_index),
-            self.jac_own,
-            self.jac_shared,
-            self.jac_active,
-            self.jac_meta,
-            self.history,
-            self.history_meta,
-            pos,
-            vel,
-            omega,
-            theta,
-            new_body,
-            stats,
-        )
-        model.unconverged_steps += int(stats[ks.S_UNCONVERGED])
-        model.last_step_residual = float(stats[ks.S_RESIDUAL])
-        work = model.work
-        work["contact_evaluations"] += int(stats[ks.S_EVALS])
-        work["jacobians"] += int(stats[ks.S_JACOBIANS])
-        work["newton_iterations"] += int(stats[ks.S_ITERATIONS])
-        new = DynamicState(
-            time=float(new_body[ks.B_TIME]),
-            screw_angle=float(new_body[ks.B_ANGLE]),
-            screw_speed=float(new_body[ks.B_SPEED]),
-            controller_integral=float(new_body[ks.B_INTEGRAL]),
-            nut_position=new_body[ks.B_NUT_POS : ks.B_NUT_POS + 2].copy(),
-            nut_velocity=new_body[ks.B_NUT_VEL : ks.B_NUT_VEL + 2].copy(),
-            ball_position=pos,
-            ball_velocity=vel,
-            ball_omega=omega,
-            helix_parameter=theta,
-        )
-        report = StepReport(
-            motor_torque=float(stats[ks.S_MOTOR]),
-            contacts=evaluation_from_buffer(active, buffer),
-            nut_force=stats[ks.S_NUT_FORCE : ks.S_NUT_FORCE + 2].copy(),
-            screw_torque=float(stats[ks.S_SCREW_TORQUE]),
-            dissipation=float(stats[ks.S_DISSIPATION]),
-            mechanism_dissipation=stats[ks.S_MECHANISMS : ks.S_MECHANISMS + ks.N_MECHANISMS].copy(),
-            nut_dissipation=stats[ks.S_NUT_DISSIPATION : ks.S_NUT_DISSIPATION + 2].copy(),
-        )
-        return new, report

@@ -21,7 +21,7 @@ from typing import Any, Literal, get_args
 
 from ..errors import ConfigError
 from ..params import path_beside, read_yaml
-from .dynamic import Commands, SpeedController
+from .dynamic_state import Commands, SpeedController
 from .faults import faults_from_mapping
 
 Backend = Literal["compiled", "reference"]

@@ -23,7 +23,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -31,122 +31,22 @@ from numpy.typing import NDArray
 
 from ..errors import SolverError
 from ..params import TwinConfig, load_config
-from .base import DISSIPATION_KEYS, OperatingPoint
-from .contact_forces import ContactEvaluation, make_scene
-from .dynamic import STEP_TOLERANCE, Commands, DynamicModel, DynamicState, StepReport
+from ..physics.contact_types import ContactEvaluation
+from .base import OperatingPoint
+from .contact_forces import make_scene
+from .dynamic import DynamicModel
+from .dynamic_state import Commands, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
+from .simulation_result import MECHANISMS, SimulationResult
+from .simulation_summary import run_summary, unconverged_summary
 from .validity import ValidityEnvelope, refuse_outside
 
 FloatArray = NDArray[np.float64]
 ProgressCallback = Callable[[float, float], None]
 
-#: Dissipation mechanisms of the contact laws, in the order of the result's columns.
-MECHANISMS = DISSIPATION_KEYS
-
 #: Progress is reported about every this fraction of the run [-].
 PROGRESS_FRACTION = 0.005
-
-#: Speeds below this are treated as standstill when dividing a power by the speed [rad/s].
-STANDSTILL_SPEED = 1e-9
-
-#: The run has settled once |screw speed - command| stays within this fraction of the command
-#: [-] (with the commands no longer ramping) ...
-SETTLED_SPEED = 0.01
-#: ... and the mean drag of the averaging window's two halves differ by at most this fraction
-#: of the window's mean drag [-].
-SETTLED_DRIFT = 0.02
-#: Unconverged steps listed one by one in the summary (the rest are only counted).
-LISTED_UNCONVERGED = 10
-
-
-@dataclass
-class SimulationResult:
-    """Recorded time series, contact states and summary of one run (SI units).
-
-    Time series (length N, every output interval): ``time`` [s], ``speed_command`` [rad/s],
-    ``preload_command`` [N], ``screw_speed`` [rad/s], ``motor_torque`` [N m], ``screw_torque``
-    (spheres on the screw about z) [N m], ``nut_force`` (N, 2) [N], ``nut_position`` (N, 2) [m],
-    ``dissipation`` [W], ``mechanism_dissipation`` (N, 7) [W] in :data:`MECHANISMS` order,
-    ``nut_dissipation`` (N, 2) [W], ``kinetic_energy``, ``elastic_energy``,
-    ``gravitational_energy`` [J], ``gravitational_power`` (dE_grav/dt) [W], ``input_energy``
-    (cumulative int P_in dt) [J], ``dissipated_energy`` [J], ``power_balance_error`` [J].
-
-    Contact states (M samples, B spheres, 4 half grooves S1, S2, N1, N2): ``contact_time`` [s],
-    ``normal_force`` (elastic part K delta^1.5) [N], ``friction_force`` [N], ``contact_angle``
-    [rad], ``tallian`` [-], ``film_thickness`` [m], ``slip`` [m/s], ``max_pressure`` [Pa],
-    ``semi_axis_x``, ``semi_axis_y`` [m], ``lubricant_share``, ``dry_share`` [-] of the
-    friction, ``in_contact`` (bool); ``ball_nut`` (B,) 0 master / 1 slave and ``ball_index`` (B,)
-    index within its nut.
-    """
-
-    scenario: Scenario
-    time: FloatArray
-    speed_command: FloatArray
-    preload_command: FloatArray
-    screw_speed: FloatArray
-    motor_torque: FloatArray
-    screw_torque: FloatArray
-    nut_force: FloatArray
-    nut_position: FloatArray
-    dissipation: FloatArray
-    mechanism_dissipation: FloatArray
-    nut_dissipation: FloatArray
-    kinetic_energy: FloatArray
-    elastic_energy: FloatArray
-    gravitational_energy: FloatArray
-    gravitational_power: FloatArray
-    input_energy: FloatArray
-    dissipated_energy: FloatArray
-    power_balance_error: FloatArray
-    contact_time: FloatArray
-    normal_force: FloatArray
-    friction_force: FloatArray
-    contact_angle: FloatArray
-    tallian: FloatArray
-    film_thickness: FloatArray
-    slip: FloatArray
-    max_pressure: FloatArray
-    semi_axis_x: FloatArray
-    semi_axis_y: FloatArray
-    lubricant_share: FloatArray
-    dry_share: FloatArray
-    in_contact: NDArray[np.bool_]
-    ball_nut: NDArray[np.int64]
-    ball_index: NDArray[np.int64]
-    summary: dict[str, Any] = field(default_factory=dict)
-    screw_inertia: float = 0.0  # I_s [kg m^2] of the run's parameter set
-
-    @property
-    def gravity_torque(self) -> FloatArray:
-        """Gravitational power / screw speed at each sample, 0 at standstill [N m]."""
-        return _per_speed(self.gravitational_power, self.screw_speed)
-
-    @property
-    def inertia_torque(self) -> FloatArray:
-        """I_s dOmega/dt at each sample (central differences of the recorded speed) [N m]."""
-        if len(self.time) < 2:
-            return np.zeros_like(self.time)
-        return self.screw_inertia * np.gradient(self.screw_speed, self.time)
-
-    @property
-    def drag_torque(self) -> FloatArray:
-        """Motor torque minus gravity torque minus I_s dOmega/dt at each sample [N m]."""
-        return self.motor_torque - self.gravity_torque - self.inertia_torque
-
-    def nut_torque(self) -> FloatArray:
-        """(N, 2) dissipation of each nut's spheres / screw speed, 0 at standstill [N m]."""
-        return _per_speed(self.nut_dissipation, self.screw_speed[:, None])
-
-    def breakdown_torque(self) -> FloatArray:
-        """(N, 7) dissipation per mechanism / screw speed at each sample, 0 at standstill [N m]."""
-        return _per_speed(self.mechanism_dissipation, self.screw_speed[:, None])
-
-
-def _per_speed(power: FloatArray, speed: FloatArray) -> FloatArray:
-    """power / speed where |speed| > STANDSTILL_SPEED, else 0."""
-    moving = np.abs(speed) > STANDSTILL_SPEED
-    return np.asarray(np.where(moving, power / np.where(moving, speed, 1.0), 0.0))
 
 
 def build_config(scenario: Scenario) -> TwinConfig:
@@ -259,7 +159,7 @@ def simulate(
         progress: called as ``progress(fraction_done, elapsed_wall_seconds)`` about every 0.5 %
             of the run and once at the end.
         compiled_loop: with the compiled step, run the steps between two records in one
-            compiled call (kernels/dynamic_step.run_steps); False: one Python iteration per step
+            compiled call (kernels/dynamic_run.run_steps); False: one Python iteration per step
             (the reference, tested equal). Ignored when the model runs the Python step.
 
     Raises:
@@ -307,7 +207,7 @@ def simulate(
         screw_inertia=config.screw.screw_inertia,
     )
     steps = scenario.steps
-    result.summary = _summary(
+    result.summary = run_summary(
         result,
         run.window,
         run.window_mechanisms,
@@ -320,7 +220,7 @@ def simulate(
     result.summary["start_time_unix_ns"] = started_unix_ns
     result.summary["unconverged_steps"] = model.unconverged_steps
     result.summary["fallback_steps"] = run.fallbacks
-    result.summary["unconverged"] = _unconverged_summary(
+    result.summary["unconverged"] = unconverged_summary(
         run.unconverged, model.unconverged_steps, steps, scenario
     )
     result.summary["work_per_step"] = {
@@ -506,15 +406,15 @@ class _Run:
         if k % self.contact_every == 0:
             _record_contacts(self.rec, report, t)
 
-    def _note_unconverged(self, ks: Any, step: int, acc: FloatArray, done: int) -> None:
+    def _note_unconverged(self, kr: Any, step: int, acc: FloatArray, done: int) -> None:
         """Record step ``step``, just run alone by the compiled loop, if it ended unconverged
         (``done``: the unconverged count before it)."""
-        if acc[ks.A_UNCONVERGED] > done:
-            self.unconverged.append((step, float(acc[ks.A_RESIDUAL])))
+        if acc[kr.A_UNCONVERGED] > done:
+            self.unconverged.append((step, float(acc[kr.A_RESIDUAL])))
 
     def _replay(
         self,
-        ks: Any,
+        kr: Any,
         steps_from: Callable[[int, int], tuple[Any, Any]],
         k: int,
         n: int,
@@ -524,15 +424,15 @@ class _Run:
         """Run steps k .. k + n - 1 one compiled call each, noting every unconverged step;
         return the first step's contact arrays and leave ``first_stats`` and the first-step
         accumulators as one call over the stretch leaves them."""
-        firsts = (ks.A_FIRST_GRAVITY, ks.A_FIRST_INPUT, ks.A_FIRST_DISSIPATED)
+        firsts = (kr.A_FIRST_GRAVITY, kr.A_FIRST_INPUT, kr.A_FIRST_DISSIPATED)
         kept: tuple[Any, Any] | None = None
         saved_stats, saved_firsts = first_stats, acc[list(firsts)]
         for step in range(k, k + n):
-            done = int(acc[ks.A_UNCONVERGED])
+            done = int(acc[kr.A_UNCONVERGED])
             out = steps_from(step, step + 1)
-            if acc[ks.A_FAILED]:
+            if acc[kr.A_FAILED]:
                 return out
-            self._note_unconverged(ks, step, acc, done)
+            self._note_unconverged(kr, step, acc, done)
             if kept is None:
                 kept, saved_stats, saved_firsts = out, first_stats.copy(), acc[list(firsts)]
         first_stats[:] = saved_stats
@@ -543,9 +443,11 @@ class _Run:
     def compiled(self) -> None:
         """One compiled call (run_steps) per stretch of steps between two records (or two
         progress reports); a stretch with unconverged steps is replayed step by step."""
-        from ..kernels import dynamic_step as ks
+        from ..kernels import dynamic_layouts as kl
+        from ..kernels import dynamic_run as kr
         from ..kernels.contacts import evaluation_from_buffer
 
+        kr.ensure_fresh_cache()
         model, scenario, state = self.model, self.scenario, self.state
         kernel = model._kernel
         assert kernel is not None
@@ -570,8 +472,8 @@ class _Run:
         for jam in model.faults.jams:
             hit = (model.ball_nut == jam.nut) & (model.ball_index == jam.index)
             jam_start[hit] = np.minimum(jam_start[hit], jam.start)
-        acc = np.zeros(ks.A_COUNT)
-        first_stats = np.zeros(ks.S_COUNT)
+        acc = np.zeros(kr.A_COUNT)
+        first_stats = np.zeros(kl.S_COUNT)
         jacobian = (
             kernel.jac_own,
             kernel.jac_shared,
@@ -600,7 +502,7 @@ class _Run:
                 times, scenario.speed_ramp_start, scenario.speed_ramp_end
             )
             commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
-            motor = float(acc[ks.A_MOTOR])
+            motor = float(acc[kr.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
             snapshot = [a.copy() for a in mutable]
@@ -616,7 +518,7 @@ class _Run:
                 parts: int = parts,
                 window_first: int = window_first,
             ) -> tuple[Any, Any]:
-                return ks.run_steps(
+                return kr.run_steps(
                     first, window_first, commands[(first - k) * parts : (last - k) * parts], pos,
                     vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
@@ -624,40 +526,40 @@ class _Run:
                 )  # fmt: skip
 
             active, buffer = steps_from(k, k + n)
-            if acc[ks.A_UNCONVERGED] > done[3] and n > 1 and not acc[ks.A_FAILED]:
+            if acc[kr.A_UNCONVERGED] > done[3] and n > 1 and not acc[kr.A_FAILED]:
                 # Replay the stretch one step at a time from the snapshot (same arithmetic,
                 # same state) to locate each unconverged step and keep its residual.
                 for array, saved in zip(mutable, snapshot, strict=True):
                     array[...] = saved
-                active, buffer = self._replay(ks, steps_from, k, n, first_stats, acc)
+                active, buffer = self._replay(kr, steps_from, k, n, first_stats, acc)
             else:
-                self._note_unconverged(ks, k, acc, done[3])  # n == 1 or nothing new
-            if acc[ks.A_FAILED] > 0.0:
+                self._note_unconverged(kr, k, acc, done[3])  # n == 1 or nothing new
+            if acc[kr.A_FAILED] > 0.0:
                 # body is left at the start of the failed step
-                failed_at = acc[ks.A_FAILED_STEP] * dt if parts == 1 else body[ks.B_TIME]
+                failed_at = acc[kr.A_FAILED_STEP] * dt if parts == 1 else body[kl.B_TIME]
                 raise SolverError(
                     f"dynamic model diverged at t = {failed_at:.7g} s: "
-                    f"{ks.FINITE_CHECKS[int(acc[ks.A_FAILED]) - 1]} is "
-                    f"{acc[ks.A_FAILED_VALUE]} (last screw speed {body[ks.B_SPEED]:.6g} rad/s)"
+                    f"{kr.FINITE_CHECKS[int(acc[kr.A_FAILED]) - 1]} is "
+                    f"{acc[kr.A_FAILED_VALUE]} (last screw speed {body[kl.B_SPEED]:.6g} rad/s)"
                 )
             totals = [
-                int(acc[ks.A_EVALS]),
-                int(acc[ks.A_JACOBIANS]),
-                int(acc[ks.A_ITERATIONS]),
-                int(acc[ks.A_UNCONVERGED]),
+                int(acc[kr.A_EVALS]),
+                int(acc[kr.A_JACOBIANS]),
+                int(acc[kr.A_ITERATIONS]),
+                int(acc[kr.A_UNCONVERGED]),
             ]
             work = model.work
             work["contact_evaluations"] += totals[0] - done[0]
             work["jacobians"] += totals[1] - done[1]
             work["newton_iterations"] += totals[2] - done[2]
             model.unconverged_steps += totals[3] - done[3]
-            model.last_step_residual = float(acc[ks.A_RESIDUAL])
+            model.last_step_residual = float(acc[kr.A_RESIDUAL])
             done = totals
             if record or record_contacts:
                 # The first step's contacts: at the positions of ``before`` (semi-implicit) or
                 # at its end (implicit positions; the record's energy is then evaluated anew).
                 contacts = evaluation_from_buffer(active, buffer)
-                report = _report_from_stats(ks, first_stats, contacts)
+                report = _report_from_stats(kl, first_stats, contacts)
                 t = k * dt
                 if record:
                     assert before is not None
@@ -667,8 +569,8 @@ class _Run:
                         before,
                         motor,
                         report,
-                        float(acc[ks.A_FIRST_GRAVITY]),
-                        (float(acc[ks.A_FIRST_INPUT]), float(acc[ks.A_FIRST_DISSIPATED])),
+                        float(acc[kr.A_FIRST_GRAVITY]),
+                        (float(acc[kr.A_FIRST_INPUT]), float(acc[kr.A_FIRST_DISSIPATED])),
                         None if model.implicit_positions else contacts,
                     )
                 if record_contacts:
@@ -677,14 +579,14 @@ class _Run:
             if self.progress is not None and k % self.progress_every == 0 and k <= steps:
                 self.progress(k / steps, time.perf_counter() - self.started)
         window = self.window
-        window["motor"] = float(acc[ks.A_W_MOTOR])
-        window["speed"] = float(acc[ks.A_W_SPEED])
-        window["gravity"] = float(acc[ks.A_W_GRAVITY])
-        window["count"] = int(acc[ks.A_W_COUNT])
-        self.window_mechanisms = acc[ks.A_W_MECHANISMS : ks.A_W_MECHANISMS + len(MECHANISMS)].copy()
-        self.window_nuts = acc[ks.A_W_NUTS : ks.A_W_NUTS + 2].copy()
-        self.abs_input_energy = float(acc[ks.A_ABS_INPUT])
-        self.fallbacks = int(acc[ks.A_FALLBACKS])
+        window["motor"] = float(acc[kr.A_W_MOTOR])
+        window["speed"] = float(acc[kr.A_W_SPEED])
+        window["gravity"] = float(acc[kr.A_W_GRAVITY])
+        window["count"] = int(acc[kr.A_W_COUNT])
+        self.window_mechanisms = acc[kr.A_W_MECHANISMS : kr.A_W_MECHANISMS + len(MECHANISMS)].copy()
+        self.window_nuts = acc[kr.A_W_NUTS : kr.A_W_NUTS + 2].copy()
+        self.abs_input_energy = float(acc[kr.A_ABS_INPUT])
+        self.fallbacks = int(acc[kr.A_FALLBACKS])
 
 
 def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
@@ -723,16 +625,16 @@ def _body_state(
     )
 
 
-def _report_from_stats(ks: Any, stats: FloatArray, contacts: Any) -> StepReport:
-    """The :class:`StepReport` of a step from step_kernel's statistics (layout ks.S_*)."""
+def _report_from_stats(kl: Any, stats: FloatArray, contacts: Any) -> StepReport:
+    """The :class:`StepReport` of a step from step_kernel's statistics (layout kl.S_*)."""
     return StepReport(
-        motor_torque=float(stats[ks.S_MOTOR]),
+        motor_torque=float(stats[kl.S_MOTOR]),
         contacts=contacts,
-        nut_force=stats[ks.S_NUT_FORCE : ks.S_NUT_FORCE + 2].copy(),
-        screw_torque=float(stats[ks.S_SCREW_TORQUE]),
-        dissipation=float(stats[ks.S_DISSIPATION]),
-        mechanism_dissipation=stats[ks.S_MECHANISMS : ks.S_MECHANISMS + ks.N_MECHANISMS].copy(),
-        nut_dissipation=stats[ks.S_NUT_DISSIPATION : ks.S_NUT_DISSIPATION + 2].copy(),
+        nut_force=stats[kl.S_NUT_FORCE : kl.S_NUT_FORCE + 2].copy(),
+        screw_torque=float(stats[kl.S_SCREW_TORQUE]),
+        dissipation=float(stats[kl.S_DISSIPATION]),
+        mechanism_dissipation=stats[kl.S_MECHANISMS : kl.S_MECHANISMS + kl.N_MECHANISMS].copy(),
+        nut_dissipation=stats[kl.S_NUT_DISSIPATION : kl.S_NUT_DISSIPATION + 2].copy(),
     )
 
 
@@ -760,183 +662,3 @@ def _record_contacts(rec: _Recorder, report: StepReport, t: float) -> None:
     c["dry_share"][j] = np.where(active & (friction > 0.0), ev.friction_dry / safe, 0.0)
     rec.in_contact[j] = active
     rec.m += 1
-
-
-def _summary(
-    result: SimulationResult,
-    window: dict[str, float],
-    mechanisms: FloatArray,
-    nuts: FloatArray,
-    abs_input_energy: float,
-    wall: float,
-    steps: int,
-    config: TwinConfig,
-) -> dict[str, Any]:
-    """The paper's averages over the last window plus run statistics (SI, JSON-ready).
-
-    drag = mean motor torque - gravity torque - I_s (Omega_end - Omega_start) / T: the mean of
-    I_s dOmega/dt over the window's steps telescopes to the speed change over the window. The
-    breakdown closes on it through the energy balance of everything but the screw (see
-    :func:`_closure`).
-    """
-    sc = result.scenario
-    dt = sc.time_step
-    count = max(int(window["count"]), 1)
-    motor = float(window["motor"]) / count
-    speed = float(window["speed"]) / count
-    gravity_power = float(window["gravity"]) / count
-    moving = abs(speed) > STANDSTILL_SPEED
-    gravity_torque = gravity_power / speed if moving else 0.0
-    span = count * dt  # s: the window's steps, from the state before its first one
-    start, end = sc.duration - span, sc.duration
-    speeds = np.interp([start, end], result.time, result.screw_speed)
-    inertia_torque = result.screw_inertia * float(speeds[1] - speeds[0]) / span
-    drag = motor - gravity_torque - inertia_torque
-    breakdown = {
-        name: (float(value) / count / speed if moving else 0.0)
-        for name, value in zip(MECHANISMS, mechanisms, strict=True)
-    }
-    dissipation_drag = float(sum(breakdown.values()))
-    closure = _closure(result, start, end, speed if moving else math.inf)
-    closure["remainder"] = drag - dissipation_drag - sum(closure.values())
-    breakdown.update(closure)
-    settling = _settling(result, start)
-    final_error = float(result.power_balance_error[-1])
-    abs_input_energy = float(abs_input_energy)
-    return {
-        "window_start_s": sc.duration - sc.average_window,
-        "window_end_s": sc.duration,
-        "mean_screw_speed_rad_s": speed,
-        "mean_motor_torque_Nm": motor,
-        "mean_gravitational_power_W": gravity_power,
-        "gravity_torque_Nm": float(gravity_torque),
-        "inertia_torque_Nm": inertia_torque,
-        "drag_torque_Nm": drag,
-        "dissipation_drag_Nm": dissipation_drag,
-        **settling,
-        "breakdown_Nm": breakdown,
-        "breakdown_total_Nm": float(sum(breakdown.values())),
-        "nut_torque_Nm": {
-            "master": float(nuts[0]) / count / speed if moving else 0.0,
-            "slave": float(nuts[1]) / count / speed if moving else 0.0,
-        },
-        "mean_dissipation_W": float(mechanisms.sum()) / count,
-        "power_balance_error_J": final_error,
-        "input_energy_J": float(result.input_energy[-1]),
-        "gross_input_energy_J": abs_input_energy,
-        "dissipated_energy_J": float(result.dissipated_energy[-1]),
-        "power_balance_error_relative": (
-            final_error / abs_input_energy if abs_input_energy > 0.0 else 0.0
-        ),
-        "wall_time_s": wall,
-        "real_time_factor": sc.duration / wall if wall > 0.0 else math.inf,
-        "steps": steps,
-        "step_cost_s": wall / max(steps, 1),
-        "balls_per_nut": config.screw.balls_per_nut,
-        "config": config.source,
-    }
-
-
-def _closure(result: SimulationResult, start: float, end: float, speed: float) -> dict[str, float]:
-    """The non-dissipative terms of the drag over [start, end] [s], as torques [N m].
-
-    Energy balance of the nuts, spheres and contacts (everything but the screw): the spheres'
-    torque on the screw times its speed equals the dissipation, plus the rate of their stored
-    energy (kinetic energy without the screw's, elastic energy), plus the gravitational power,
-    minus the preload's power F_p (v_master - v_slave). Divided by the mean speed ``speed``:
-    ``stored_energy`` = change of that energy / duration / speed and ``preload_work`` = -(work
-    of the preload) / duration / speed; the rest of the drag beyond these and the mechanisms
-    (numerical balance error, speed fluctuation within the window) is the caller's
-    ``remainder``. Values between recorded samples are interpolated linearly.
-    """
-    inside = (result.time > start) & (result.time < end)
-    times = np.concatenate([[start], result.time[inside], [end]])
-
-    def at(values: FloatArray) -> FloatArray:
-        return np.asarray(np.interp(times, result.time, values))
-
-    screw_kinetic = 0.5 * result.screw_inertia * result.screw_speed**2
-    stored = at(result.kinetic_energy - screw_kinetic + result.elastic_energy)
-    separation = at(result.nut_position[:, 0] - result.nut_position[:, 1])
-    preload = at(result.preload_command)
-    preload_work = float(np.sum(0.5 * (preload[1:] + preload[:-1]) * np.diff(separation)))
-    duration = end - start
-    return {
-        "stored_energy": float(stored[-1] - stored[0]) / duration / speed,
-        "preload_work": -preload_work / duration / speed,
-    }
-
-
-def _settling(result: SimulationResult, start: float) -> dict[str, Any]:
-    """Whether the run has settled by the averaging window's ``start`` [s], since when, and the
-    drag's standard deviation over the settled part of the window (recorded samples).
-
-    Settled: the commands have stopped ramping, |screw speed - command| has stayed within
-    SETTLED_SPEED of the command since ``settled_since_s``, which is before the window, and the
-    mean drag of the window's two halves differ by at most SETTLED_DRIFT of the window mean.
-    """
-    sc = result.scenario
-    t, drag = result.time, result.drag_torque
-    reasons: list[str] = []
-    ramps_end = max(sc.speed_ramp_end, sc.preload_ramp_end)
-    tolerance = SETTLED_SPEED * max(abs(sc.speed), STANDSTILL_SPEED)
-    off = (np.abs(result.screw_speed - result.speed_command) > tolerance) | (t < ramps_end)
-    since: float | None = None
-    if not off[-1]:
-        last_off = np.flatnonzero(off)
-        since = float(t[last_off[-1] + 1]) if len(last_off) else float(t[0])
-    if ramps_end > start:
-        reasons.append(f"the commands ramp until {ramps_end:.6g} s, inside the window")
-    if since is None:
-        deviation = float(np.abs(result.screw_speed - result.speed_command)[-1])
-        reasons.append(
-            f"the screw speed ends {deviation:.3g} rad/s from its command "
-            f"(tolerance {tolerance:.3g} rad/s)"
-        )
-    elif since > start + 0.5 * sc.time_step:
-        reasons.append(
-            f"the screw speed stays within {SETTLED_SPEED:.0%} of its command only from "
-            f"{since:.6g} s, inside the window"
-        )
-    in_window = t >= start - 0.5 * sc.time_step
-    window_drag = drag[in_window]
-    halves = np.array_split(window_drag, 2) if len(window_drag) >= 2 else []
-    drift = abs(float(np.mean(halves[1]) - np.mean(halves[0]))) if halves else 0.0
-    level = abs(float(np.mean(window_drag))) if len(window_drag) else 0.0
-    if drift > SETTLED_DRIFT * level:
-        reasons.append(
-            f"the mean drag of the window's halves differ by {drift:.3g} N m, more than "
-            f"{SETTLED_DRIFT:.0%} of its mean {level:.3g} N m"
-        )
-    settled_from = start if since is None else max(start, since)
-    settled = t >= settled_from - 0.5 * sc.time_step
-    samples = drag[settled] if settled.any() else window_drag
-    return {
-        "settled": not reasons,
-        "settled_since_s": since,
-        "not_settled_because": reasons,
-        "drag_torque_std_window_s": [settled_from, sc.duration],
-        "drag_torque_std_Nm": float(np.std(samples)) if len(samples) else 0.0,
-        "window_drift_Nm": drift,
-    }
-
-
-def _unconverged_summary(
-    unconverged: list[tuple[int, float]], total: int, steps: int, scenario: Scenario
-) -> dict[str, Any]:
-    """Where the Newton iterations of a step ended above STEP_TOLERANCE (JSON-ready, SI):
-    ``unconverged`` lists (step index, final scaled residual) of every such step."""
-    dt = scenario.time_step
-    window_first = steps - scenario.steps_per(scenario.average_window)
-    return {
-        "count": total,
-        "steps": steps + 1,
-        "in_window": sum(step >= window_first for step, _ in unconverged),
-        "tolerance": STEP_TOLERANCE,
-        "largest_residual": max((r for _, r in unconverged), default=0.0),
-        "listed": [
-            {"step": step, "time_s": step * dt, "residual": r}
-            for step, r in unconverged[:LISTED_UNCONVERGED]
-        ],
-        "unlisted": max(len(unconverged) - LISTED_UNCONVERGED, 0),
-    }

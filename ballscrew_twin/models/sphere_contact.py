@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..physics import film, hertz, rolling, traction
-from .contact_forces import SPIN_SLIDING_FACTOR, ContactScene, dot, sliding_friction
+from ..physics.contact_types import ContactScene
+from .contact_forces import SPIN_SLIDING_FACTOR, dot, sliding_friction
 
 FloatArray = NDArray[np.float64]
 

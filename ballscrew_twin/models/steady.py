@@ -37,11 +37,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError, SolverError
+from ..kernels.solver_settings import DIAGONAL_SHIFT, LINE_SEARCH_STEPS, MIN_STEP, NEWTON_MAX_ITER
 from ..params import TwinConfig
 from ..physics import geometry, hertz
+from ..physics.contact_types import ContactEvaluation, ContactScene
 from ..units import RPM
 from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
-from .contact_forces import ContactEvaluation, ContactScene, evaluate_contacts, make_scene
+from .contact_forces import evaluate_contacts, make_scene
 
 if TYPE_CHECKING:
     from ..kernels.steady_solver import KernelSolution
@@ -51,10 +53,6 @@ Mode = Literal["auto", "symmetric", "full"]
 Backend = Literal["compiled", "newton", "reference"]
 Branch = Literal["start-up", "path"]
 
-NEWTON_MAX_ITER = 80
-LINE_SEARCH_STEPS = 12
-MIN_STEP = 1e-3  # shortest line-search step, taken even without decrease
-DIAGONAL_SHIFT = 1e-12  # relative regularisation of the sphere blocks
 #: speed fractions of a cold start: straight to the speed, then ever finer continuation
 CONTINUATION_SCHEDULES = (
     (1.0,),

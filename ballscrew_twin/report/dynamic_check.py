@@ -28,7 +28,8 @@ from typing import Any
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
 from ..models.scenario import Scenario
-from ..models.simulation import SimulationResult, build_config, simulate
+from ..models.simulation import build_config, simulate
+from ..models.simulation_result import SimulationResult
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, load_config
 from ..units import RPM, celsius_to_kelvin

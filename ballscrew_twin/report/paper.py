@@ -21,10 +21,8 @@ for a curve's first point or after a failure, from the same preload at the next 
 
 from __future__ import annotations
 
-import argparse
 import csv
 import math
-import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,13 +35,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from tqdm import tqdm
 
-from ..cli import HALF_GROOVES
 from ..errors import SolverError
 from ..models.base import ContactStates, OperatingPoint
 from ..models.catalog import CatalogModel
 from ..models.steady import SteadySolution, SteadyState, SteadyStateModel
 from ..models.validity import ValidityEnvelope, refuse_outside
-from ..params import TwinConfig, load_config
+from ..params import TwinConfig
+from ..physics.geometry import HALF_GROOVE_NAMES
 from ..units import CELSIUS_ZERO, RPM, celsius_to_kelvin
 
 Side = Literal["screw", "nut"]
@@ -169,7 +167,7 @@ def contact_side(contacts: ContactStates, nut: int, side: Side) -> dict[str, flo
         "max_pressure_Pa": float(contacts.max_pressure[i]),
     }
     result: dict[str, float | str] = {
-        f"{side}_half_groove": HALF_GROOVES[int(contacts.half_groove[i])]
+        f"{side}_half_groove": HALF_GROOVE_NAMES[int(contacts.half_groove[i])]
     }
     result.update({f"{side}_{name}": value for name, value in values.items()})
     return result
@@ -540,45 +538,3 @@ def plot_paper(rows: Sequence[Row], out_dir: Path) -> list[Path]:
         _plot_fig10(rows, out_dir / FILE_NAMES["fig10"]),
         _plot_fig11(rows, out_dir / FILE_NAMES["fig11"]),
     ]
-
-
-# ---------------------------------------------------------------------------------- command
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``report``."""
-    parser.add_argument(
-        "what",
-        choices=("paper", "gaps"),
-        help="paper: the paper's figures; gaps: the open gaps against it, measured",
-    )
-    parser.add_argument("--out", required=True, type=Path, help="output directory")
-    parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
-    parser.add_argument("--quick", action="store_true", help="coarse grid (seconds, for tests)")
-    from . import gaps  # imports this module
-
-    gaps.add_arguments(parser)
-
-
-def run(args: argparse.Namespace) -> int:
-    """``report paper``: sweep, write CSV and PNGs, print the convergence count and wall time;
-    ``report gaps``: :func:`ballscrew_twin.report.gaps.run`."""
-    if args.what == "gaps":
-        from . import gaps  # imports this module
-
-        return gaps.run(args)
-    start = time.perf_counter()
-    config = load_config(args.config)
-    rows = paper_sweep(config, args.quick)
-    out_dir = Path(args.out)
-    paths = plot_paper(rows, out_dir)
-    paths.append(write_csv(rows, out_dir / CSV_NAME))
-    points = {(r["temperature_C"], r["speed_rpm"], r["preload_N"]): r["status"] for r in rows}
-    failed = {k: status for k, status in points.items() if status != "ok"}
-    for path in paths:
-        print(f"wrote {path}")
-    print(f"{len(points) - len(failed)} of {len(points)} operating points converged")
-    for (temperature, speed, preload), status in failed.items():
-        print(f"  failed: {temperature:g} °C, {speed:g} rpm, {preload:g} N: {status}")
-    print(f"wall time {time.perf_counter() - start:.1f} s")
-    return 0

@@ -24,6 +24,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..errors import MessageEncodingError
+
 #: Encapsulation header of plain little-endian CDR (representation id 0x0001, options 0).
 ENCAPSULATION = b"\x00\x01\x00\x00"
 
@@ -76,25 +78,31 @@ def _string_body(name: str, text: str) -> bytes:
     """CDR string without padding: uint32 length (incl. the NUL), UTF-8 bytes, NUL.
 
     Raises:
-        ValueError: ``text`` is not a str, holds a NUL or cannot be encoded as UTF-8.
+        MessageEncodingError: ``text`` is not a str, holds a NUL or cannot be encoded as UTF-8.
     """
     if not isinstance(text, str):
-        raise ValueError(f"{name} must be a str, got {type(text).__name__}")
+        raise MessageEncodingError(f"{name} must be a str, got {type(text).__name__}")
     if "\x00" in text:
-        raise ValueError(f"{name} {text!r} contains a NUL character, which ROS strings cannot hold")
+        raise MessageEncodingError(
+            f"{name} {text!r} contains a NUL character, which ROS strings cannot hold"
+        )
     try:
         data = text.encode("utf-8")
     except UnicodeEncodeError as err:
-        raise ValueError(f"{name} {text!r} is not encodable as UTF-8 ({err.reason})") from err
+        raise MessageEncodingError(
+            f"{name} {text!r} is not encodable as UTF-8 ({err.reason})"
+        ) from err
     return _UINT32.pack(len(data) + 1) + data + b"\x00"
 
 
 def _check_stamp(sec: int, nanosec: int) -> None:
-    """Raise ValueError when the stamp does not fit builtin_interfaces/Time (int32, uint32)."""
+    """MessageEncodingError when the stamp does not fit builtin_interfaces/Time (int32, uint32)."""
     if not -(2**31) <= sec < 2**31:
-        raise ValueError(f"sec {sec} is outside the int32 range of builtin_interfaces/Time")
+        raise MessageEncodingError(
+            f"sec {sec} is outside the int32 range of builtin_interfaces/Time"
+        )
     if not 0 <= nanosec < 2**32:
-        raise ValueError(
+        raise MessageEncodingError(
             f"nanosec {nanosec} is outside the uint32 range of builtin_interfaces/Time"
         )
 
@@ -109,7 +117,7 @@ class DragTorqueEncoder:
         frame_id: ``header.frame_id`` of every message.
 
     Raises:
-        ValueError: ``frame_id`` holds a NUL or is not valid UTF-8 text.
+        MessageEncodingError: ``frame_id`` holds a NUL or is not valid UTF-8 text.
     """
 
     def __init__(self, frame_id: str) -> None:
@@ -161,7 +169,7 @@ class DragTorqueEncoder:
             axial_load: external axial load on the nut assembly [N].
 
         Raises:
-            ValueError: not nine torques, a stamp out of range, a non-numeric value or a
+            MessageEncodingError: not nine torques, a stamp out of range, a non-numeric value or a
                 fidelity holding a NUL.
         """
         try:
@@ -184,11 +192,11 @@ class DragTorqueEncoder:
             )
         except struct.error as err:
             if len(values) != 9:
-                raise ValueError(
+                raise MessageEncodingError(
                     f"values must hold the 9 torques total..spin [N m], got {len(values)}"
                 ) from err
             _check_stamp(sec, nanosec)
-            raise ValueError(f"DragTorque field is not a number: {err}") from err
+            raise MessageEncodingError(f"DragTorque field is not a number: {err}") from err
 
 
 def _index_array(name: str, values: ArrayLike, bits: int) -> np.ndarray:
@@ -198,13 +206,13 @@ def _index_array(name: str, values: ArrayLike, bits: int) -> np.ndarray:
     """
     array = np.asarray(values)
     if array.ndim != 1:
-        raise ValueError(f"{name} must be 1-D, got shape {array.shape}")
+        raise MessageEncodingError(f"{name} must be 1-D, got shape {array.shape}")
     if array.dtype.kind == "u" and array.dtype.itemsize * 8 <= bits:
         return array
     if array.dtype.kind not in "iub" and array.size:
-        raise ValueError(f"{name} must hold integers, got dtype {array.dtype}")
+        raise MessageEncodingError(f"{name} must hold integers, got dtype {array.dtype}")
     if array.size and (array.min() < 0 or array.max() >= 2**bits):
-        raise ValueError(
+        raise MessageEncodingError(
             f"{name} must lie in the uint{bits} range 0..{2**bits - 1}, "
             f"got {array.min()}..{array.max()}"
         )
@@ -215,7 +223,7 @@ def _flag_array(name: str, values: ArrayLike) -> np.ndarray:
     """``values`` as an array of bools or integers (nonzero is true); empty: any dtype."""
     array = np.asarray(values)
     if array.dtype.kind not in "biu" and array.size:
-        raise ValueError(f"{name} must hold bools (or integers), got dtype {array.dtype}")
+        raise MessageEncodingError(f"{name} must hold bools (or integers), got dtype {array.dtype}")
     return array
 
 
@@ -254,8 +262,8 @@ def encode_contact_states(
             lubricant_share [-], dry_share [-], slip_speed [m/s].
 
     Raises:
-        ValueError: arrays of unequal length or not 1-D, not 11 columns, integers out of their
-            field's range, a stamp out of range, or a string holding a NUL.
+        MessageEncodingError: arrays of unequal length or not 1-D, not 11 columns, integers out
+            of their field's range, a stamp out of range, or a string holding a NUL.
     """
     _check_stamp(sec, nanosec)
     heads = (
@@ -267,19 +275,19 @@ def encode_contact_states(
     count = len(heads[0][1])
     for name, array in heads:
         if array.shape != (count,):
-            raise ValueError(
+            raise MessageEncodingError(
                 f"{name} has shape {array.shape}; every array must be 1-D of the length "
                 f"{count} of sphere_index"
             )
     if len(columns) != len(CONTACT_FLOAT_FIELDS):
-        raise ValueError(
+        raise MessageEncodingError(
             f"columns must hold the {len(CONTACT_FLOAT_FIELDS)} float arrays "
             f"{', '.join(CONTACT_FLOAT_FIELDS)}; got {len(columns)}"
         )
     floats = [np.asarray(column, dtype=np.float64) for column in columns]
     for name, column in zip(CONTACT_FLOAT_FIELDS, floats, strict=True):
         if column.shape != (count,):
-            raise ValueError(
+            raise MessageEncodingError(
                 f"column {name} has shape {column.shape}; every array must be 1-D of the "
                 f"length {count} of sphere_index"
             )

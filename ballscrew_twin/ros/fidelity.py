@@ -25,7 +25,7 @@ import importlib
 from dataclasses import dataclass, field
 from typing import Literal, cast
 
-from ..errors import BallscrewTwinError
+from ..errors import BallscrewTwinError, ConfigError, FidelityError, MapError
 from ..models.base import (
     OperatingPoint,
     QuasiStaticModel,
@@ -34,7 +34,7 @@ from ..models.base import (
     TwinOutput,
 )
 from ..models.catalog import CatalogModel
-from ..models.steady_map import MapError, SteadyMap, find_map
+from ..models.steady_map import SteadyMap, find_map
 from ..models.validity import ValidatedModel, ValidityEnvelope
 from ..params import TwinConfig
 
@@ -146,7 +146,7 @@ def _build_raw(mode: str, settings: ModelSettings) -> TimeSteppingModel:
                 )
             table = search.table
         return cast(TimeSteppingModel, model_class(settings.config, steady_map=table))
-    raise ValueError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
+    raise ConfigError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
 
 
 def _try_build(mode: str, settings: ModelSettings) -> tuple[TimeSteppingModel | None, str]:
@@ -174,14 +174,15 @@ def choose(requested: str, settings: ModelSettings, *, below: str | None = None)
             after ``below`` could not keep up).
 
     Raises:
-        ValueError: unknown mode, or an explicitly requested mode that cannot be built.
+        ConfigError: unknown mode. FidelityError: an explicitly requested mode that cannot be
+            built.
     """
     if requested not in FIDELITY_MODES:
-        raise ValueError(f"fidelity {requested!r} is not one of {', '.join(FIDELITY_MODES)}")
+        raise ConfigError(f"fidelity {requested!r} is not one of {', '.join(FIDELITY_MODES)}")
     if requested != "auto":
         model, why = _try_build(requested, settings)
         if model is None:
-            raise ValueError(f"fidelity {requested} is not available: {why}")
+            raise FidelityError(f"fidelity {requested} is not available: {why}")
         return ModelChoice(model, requested, f"requested ({requested})")
     start = 0 if below is None else LADDER.index(below) + 1
     skipped: list[str] = []
@@ -201,4 +202,4 @@ def choose(requested: str, settings: ModelSettings, *, below: str | None = None)
         if skipped:
             reason += " (" + "; ".join(skipped) + ")"
         return ModelChoice(model, mode, reason)
-    raise ValueError("no model left to step down to")  # catalog is always available
+    raise FidelityError("no model left to step down to")  # catalog is always available

@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from ..errors import ConfigError
 from ..units import CELSIUS_ZERO, NS_PER_S, RPM
 
 
@@ -41,11 +42,11 @@ class InputLimits:
             self.max_axial_load,
         )
         if not all(math.isfinite(v) for v in values):
-            raise ValueError(f"input limits must be finite: {self}")
+            raise ConfigError(f"input limits must be finite: {self}")
         if self.max_screw_speed <= 0.0 or self.max_preload <= 0.0 or self.max_axial_load <= 0.0:
-            raise ValueError(f"max_screw_speed, max_preload, max_axial_load must be > 0: {self}")
+            raise ConfigError(f"max_screw_speed, max_preload, max_axial_load must be > 0: {self}")
         if not 0.0 < self.min_temperature < self.max_temperature:
-            raise ValueError(f"need 0 K < min_temperature < max_temperature: {self}")
+            raise ConfigError(f"need 0 K < min_temperature < max_temperature: {self}")
 
 
 def check_screw_speed(value: float, limits: InputLimits) -> str | None:

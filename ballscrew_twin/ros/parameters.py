@@ -13,6 +13,8 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
+from ..errors import ConfigError
+
 #: Python types of parameter values, by the name used in descriptions and docs.
 ParameterValue = bool | int | float | str | tuple[str, ...]
 TYPE_NAMES: dict[type, str] = {
@@ -53,7 +55,7 @@ class ParameterSpec:
     def __post_init__(self) -> None:
         """Reject a spec whose own default it would refuse."""
         if (reason := self.check(self.default)) is not None:
-            raise ValueError(f"parameter table: {reason}")
+            raise ConfigError(f"parameter table: {reason}")
 
     @property
     def kind(self) -> type:
@@ -103,7 +105,7 @@ def table_by_name(table: Iterable[ParameterSpec]) -> dict[str, ParameterSpec]:
     specs: dict[str, ParameterSpec] = {}
     for spec in table:
         if spec.name in specs:
-            raise ValueError(f"parameter table: {spec.name} given twice")
+            raise ConfigError(f"parameter table: {spec.name} given twice")
         specs[spec.name] = spec
     return specs
 

@@ -35,20 +35,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import BallscrewTwinError
+from ..errors import RecordError, ReplayError, ResultsError
 from .command_args import add_ros_arguments, ros_argv
 from .executors import spin_once
-from .replay import ReplayError, message_class
+from .replay import message_class
 
 QOS_MODES = ("auto", "reliable", "best_effort")
 #: Interval between looks at the ROS graph for topics not yet subscribed [s].
 GRAPH_POLL = 0.2
 #: Interval between progress lines (messages so far per topic, printed when they change) [s].
 PROGRESS_PERIOD = 0.5
-
-
-class RecordError(BallscrewTwinError, ValueError):
-    """Invalid recording request (topic, type, output) or a bag that cannot be written."""
 
 
 @dataclass(frozen=True)
@@ -73,10 +69,10 @@ def _typestore() -> Any:
     """Jazzy type store with this project's messages (when their definitions are found)."""
     from rosbags.typesys import Stores, get_typestore
 
-    from ..results import ResultsError, make_typestore
+    from ..bags.writer import project_typestore
 
     try:
-        return make_typestore()
+        return project_typestore()
     except ResultsError:
         return get_typestore(Stores.ROS2_JAZZY)
 
@@ -104,13 +100,9 @@ class BagRecorder:
         depth: int = 1000,
         log: Callable[[str], None] = print,
     ) -> None:
-        from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
+        from ..bags.writer import BagWriter, storage_plugin
 
-        from ..bag_writer import BagWriter
-
-        plugins = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
-        if storage not in plugins:
-            raise RecordError(f"storage = {storage!r} must be one of {sorted(plugins)}")
+        plugin = storage_plugin(storage, RecordError)
         if qos not in QOS_MODES:
             raise RecordError(f"qos = {qos!r} must be one of {list(QOS_MODES)}")
         if not requests:
@@ -131,9 +123,7 @@ class BagRecorder:
         self._subscriptions: list[Any] = []
         self._connections: dict[str, Any] = {}
         self.storage = storage
-        self.writer = BagWriter(self.out, plugins[storage])
-        if storage == "mcap":
-            self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
+        self.writer = BagWriter(self.out, plugin, compressed=True)
         try:
             self.writer.open()
         except OSError as err:

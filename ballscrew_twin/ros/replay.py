@@ -1,7 +1,7 @@
 """``ballscrew-twin replay BAG [--rate X] [--topics T ...] [--loop]``: publish a recorded bag.
 
 ``ros2 bag play`` is not available from PyPI; this plays a rosbag2 bag (mcap or sqlite3, read
-with ``rosbags`` through :func:`~ballscrew_twin.health.bags.open_raw_bag`, so a truncated or
+with ``rosbags`` through :func:`~ballscrew_twin.bags.reader.open_raw_bag`, so a truncated or
 partly corrupt bag plays everything readable and says what it skipped) on its own topics:
 
 - messages are published as recorded (serialized bytes, not decoded), paced by their bag time
@@ -48,8 +48,9 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..errors import BallscrewTwinError
-from ..health.bags import RawBag, RawMessage, open_raw_bag
+from ..bags.reader import RawBag, open_raw_bag
+from ..bags.records import RawMessage
+from ..errors import ReplayError
 from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
 
@@ -67,10 +68,6 @@ SUBSCRIBER_CHECK = 0.05
 #: Wait after every played topic has a subscriber [s]: DDS discovery is not symmetric, and a
 #: best-effort subscriber drops what arrives before it has matched the publisher in turn.
 MATCH_SETTLE = 0.5
-
-
-class ReplayError(BallscrewTwinError, ValueError):
-    """Invalid replay request (rate, topics) or a bag that cannot be played."""
 
 
 def message_class(msgtype: str) -> Any:

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+from ..errors import ConfigError
+
 #: A forward jump of the clock larger than this is a jump (replay seek), not a stall [ns].
 FORWARD_JUMP_NS = 1_000_000_000
 
@@ -47,9 +49,9 @@ class TickScheduler:
 
     def __init__(self, period_ns: int, max_catch_up: int, *, wall_clock: bool = False) -> None:
         if period_ns <= 0:
-            raise ValueError(f"period_ns = {period_ns} must be > 0")
+            raise ConfigError(f"period_ns = {period_ns} must be > 0")
         if max_catch_up < 1:
-            raise ValueError(f"max_catch_up = {max_catch_up} must be >= 1")
+            raise ConfigError(f"max_catch_up = {max_catch_up} must be >= 1")
         self.period_ns = period_ns
         self.max_catch_up = max_catch_up
         self.wall_clock = wall_clock

@@ -24,7 +24,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..errors import BallscrewTwinError
+from ..errors import BallscrewTwinError, BuildCancelledError
 from ..models import steady_map
 from ..models.steady_map import MapSearch, SteadyMap
 from ..params import TwinConfig
@@ -32,10 +32,6 @@ from . import diagnostics
 
 #: Share of the lines between two progress lines on the console [-].
 LOG_EVERY = 0.1
-
-
-class BuildCancelledError(Exception):
-    """The node is shutting down: the build stops."""
 
 
 @dataclass(frozen=True)

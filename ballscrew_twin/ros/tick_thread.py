@@ -22,6 +22,8 @@ import threading
 import time
 from collections.abc import Callable
 
+from ..errors import ConfigError
+
 #: Longest single sleep, so that :meth:`TickThread.stop` is honoured promptly [s].
 MAX_SLEEP = 0.05
 #: Timer slack asked for the tick thread [ns] (Linux ``PR_SET_TIMERSLACK``).
@@ -93,7 +95,7 @@ class TickThread:
         name: str = "twin_ticks",
     ) -> None:
         if not 0 <= priority <= 99:
-            raise ValueError(f"priority = {priority} must be in 0..99 (0: normal scheduling)")
+            raise ConfigError(f"priority = {priority} must be in 0..99 (0: normal scheduling)")
         self._run_due = run_due
         self._on_error = on_error
         self._priority = priority

@@ -20,6 +20,7 @@ from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from sensor_msgs.msg import JointState, Temperature
 from std_msgs.msg import Float64
 
+from ..errors import ConfigError
 from ..models.base import OperatingPoint
 from ..units import NS_PER_S, celsius_to_kelvin, stamp_to_ns
 from .inputs import (
@@ -46,7 +47,7 @@ class TwinInputs:
         warn: ``warn(key, text)`` logs a warning, throttled per key.
 
     Raises:
-        ValueError: an initial value outside the limits.
+        ConfigError: an initial value outside the limits.
     """
 
     def __init__(
@@ -83,7 +84,7 @@ class TwinInputs:
             ("preload", check_preload),
         ):
             if (reason := check(initial[name], self.limits)) is not None:
-                raise ValueError(f"parameter initial_{name}: {reason}")
+                raise ConfigError(f"parameter initial_{name}: {reason}")
         self.speed = InputChannel("screw speed", "rad/s", initial["screw_speed"])
         self.temperature = InputChannel("temperature", "K", initial["temperature"])
         self.preload = InputChannel("preload", "N", initial["preload"])

@@ -32,7 +32,7 @@ from rclpy.executors import Executor
 from rclpy.parameter import Parameter
 from rclpy.timer import Timer
 
-from ..errors import BallscrewTwinError
+from ..errors import BallscrewTwinError, ConfigError
 from ..models.base import TwinOutput
 from ..params import load_config
 from ..units import NS_PER_S, ns_to_stamp
@@ -76,8 +76,9 @@ class TwinNode(TableNode):
     :class:`rclpy.node.Node` (``context``, ``parameter_overrides``, ``cli_args`` ...).
 
     Raises:
-        ValueError: a start-up parameter refused (choices, ``contact_rate_hz`` above
-            ``sim_rate_hz``, an initial value outside the limits).
+        ParameterRefusedError: a start-up value the parameter table refuses (choices).
+        ConfigError: ``contact_rate_hz`` above ``sim_rate_hz``, an initial value outside the
+            limits.
     """
 
     def __init__(self, node_name: str = NODE_NAME, **kwargs: Any) -> None:
@@ -87,7 +88,7 @@ class TwinNode(TableNode):
         preset = INPUT_PRESETS[self._str("input_preset")]
         self.declare_specs((s for s in TWIN_PARAMETERS if s.name != "input_preset"), preset)
         if reason := rates_refused(self._float("sim_rate_hz"), self._float("contact_rate_hz")):
-            raise ValueError(f"parameter {reason}")
+            raise ConfigError(f"parameter {reason}")
         #: Whether the node's clock is wall time (not /clock); kept up by _start_schedule.
         self._wall_time = not self.get_parameter("use_sim_time").value
         self.config = load_config(self._str("config_file") or None)

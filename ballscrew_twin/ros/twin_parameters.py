@@ -5,7 +5,7 @@ describes them.
 
 from __future__ import annotations
 
-from ..health.bags import BenchTopics
+from ..bags.recording import BenchTopics
 from .fidelity import FIDELITY_MODES
 from .inputs import InputLimits
 from .parameters import ParameterSpec

@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 import pytest
 
+from ballscrew_twin.bags.bench import read_bench_bag
+from ballscrew_twin.bags.recording import truth_path
 from ballscrew_twin.cli import main as cli_main
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.health.bags import read_bench_bag, truth_path
 from ballscrew_twin.health.bench_data import (
     SAMPLE_DIR,
     SAMPLE_NAMES,

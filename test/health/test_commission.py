@@ -193,7 +193,7 @@ def test_a_unit_bag_is_not_the_twin_and_detect_takes_its_baseline(tmp_path: Path
 
 def test_bench_data_unit_refuses_a_malformed_fault(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="CLASS:SEVERITY:ONSET"):
-        from ballscrew_twin.health.bench_data import _fault_argument
+        from ballscrew_twin.commands.bench_data import _fault_argument
 
         _fault_argument("preload_loss-0.1")
 

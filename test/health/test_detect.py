@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 from conftest import SavedFigures
 
+from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.cli import main
-from ballscrew_twin.health.bags import read_bench_bag
 from ballscrew_twin.health.baseline import load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR, SAMPLE_NAMES
 from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary

@@ -9,10 +9,20 @@ import json
 from pathlib import Path
 
 import pytest
+from bags.test_bench_bags import (
+    JOINT,
+    T0,
+    TEMPERATURE,
+    WRENCH,
+    Entry,
+    T,
+    _header,
+    _joint,
+    _wrench,
+    _write,
+)
 
 from ballscrew_twin.cli import main
-
-from .test_bags import JOINT, T0, TEMPERATURE, WRENCH, Entry, T, _header, _joint, _wrench, _write
 
 #: Torque and speed period of the hand-made bags [ns] (100 Hz); slow channels at 10 Hz.
 FAST = 10_000_000

@@ -414,8 +414,3 @@ def test_inputs_of_other_layouts_are_accepted(solved: dict[tuple[str, str], Case
     ref = evaluate_contacts(*case.args())
     got = evaluate_contacts_compiled(*case.args())
     compare(ref, got, case.scene)
-
-
-def test_benchmark_reports_both_implementations() -> None:
-    text = kernel.benchmark(repeat=3)
-    assert "B=2" in text and "B=50" in text and "reference" in text

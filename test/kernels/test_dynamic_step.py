@@ -10,9 +10,16 @@ import dataclasses
 import numpy as np
 import pytest
 
-from ballscrew_twin.kernels import dynamic_step
+from ballscrew_twin.kernels import (
+    dynamic_layouts,
+    dynamic_predictor,
+    dynamic_run,
+    dynamic_step,
+    solver_settings,
+)
 from ballscrew_twin.models import dynamic
-from ballscrew_twin.models.dynamic import Commands, DynamicModel
+from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_state import Commands
 from ballscrew_twin.models.faults import Faults, RacewaySpall, SphereDefect, SphereJam
 from ballscrew_twin.params import load_config
 
@@ -34,14 +41,23 @@ def _relative(a: np.ndarray, b: np.ndarray) -> float:
 
 def test_frozen_constants_are_those_of_the_reference() -> None:
     assert dynamic_step.frozen_constants() == (
-        dynamic.HELIX_NEWTON_STEPS,
-        dynamic.JACOBIAN_REFRESH_RATIO,
-        dynamic.PREDICTOR_ORDER,
-        dynamic.STEP_BACKTRACKS,
-        dynamic.STEP_NEWTON_MAX,
-        dynamic.STEP_TOLERANCE,
-        dynamic.VELOCITY_STEP,
+        solver_settings.HELIX_NEWTON_STEPS,
+        solver_settings.JACOBIAN_REFRESH_RATIO,
+        solver_settings.PREDICTOR_ORDER,
+        solver_settings.STEP_BACKTRACKS,
+        solver_settings.STEP_NEWTON_MAX,
+        solver_settings.STEP_TOLERANCE,
+        solver_settings.VELOCITY_STEP,
     )
+
+
+def test_the_run_loop_cache_stamps_the_step_it_calls() -> None:
+    """The time loop's cached code calls the step kernel of another file: its stamp covers that
+    file, its layouts and predictor, and is current once checked."""
+    dynamic_run.ensure_fresh_cache()
+    assert dynamic_run.compiled_stamp() == dynamic_run.DEPENDENCY_STAMP
+    assert dynamic_run.DEPENDENCY_STAMP != dynamic_step.DEPENDENCY_STAMP
+    assert dynamic_run.ensure_fresh_cache() is False  # checked once per process
 
 
 @pytest.mark.parametrize(
@@ -97,10 +113,10 @@ def test_compiled_step_follows_the_reference_trajectory(
 
 def test_predictor_coefficients_are_those_of_the_reference() -> None:
     for compiled, reference in zip(
-        dynamic_step.PREDICTOR_COEFFICIENTS, dynamic.PREDICTOR_COEFFICIENTS, strict=True
+        dynamic_predictor.PREDICTOR_COEFFICIENTS, dynamic.PREDICTOR_COEFFICIENTS, strict=True
     ):
         assert compiled == reference + (0.0,) * (len(compiled) - len(reference))
-    assert len(dynamic_step.PREDICTOR_COEFFICIENTS) == dynamic.PREDICTOR_ORDER + 1
+    assert len(dynamic_predictor.PREDICTOR_COEFFICIENTS) == solver_settings.PREDICTOR_ORDER + 1
 
 
 def _polynomial_velocities(
@@ -128,11 +144,11 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
         time_step=dt,
         compiled_step=False,
     )
-    consts = np.zeros(dynamic_step.N_CONST)
-    consts[dynamic_step.K_DT] = dt
-    consts[dynamic_step.K_BALL_RADIUS] = model.geometry.ball_radius
-    consts[dynamic_step.K_PITCH_RADIUS] = model.geometry.pitch_radius
-    history = np.zeros((dynamic.PREDICTOR_ORDER, count + 1, 6))
+    consts = np.zeros(dynamic_layouts.N_CONST)
+    consts[dynamic_layouts.K_DT] = dt
+    consts[dynamic_layouts.K_BALL_RADIUS] = model.geometry.ball_radius
+    consts[dynamic_layouts.K_PITCH_RADIUS] = model.geometry.pitch_radius
+    history = np.zeros((solver_settings.PREDICTOR_ORDER, count + 1, 6))
     meta = np.array([np.nan, 0.0, 0.0])
     jammed = np.array([False, True, False])
     samples = _polynomial_velocities(order, count, 8)
@@ -142,7 +158,7 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
         time = t0 + k * dt
         (u0, s0), (u1, s1) = samples[k], samples[k + 1]
         u, s = u0.copy(), s0.copy()
-        extrapolated = dynamic_step._predict(u0, s0, time, jammed, history, meta, u, s)
+        extrapolated = dynamic_predictor.predict(u0, s0, time, jammed, history, meta, u, s)
         ref_u, ref_s, ref_extrapolated = model._predict(time, u0, s0, jammed)
         assert extrapolated == ref_extrapolated == (k >= 2 and model._history_order > 0)
         if k >= order + 1:  # the order has been found on the step before
@@ -151,13 +167,13 @@ def test_predictor_finds_and_extrapolates_a_polynomial(order: int) -> None:
                 np.testing.assert_allclose(got_u, expected, rtol=1e-9, atol=1e-9)
                 np.testing.assert_allclose(got_s, s1, rtol=1e-9, atol=1e-9)
         np.testing.assert_allclose(u, ref_u, rtol=1e-12, atol=1e-12)
-        dynamic_step._remember(u0, s0, u1, s1, time, consts, history, meta)
+        dynamic_predictor.remember(u0, s0, u1, s1, time, consts, history, meta)
         model._remember(time, u0, s0, u1, s1)
-        assert meta[dynamic_step.H_ORDER] == model._history_order
-    assert meta[dynamic_step.H_ORDER] == order
+        assert meta[dynamic_layouts.H_ORDER] == model._history_order
+    assert meta[dynamic_layouts.H_ORDER] == order
     (u0, s0) = samples[0]
     u, s = u0.copy(), s0.copy()
-    assert not dynamic_step._predict(u0, s0, t0 + 1.0, jammed, history, meta, u, s)  # a jump
+    assert not dynamic_predictor.predict(u0, s0, t0 + 1.0, jammed, history, meta, u, s)  # a jump
     np.testing.assert_array_equal(u, u0)
     np.testing.assert_array_equal(model._predict(t0 + 1.0, u0, s0, jammed)[0][0], u0[0])
 

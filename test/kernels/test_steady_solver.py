@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.errors import SolverError
-from ballscrew_twin.kernels import steady_solver
+from ballscrew_twin.kernels import solver_settings, steady_solver
 from ballscrew_twin.kernels.contacts import N_ROWS, contacts_kernel, scene_arrays
 from ballscrew_twin.kernels.steady_solver import (
     DEPENDENCY_STAMP,
@@ -34,9 +34,9 @@ from ballscrew_twin.kernels.steady_solver import (
 )
 from ballscrew_twin.models import steady
 from ballscrew_twin.models.base import MECHANISMS, ContactStates, OperatingPoint
-from ballscrew_twin.models.contact_forces import ContactEvaluation
 from ballscrew_twin.models.steady import SteadySolution, SteadyState, SteadyStateModel
 from ballscrew_twin.params import TwinConfig, load_config
+from ballscrew_twin.physics.contact_types import ContactEvaluation
 
 RPM = 2.0 * math.pi / 60.0
 RTOL = 1e-9
@@ -80,10 +80,10 @@ def assert_same_solution(got: SteadySolution, ref: SteadySolution) -> None:
 def test_frozen_constants_are_the_current_ones() -> None:
     ensure_fresh_cache()
     assert frozen_constants() == (
-        steady.NEWTON_MAX_ITER,
-        steady.LINE_SEARCH_STEPS,
-        steady.MIN_STEP,
-        steady.DIAGONAL_SHIFT,
+        solver_settings.NEWTON_MAX_ITER,
+        solver_settings.LINE_SEARCH_STEPS,
+        solver_settings.MIN_STEP,
+        solver_settings.DIAGONAL_SHIFT,
         steady_solver.CHORD_DECREASE,
         steady_solver.CHORD_POLISH,
         steady_solver.NEWTON_FINAL,
@@ -404,7 +404,7 @@ def test_full_cold_solve_of_a_horizontal_screw_equals_the_reference(config: Twin
 @pytest.mark.parametrize("backend", ["compiled", "reference"])
 def test_unreachable_tolerance_raises_a_clear_error(config: TwinConfig, backend: str) -> None:
     model = SteadyStateModel(config, mode="symmetric", tolerance=1e-300, backend=backend)  # type: ignore[arg-type]
-    prefix = f"steady state did not converge in {steady.NEWTON_MAX_ITER} iterations"
+    prefix = f"steady state did not converge in {solver_settings.NEWTON_MAX_ITER} iterations"
     with pytest.raises(SolverError, match=prefix):
         model.solve(operating_point(100.0, 20.0, 1500.0))
 

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from physics.hertz_oracle import exact_hertz  # test/ is on sys.path (pytest prepend mode)
 
-from ballscrew_twin.models.dynamic import Commands, DynamicModel, SpeedController
+from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_state import Commands, SpeedController
 from ballscrew_twin.params import TwinConfig, load_config
 
 BASE = load_config()

@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from ballscrew_twin.models.dynamic import Commands, DynamicModel, DynamicState, SpeedController
+from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_state import Commands, DynamicState, SpeedController
 from ballscrew_twin.params import TwinConfig, load_config
 
 BASE = load_config()

@@ -10,7 +10,8 @@ from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.kernels.contacts import evaluate_contacts_compiled
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.contact_forces import evaluate_contacts, make_scene
-from ballscrew_twin.models.dynamic import Commands, DynamicModel
+from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_state import Commands
 from ballscrew_twin.models.faults import (
     Faults,
     RacewaySpall,

@@ -13,7 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.models.dynamic import SpeedController
+from ballscrew_twin.models.dynamic_state import SpeedController
 from ballscrew_twin.models.scenario import Scenario, load_scenario, smooth_step
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "config" / "scenarios"

@@ -18,14 +18,15 @@ import numpy as np
 import pytest
 import yaml
 
+from ballscrew_twin.bags.writer import project_typestore
 from ballscrew_twin.errors import ConfigError, ResultsError, SolverError
 from ballscrew_twin.models import dynamic
 from ballscrew_twin.models.scenario import Scenario
-from ballscrew_twin.models.simulation import MECHANISMS, SimulationResult, simulate
+from ballscrew_twin.models.simulation import simulate
+from ballscrew_twin.models.simulation_result import MECHANISMS, SimulationResult
 from ballscrew_twin.results import (
     CONTACT_TOPIC,
     DRAG_TOPIC,
-    make_typestore,
     plot_result,
     write_bag,
     write_csv,
@@ -180,7 +181,7 @@ def _synthetic(result: SimulationResult, speed: Any, motor: Any) -> SimulationRe
 
 
 def test_settling_is_detected_and_explained(result: SimulationResult) -> None:
-    from ballscrew_twin.models.simulation import SETTLED_DRIFT, SETTLED_SPEED, _settling
+    from ballscrew_twin.models.simulation_summary import SETTLED_DRIFT, SETTLED_SPEED, _settling
 
     t, command = result.time, result.speed_command
     start = 1.2e-3 - 4e-4
@@ -208,11 +209,11 @@ def test_settling_is_detected_and_explained(result: SimulationResult) -> None:
 
 
 def test_unconverged_steps_are_located() -> None:
-    from ballscrew_twin.models.simulation import _unconverged_summary
+    from ballscrew_twin.models.simulation_summary import unconverged_summary
 
     scenario = Scenario(**SMALL)  # 1200 steps, window from step 800
     steps = [(5, 2e-3), (810, 4e-6)] + [(900 + i, 1e-5) for i in range(12)]
-    u = _unconverged_summary(steps, 14, 1200, scenario)
+    u = unconverged_summary(steps, 14, 1200, scenario)
     assert u["count"] == 14 and u["steps"] == 1201 and u["in_window"] == 13
     assert u["largest_residual"] == 2e-3
     assert u["listed"][1] == {"step": 810, "time_s": 810e-6, "residual": 4e-6}
@@ -420,7 +421,7 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     info = meta["rosbag2_bagfile_information"]
     assert info["ros_distro"] == "jazzy"
     assert info["starting_time"]["nanoseconds_since_epoch"] == result.summary["start_time_unix_ns"]
-    store = make_typestore()
+    store = project_typestore()
     drags: list[tuple[int, Any]] = []
     arrays: list[tuple[int, Any]] = []
     with AnyReader([bag], default_typestore=store) as reader:

@@ -6,7 +6,7 @@
   the message's own field types (``get_fields_and_field_types``), not from the encoder; every
   other byte of the encoding must be zero.
 - rosbags, which writes zero padding: ``serialize_cdr`` of the same message built in the
-  project's rosbags type store (:func:`ballscrew_twin.results.make_typestore`) is equal byte
+  project's rosbags type store (:func:`ballscrew_twin.bags.writer.project_typestore`) is equal byte
   for byte.
 - DDS: published as ``bytes`` on loopback, a subscription receives the message.
 """
@@ -29,7 +29,8 @@ from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Header
 
-from ballscrew_twin.results import make_typestore
+from ballscrew_twin.bags.writer import project_typestore
+from ballscrew_twin.errors import MessageEncodingError
 from ballscrew_twin.ros.cdr import CONTACT_FLOAT_FIELDS, DragTorqueEncoder, encode_contact_states
 
 from .conftest import OPERATING_POINT, TORQUES, SpinUntil
@@ -46,7 +47,7 @@ TEXT = st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size
 @pytest.fixture(scope="module")
 def store() -> Any:
     """rosbags type store with the project's messages."""
-    return make_typestore()
+    return project_typestore()
 
 
 @dataclass(frozen=True)
@@ -404,12 +405,12 @@ def _encode_drag(**change: Any) -> bytes:
     ],
 )
 def test_drag_torque_bad_input(change: dict[str, Any], match: str) -> None:
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(MessageEncodingError, match=match):
         _encode_drag(**change)
 
 
 def test_drag_torque_bad_frame_id() -> None:
-    with pytest.raises(ValueError, match=r"frame_id .*NUL"):
+    with pytest.raises(MessageEncodingError, match=r"frame_id .*NUL"):
         DragTorqueEncoder("screw\x00")
 
 
@@ -450,7 +451,7 @@ Change = Callable[[Contacts], Contacts]
     ],
 )
 def test_contact_states_bad_input(change: Change, match: str) -> None:
-    with pytest.raises(ValueError, match=match):
+    with pytest.raises(MessageEncodingError, match=match):
         change(_contacts(4, "screw", "quasi-static")).encode()
 
 

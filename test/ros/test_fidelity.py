@@ -6,6 +6,7 @@ import dataclasses
 
 import pytest
 
+from ballscrew_twin.errors import ConfigError, FidelityError
 from ballscrew_twin.models.base import OperatingPoint, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.params import load_config
@@ -23,14 +24,14 @@ def test_auto_without_realtime_takes_catalog_and_says_why(
     choice = choose("auto", SETTINGS)
     assert choice.mode == "catalog"
     assert "realtime" in choice.reason and "not importable" in choice.reason
-    with pytest.raises(ValueError, match="realtime"):
+    with pytest.raises(FidelityError, match="realtime"):
         choose("realtime", SETTINGS)
 
 
 def test_stepping_down_never_goes_up() -> None:
     choice = choose("auto", SETTINGS, below="realtime")
     assert choice.mode == "catalog" and "stepped down from realtime" in choice.reason
-    with pytest.raises(ValueError):
+    with pytest.raises(FidelityError, match="no model left"):
         choose("auto", SETTINGS, below="catalog")
 
 
@@ -42,7 +43,7 @@ def test_catalog_steps_like_eq52() -> None:
 
 
 def test_unknown_mode_rejected() -> None:
-    with pytest.raises(ValueError, match="psychic"):
+    with pytest.raises(ConfigError, match="psychic"):
         choose("psychic", SETTINGS)
 
 

@@ -16,7 +16,8 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 
-from ballscrew_twin.health.bags import open_raw_bag, read_bench_bag
+from ballscrew_twin.bags.bench import read_bench_bag
+from ballscrew_twin.bags.reader import open_raw_bag
 from ballscrew_twin.health.bench_data import generate, write_bench_bag
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary

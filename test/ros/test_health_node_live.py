@@ -17,9 +17,9 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
 
+from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health import monitor as monitor_module
-from ballscrew_twin.health.bags import read_bench_bag
 from ballscrew_twin.health.classify import Classification
 from ballscrew_twin.health.detect import CHANNELS, recording_channels
 from ballscrew_twin.health.monitor import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample

@@ -47,7 +47,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from ballscrew_twin.health.bags import read_bench_bag
+from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.health.detect import (
     CHANNELS,
     overall_verdict,

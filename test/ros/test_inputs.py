@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.ros.demo_commander import command_at
 from ballscrew_twin.ros.inputs import (
     NS_PER_S,
@@ -120,7 +121,7 @@ def test_accepted_values_are_finite_and_in_range(value: float) -> None:
     ],
 )
 def test_bad_limits_raise(kwargs: dict[str, float]) -> None:
-    with pytest.raises(ValueError):
+    with pytest.raises(ConfigError):
         InputLimits(**kwargs)
 
 

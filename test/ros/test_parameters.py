@@ -9,6 +9,7 @@ from rcl_interfaces.msg import ParameterType
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
 
+from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.ros.node_parameters import ParameterRefusedError, TableNode, descriptor
 from ballscrew_twin.ros.parameters import ParameterSpec, first_refusal, table_by_name
 from ballscrew_twin.ros.twin_node import TwinNode
@@ -36,7 +37,7 @@ def test_a_value_is_checked_for_type_bounds_and_choices() -> None:
 
 
 def test_a_spec_refuses_its_own_bad_default() -> None:
-    with pytest.raises(ValueError, match="below"):
+    with pytest.raises(ConfigError, match="below"):
         ParameterSpec("x", 0.0, "s", "X", 1.0, 2.0)
 
 
@@ -57,7 +58,7 @@ def test_first_refusal_and_names() -> None:
     assert first_refusal(table, {"mode": "z", "count": 9}) == ("mode", MODE.check("z"))
     assert first_refusal(table, {"count": 9, "mode": "z"}) == ("count", COUNT.check(9))
     assert set(table_by_name(table)) == {"rate", "count", "mode"}
-    with pytest.raises(ValueError, match="rate given twice"):
+    with pytest.raises(ConfigError, match="rate given twice"):
         table_by_name((RATE, RATE))
 
 

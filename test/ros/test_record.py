@@ -17,9 +17,10 @@ import yaml
 from rclpy.context import Context
 from rosbags.rosbag2 import Reader
 
-from ballscrew_twin.bag_writer import ROS_DISTRO
-from ballscrew_twin.health.bags import open_raw_bag
-from ballscrew_twin.ros.record import BagRecorder, RecordError, parse_topic
+from ballscrew_twin.bags.reader import open_raw_bag
+from ballscrew_twin.bags.writer import ROS_DISTRO
+from ballscrew_twin.errors import RecordError
+from ballscrew_twin.ros.record import BagRecorder, parse_topic
 from ballscrew_twin.ros.replay import BagPlayer
 
 from .test_replay import TORQUES, write_test_bag

@@ -27,8 +27,9 @@ from rosbags.typesys import Stores, get_typestore
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Temperature
 
-from ballscrew_twin.health.bags import open_raw_bag
-from ballscrew_twin.ros.replay import BagPlayer, ReplayError, run
+from ballscrew_twin.bags.reader import open_raw_bag
+from ballscrew_twin.errors import ReplayError
+from ballscrew_twin.ros.replay import BagPlayer, run
 
 from .conftest import SpinUntil
 

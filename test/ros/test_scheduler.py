@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.ros.scheduler import FORWARD_JUMP_NS, TickScheduler
 
 PERIOD = 1_000_000  # ns (1 kHz)
@@ -87,7 +88,7 @@ def test_first_call_without_start_begins_there() -> None:
 
 @pytest.mark.parametrize(("period", "catch_up"), [(0, 1), (-5, 1), (PERIOD, 0)])
 def test_bad_arguments(period: int, catch_up: int) -> None:
-    with pytest.raises(ValueError):
+    with pytest.raises(ConfigError):
         TickScheduler(period, catch_up)
 
 

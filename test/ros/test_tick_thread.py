@@ -10,6 +10,7 @@ import time
 
 import pytest
 
+from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.ros.tick_thread import MAX_SLEEP, SWITCH_INTERVAL, TickThread, prepare_process
 
 
@@ -71,7 +72,7 @@ def test_nothing_to_drive_and_stop_while_idle() -> None:
 
 
 def test_priority_checked_and_its_outcome_reported() -> None:
-    with pytest.raises(ValueError, match="priority = 100"):
+    with pytest.raises(ConfigError, match="priority = 100"):
         TickThread(lambda: None, lambda err: None, priority=100)
     ran = threading.Event()
     thread = TickThread(lambda: ran.set(), lambda err: None, priority=1)

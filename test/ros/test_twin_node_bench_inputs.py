@@ -15,7 +15,8 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import JointState, Temperature
 
-from ballscrew_twin.health.bags import BenchTopics, open_raw_bag
+from ballscrew_twin.bags.reader import open_raw_bag
+from ballscrew_twin.bags.recording import BenchTopics
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.ros.replay import BagPlayer
 from ballscrew_twin.ros.twin_node import TwinNode

@@ -51,13 +51,13 @@ from typing import Any
 
 import numpy as np
 
-from . import __version__
-from .cli import build_model
-from .errors import ConfigError, SweepError
-from .models.base import MECHANISMS, OperatingPoint
-from .models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
-from .params import TwinConfig, config_from_mapping, load_config
-from .units import RPM
+from .. import __version__
+from ..errors import ConfigError, SweepError
+from ..models.base import MECHANISMS, OperatingPoint
+from ..models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
+from ..params import TwinConfig, config_from_mapping, load_config
+from ..units import RPM
+from .drag import build_model
 
 #: Models a sweep can evaluate (names of :func:`ballscrew_twin.cli.build_model`).
 MODELS = ("catalog", "zhou", "steady")
@@ -499,7 +499,7 @@ def write_csv(result: SweepResult, path: Path) -> None:
 def write_plot(result: SweepResult, dimensions: Sequence[Dimension], path: Path) -> Path | None:
     """Drag torque over the swept dimensions (PNG; see :mod:`ballscrew_twin.plots.sweep`);
     None when nothing varies or no point succeeded."""
-    from .plots.sweep import plot_sweep
+    from ..plots.sweep import plot_sweep
 
     ok = sum(r["status"] == "ok" for r in result.rows)
     title = f"sweep: {result.settings['model']}, {ok} of {len(result.rows)} points ok"

@@ -1,5 +1,5 @@
 """Every bag writer of the project labels its bags ``ros_distro: jazzy`` through the one
-:class:`~ballscrew_twin.bag_writer.BagWriter`: metadata.yaml, the storage's own metadata (the
+:class:`~ballscrew_twin.bags.writer.BagWriter`: metadata.yaml, the storage's own metadata (the
 mcap metadata record, the sqlite3 metadata table) and the sqlite3 schema table."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import yaml
 from rosbags.rosbag2 import Reader, StoragePlugin
 from rosbags.typesys import Stores, get_typestore
 
-from ballscrew_twin.bag_writer import ROS_DISTRO, BagWriter, relabel_distro
+from ballscrew_twin.bags.writer import ROS_DISTRO, BagWriter, relabel_distro
 from ballscrew_twin.errors import BallscrewTwinError
 from ballscrew_twin.health.bench_data import SCENE_DIR, generate_bag
 

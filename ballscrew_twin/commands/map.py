@@ -15,9 +15,9 @@ import sys
 import time
 from pathlib import Path
 
-from .errors import MapError
-from .models import steady_map
-from .params import load_config
+from ..errors import MapError
+from ..models import steady_map
+from ..params import load_config
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -13,9 +13,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from .errors import BallscrewTwinError
-from .models.scenario import load_scenario
-from .models.simulation import SimulationResult, simulate
+from ..errors import BallscrewTwinError
+from ..models.scenario import load_scenario
+from ..models.simulation import simulate
+from ..models.simulation_result import SimulationResult
 
 NMM_PER_NM = 1e3
 UNRELIABLE_BREAKDOWN = 0.01  # relative power-balance error above which the breakdown is flagged
@@ -121,7 +122,7 @@ def _progress_bar(total_time: float, quiet: bool) -> tuple[Any, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """``simulate``: run, write every output, print the summary."""
-    from .results import plot_contacts, plot_result, summary_json, write_bag, write_csv, write_npz
+    from ..results import plot_contacts, plot_result, summary_json, write_bag, write_csv, write_npz
 
     scenario = load_scenario(args.scenario)
     out = Path(args.out)

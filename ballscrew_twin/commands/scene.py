@@ -33,13 +33,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import BallscrewTwinError, SolverError
-from .fidelity import Bounds, Selection, load_bounds, point_key, realtime_model, select
-from .models.base import MECHANISMS, OperatingPoint, TwinOutput
-from .models.faults import faults_from_mapping
-from .models.validity import ValidityEnvelope, refuse_outside
-from .params import TwinConfig, load_config
-from .scene import Scene, load_scene
+from ..errors import BallscrewTwinError, SolverError
+from ..fidelity import Bounds, Selection, load_bounds, point_key, realtime_model, select
+from ..models.base import MECHANISMS, OperatingPoint, TwinOutput
+from ..models.faults import faults_from_mapping
+from ..models.validity import ValidityEnvelope, refuse_outside
+from ..params import TwinConfig, load_config
+from ..scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
 REALTIME_STEP = 1e-3  # s, longest step of the real-time model
@@ -143,10 +143,10 @@ def _store(result: SceneResult, i: int, out: TwinOutput, per_sphere: bool) -> No
 def build_quasi_static(selection: Selection, config: TwinConfig) -> Any:
     """The steady-state model (``evaluate``) of a quasi-static selection."""
     if selection.model == "catalog":
-        from .models.catalog import CatalogModel
+        from ..models.catalog import CatalogModel
 
         return CatalogModel(config)
-    from .models.steady import SteadyStateModel
+    from ..models.steady import SteadyStateModel
 
     return SteadyStateModel(config, mode=selection.settings["mode"])
 
@@ -207,7 +207,8 @@ def run_dynamic(
     scene: Scene, config: TwinConfig, bounds: Bounds, progress: Any, result: SceneResult
 ) -> dict[str, Any]:
     """Step the dynamic model from rest and sample it at the output times."""
-    from .models.dynamic import Commands, DynamicModel
+    from ..models.dynamic import DynamicModel
+    from ..models.dynamic_state import Commands
 
     time_step = bounds.dynamic.get("time_step_s", 1e-6)
     temperature = scene.range("temperature")[0]
@@ -380,7 +381,7 @@ def plot(result: SceneResult, selection: Selection, path: Path) -> None:
     """
     from matplotlib.figure import Figure
 
-    from .plots.save import save_png
+    from ..plots.save import save_png
 
     fig = Figure(figsize=(8, 8))
     axes = fig.subplots(3, 1, sharex=True)

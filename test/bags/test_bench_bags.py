@@ -15,14 +15,10 @@ import pytest
 from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
+from ballscrew_twin.bags.bench import read_bench_bag
+from ballscrew_twin.bags.reader import open_raw_bag
+from ballscrew_twin.bags.recording import TRUTH_KEY, BenchTopics, truth_path
 from ballscrew_twin.errors import BagError
-from ballscrew_twin.health.bags import (
-    TRUTH_KEY,
-    BenchTopics,
-    open_raw_bag,
-    read_bench_bag,
-    truth_path,
-)
 from ballscrew_twin.health.bench_data import generate, write_bench_bag
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 

@@ -1,0 +1,60 @@
+"""``ballscrew-twin commission BAG --out baseline.yaml``: learn the healthy unit from a recording.
+
+The fit and its error model: :mod:`ballscrew_twin.health.commission`. The bag's topics are
+chosen as for ``detect``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+from ..health.commission import ERROR_SCALE, commission, plot_commissioning
+from ..health.detect import recording_channels
+from ..params import load_config
+from .detect import add_topic_arguments, read_recording
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``commission``."""
+    parser.add_argument("bag", help="healthy recording: bag folder or file (mcap or sqlite3)")
+    parser.add_argument("--out", required=True, help="baseline YAML file to write")
+    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
+    parser.add_argument("--plot", default=None, help="also write a PNG of the fit here")
+    parser.add_argument(
+        "--error-scale",
+        type=float,
+        default=ERROR_SCALE,
+        help="model error = this x the fit's 95th-percentile error / 1.96 [-]",
+    )
+    add_topic_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Fit, write the baseline (and the plot), print the fitted values."""
+    recording = read_recording(args)
+    config = load_config(args.config)
+    result = commission(
+        recording_channels(recording),
+        config,
+        source=str(Path(args.bag).name),
+        error_scale=args.error_scale,
+    )
+    for issue in recording.issues:
+        print(f"note: {issue}")
+    b, u = result.baseline, result.uncertainty
+    print(
+        f"fitted on {b.blocks} blocks ({result.gated_share:.1%} of the recording gated): "
+        f"gain {b.torque_gain:.4f} +- {u['torque_gain']:.4f}, "
+        f"bias {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m, "
+        f"preload scale {b.preload_scale:.3f} +- {u['preload_scale']:.3f}, "
+        f"temperature shift {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K, "
+        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; "
+        f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
+        f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
+    )
+    print(f"wrote {b.save(args.out)}")
+    if args.plot:
+        print(f"wrote {plot_commissioning(result, args.plot)}")
+    return 0
