@@ -186,6 +186,7 @@ def _account(step, command, c, pos, vel, omega, body, stats, acc, window_first):
 def run_steps(
     first_step,
     window_first,
+    final_step,
     commands,
     pos,
     vel,
@@ -212,7 +213,10 @@ def run_steps(
     """Steps ``first_step`` .. ``first_step + n - 1`` of a run (n = len(commands)), each as
     simulation.simulate's per-step loop does with step_kernel: the step, the finiteness checks,
     the input power M Omega + F_p (v_1 - v_2) and gravitational power, the trapezoid energy
-    integrals and the sums over the averaging window (steps >= ``window_first``).
+    integrals and the sums over the averaging window (steps >= ``window_first``). Step
+    ``final_step`` is the run's end: as in that loop, its first (sub)step is accounted (the
+    power at the end time closes the last trapezoid) and the state is not advanced past it; a
+    fallback there must not integrate its further substeps beyond the run's end.
 
     Args:
         commands: (n, 2) speed reference [rad/s] and preload [N] of each step.
@@ -275,6 +279,8 @@ def run_steps(
                 acc[A_FIRST_GRAVITY] = gravity_power
                 acc[A_FIRST_INPUT] = acc[A_INPUT]
                 acc[A_FIRST_DISSIPATED] = acc[A_DISSIPATED]
+            if first_step + n == final_step:
+                return first_active, first_out
             pos[:, :] = new_pos
             vel[:, :] = new_vel
             omega[:, :] = new_omega

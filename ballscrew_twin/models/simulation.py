@@ -507,8 +507,10 @@ class _Run:
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
             snapshot = [a.copy() for a in mutable]
 
-            # Steps of the start phase are before the window (Scenario validation).
+            # Steps of the start phase are before the window and the run's end (Scenario
+            # validation), and the kernel counts their substeps: neither index applies there.
             window_first = self.window_first if parts == 1 else sys.maxsize
+            final_step = steps if parts == 1 else -1
 
             def steps_from(
                 first: int,
@@ -517,9 +519,11 @@ class _Run:
                 k: int = k,
                 parts: int = parts,
                 window_first: int = window_first,
+                final_step: int = final_step,
             ) -> tuple[Any, Any]:
                 return kr.run_steps(
-                    first, window_first, commands[(first - k) * parts : (last - k) * parts], pos,
+                    first, window_first, final_step,
+                    commands[(first - k) * parts : (last - k) * parts], pos,
                     vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
                     self.fallback if parts == 1 else 1, scenario.fine_time_step or dt,
