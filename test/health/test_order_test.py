@@ -9,7 +9,7 @@ import pytest
 
 from ballscrew_twin.health.classify import defect_orders
 from ballscrew_twin.health.fault_profiles import ripple_torque
-from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
+from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, centred_acceleration, feed
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 
@@ -111,3 +111,18 @@ def test_the_encoder_ripple_near_the_block_rate_makes_no_order_line() -> None:
     ]
     assert monitor.alarm is None
     assert max(statistics) < 0.5 * monitor.spectral.threshold
+
+
+def test_the_acceleration_is_the_centred_slope_of_the_speed() -> None:
+    # Oracle: for a quadratic speed the least-squares slope over a window centred on a sample
+    # is the derivative there exactly; where a ramp ends, the estimate is back to zero half a
+    # window after its end (not a block later: held-out unit 14029, round 15 of issue 13).
+    t = np.arange(0.0, 0.3, 1e-3)
+    w = 40.0 * t**2 - 3.0 * t + 1.0
+    slope = centred_acceleration(t, w, 0.05)
+    inside = slice(25, len(t) - 25)
+    assert np.allclose(slope[inside], 80.0 * t[inside] - 3.0, rtol=0.0, atol=1e-9)
+    ramp = np.minimum(t, 0.1) * 190.0  # rad/s: 190 rad/s^2 until 0.1 s, then constant
+    slope = centred_acceleration(t, ramp, 0.05)
+    assert np.allclose(slope[t <= 0.07], 190.0, atol=1e-9)
+    assert np.allclose(slope[(t >= 0.1255) & (t < 0.27)], 0.0, atol=1e-9)
