@@ -49,6 +49,7 @@ from .detectors import (
     Cusum,
     OrderSpectralTest,
     WindowChiSquare,
+    centred_acceleration,
     check_rate,
     neighbouring,
     order_test_weights,
@@ -1001,38 +1002,6 @@ class HealthMonitor:
         return classify_mean_shift(
             np.array(residuals), np.array(sigmas), responses, elapsed, correlation
         )
-
-
-def centred_acceleration(times: FloatArray, speed: FloatArray, window: float) -> FloatArray:
-    """dw/dt at each of ``times`` [s] [rad/s^2]: the least-squares slope of the ``speed``
-    [rad/s] samples within ``window`` [s] centred on it (fewer where the record ends; at least
-    the neighbours on each side).
-
-    The slope of a line over a window T is a differentiator with a low pass: its gain falls
-    from that of d/dt below 1/T and has nulls above, so the interpolation images of 100 Hz
-    speed samples are not differentiated into the torque."""
-    n = len(times)
-    if n < 2:
-        return np.zeros(n)
-    step = float(np.median(np.diff(times)))
-    half = max(round(0.5 * window / step), 1) if step > 0.0 else 1
-    index = np.arange(n)
-    low = np.clip(index - half, 0, n)
-    high = np.clip(index + half + 1, 0, n)
-    t = times - times[0]
-
-    def windowed(values: FloatArray) -> FloatArray:
-        sums = np.concatenate([[0.0], np.cumsum(values)])
-        return np.asarray(sums[high] - sums[low])
-
-    count = high - low
-    mean_t = windowed(t) / count
-    mean_w = windowed(speed) / count
-    spread = windowed(t * t) / count - mean_t**2
-    covariance = windowed(t * speed) / count - mean_t * mean_w
-    with np.errstate(invalid="ignore", divide="ignore"):
-        slope = np.where(spread > 0.0, covariance / spread, 0.0)
-    return np.asarray(slope)
 
 
 def feed(

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.health.classify import defect_orders
+from ballscrew_twin.health.detectors import centred_acceleration
 from ballscrew_twin.health.fault_profiles import ripple_torque
-from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, centred_acceleration, feed
+from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 
