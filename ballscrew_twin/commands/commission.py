@@ -10,9 +10,10 @@ import argparse
 import math
 from pathlib import Path
 
-from ..health.commission import ERROR_SCALE, commission, plot_commissioning
+from ..health.commission import ERROR_SCALE, commission
 from ..health.detect import recording_channels
 from ..params import load_config
+from ..plots.commissioning import plot_commissioning
 from .detect import add_topic_arguments, read_recording
 
 
