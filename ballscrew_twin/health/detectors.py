@@ -203,20 +203,12 @@ def centred_acceleration(times: FloatArray, speed: FloatArray, window: float) ->
         return np.zeros(n)
     step = float(np.median(np.diff(times)))
     half = max(round(0.5 * window / step), 1) if step > 0.0 else 1
-    index = np.arange(n)
-    low = np.clip(index - half, 0, n)
-    high = np.clip(index + half + 1, 0, n)
     t = times - times[0]
-
-    def windowed(values: FloatArray) -> FloatArray:
-        sums = np.concatenate([[0.0], np.cumsum(values)])
-        return np.asarray(sums[high] - sums[low])
-
-    count = high - low
-    mean_t = windowed(t) / count
-    mean_w = windowed(speed) / count
-    spread = windowed(t * t) / count - mean_t**2
-    covariance = windowed(t * speed) / count - mean_t * mean_w
+    mean_t, mean_w, mean_tt, mean_tw = (
+        window_means(values, half, 2 * half + 1) for values in (t, speed, t * t, t * speed)
+    )
+    spread = mean_tt - mean_t**2
+    covariance = mean_tw - mean_t * mean_w
     with np.errstate(invalid="ignore", divide="ignore"):
         slope = np.where(spread > 0.0, covariance / spread, 0.0)
     return np.asarray(slope)
@@ -233,12 +225,18 @@ def local_noise_variance(x: FloatArray, width: int) -> FloatArray:
     trend removed."""
     if width < 1:
         raise ConfigError(f"local noise variance: width = {width} samples must be >= 1")
-    squares = np.concatenate([[0.0], np.cumsum(np.asarray(x, dtype=np.float64) ** 2)])
-    n = len(x)
+    return window_means(np.asarray(x, dtype=np.float64) ** 2, width // 2, width)
+
+
+def window_means(values: FloatArray, before: int, width: int) -> FloatArray:
+    """Mean of ``values`` over the ``width`` samples from ``before`` samples ahead of each
+    sample on (fewer where the record ends), from one cumulative sum [unit of values]."""
+    sums = np.concatenate([[0.0], np.cumsum(values)])
+    n = len(values)
     index = np.arange(n)
-    low = np.clip(index - width // 2, 0, n)
-    high = np.clip(index - width // 2 + width, 0, n)
-    return np.asarray((squares[high] - squares[low]) / (high - low))
+    low = np.clip(index - before, 0, n)
+    high = np.clip(index - before + width, 0, n)
+    return np.asarray((sums[high] - sums[low]) / (high - low))
 
 
 def neighbouring(time: FloatArray, step: float) -> FloatArray:
