@@ -50,7 +50,8 @@ from ..health.classify import FAULT_CLASSES
 from ..health.commission import commission
 from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
-from ..health.monitor import DETECTORS, HealthMonitor, MonitorSettings, feed
+from ..health.monitor import HealthMonitor, feed
+from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
 from ..params import TwinConfig, load_config

@@ -16,9 +16,10 @@ from ..bags.recording import BenchRecording, BenchTopics
 from ..errors import BallscrewTwinError
 from ..health.baseline import load_baseline
 from ..health.detect import CHANNELS, recording_channels, run_monitor, summary, write_csv
-from ..health.monitor import DETECTORS, FAULT, UNKNOWN, MonitorSettings
+from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import shared_predictor
 from ..health.uncompared import why_nothing_compared
+from ..health.verdicts import FAULT, UNKNOWN
 from ..params import load_config
 from ..plots.detection import plot
 

@@ -32,18 +32,10 @@ from ..bags.recording import BenchRecording
 from ..errors import ConfigError
 from ..params import TwinConfig
 from .baseline import Baseline
-from .monitor import (
-    FAULT,
-    OK,
-    UNKNOWN,
-    VERDICT_NAMES,
-    WARN,
-    HealthMonitor,
-    HealthSample,
-    MonitorSettings,
-    feed,
-)
+from .monitor import HealthMonitor, feed
+from .monitor_settings import MonitorSettings
 from .residuals import FloatArray, TwinPredictor
+from .verdicts import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
 
 #: Channels the monitor needs from a bag.
 CHANNELS = ("torque", "speed", "temperature", "preload")

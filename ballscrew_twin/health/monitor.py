@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -47,12 +47,7 @@ from .classify import (
 )
 from .detectors import (
     Cusum,
-    OrderSpectralTest,
     WindowChiSquare,
-    centred_acceleration,
-    check_rate,
-    neighbouring,
-    order_test_weights,
 )
 from .memory import (
     LOUD_SIGMA,
@@ -62,12 +57,13 @@ from .memory import (
     ResidualMemory,
     bin_key,
 )
+from .monitor_settings import MonitorSettings
+from .order_stage import OrderStage
 from .residuals import (
     FAULT_CHANGES,
     Block,
     BlockAligner,
     FloatArray,
-    ResidualSettings,
     ReversalGate,
     TwinPredictor,
     UnitTwin,
@@ -75,18 +71,12 @@ from .residuals import (
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
+from .verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
 
-OK, WARN, FAULT, UNKNOWN = 0, 1, 2, 3
-VERDICT_NAMES = {OK: "OK", WARN: "WARN", FAULT: "FAULT", UNKNOWN: "UNKNOWN"}
-#: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
-DETECTORS: tuple[str, ...] = ("cusum", "local", "chi_square", "spectral")
 #: Blocks of history kept for classification after an alarm.
 HISTORY_BLOCKS = 1200
 #: Samples of a block at which the twin is evaluated (evenly spread) [-].
 EVALUATED_SAMPLES = 20
-#: Span of the speed a sample's acceleration is fitted over for the order test's inertia
-#: torque [s] (:func:`centred_acceleration`).
-INERTIA_WINDOW = 0.05
 #: Samples of a block at which the preload sensitivity dT/dF is taken (evenly picked) [-].
 SIGNATURE_SPEEDS = 5
 #: Tracker priors of a commissioned unit relative to the nominal ones [-].
@@ -106,168 +96,6 @@ LAG_ANGLES_TO_SETTLE = 3.0
 STANDSTILL_SHIFT = 0.5
 #: Relative preload step of the preload sensitivity [-].
 PRELOAD_STEP = 0.05
-
-
-def check_detectors(names: Iterable[str]) -> tuple[str, ...]:
-    """``names`` as a tuple when they are one or more of :data:`DETECTORS`; a ConfigError
-    naming the valid ones otherwise."""
-    chosen = tuple(names)
-    if not chosen or set(chosen) - set(DETECTORS):
-        raise ConfigError(
-            f"health settings: detectors {list(chosen)} must be one or more of {list(DETECTORS)}"
-        )
-    return chosen
-
-
-@dataclass(frozen=True, kw_only=True)
-class MonitorSettings:
-    """Detection settings (the residual and tracker settings are nested).
-
-    Attributes:
-        false_alarm_rate: target false alarms per hour over all detectors [1/h].
-        warmup: healthy time at the start used to learn the noise and settle the filter [s].
-        cusum_shift: mean shift the CUSUM is tuned for, in innovation sigmas [-].
-        chi_square_window: blocks summed by the chi-square test [-].
-        spectral_window: length of the torque window of the order test [s].
-        spectral_period: time between two order tests [s].
-        min_revolutions: fewest screw revolutions in a window for the order test [-].
-        spectral_noise_time: span over which the order test estimates the residual's local
-            noise variance, each sample weighted by its inverse [s].
-        classification_window: time after the alarm over which the class is refined [s]; the
-            longer, the likelier the operating point moves, which separates the classes.
-        classification_patience: longest time after the alarm over which a class named with
-            a confidence below ``confident_class`` is refined further [s] (two classes that
-            change the torque alike at one operating point part when it moves).
-        confident_class: confidence from which a class is kept once ``classification_window``
-            has passed [-].
-        warn_fraction: statistic / threshold from which the verdict is WARN [-].
-        error_correlation_time: time over which the twin's error stays alike [s]: blocks
-            within it count as one piece of evidence for the class posterior.
-        drift_error_time: the same for the drift tracker's update [s]: blocks within it share
-            the twin's error, so they teach the tracked bias, scale and preload change what
-            one block would (see :mod:`.tracker`). Longer than ``error_correlation_time``:
-            the tracker carries what it learns to every other operating point, while a class
-            is fitted over the window it explains.
-        detectors: the detectors that may raise an alarm (of :data:`DETECTORS`; they share
-            the false-alarm budget). The chi-square test is off by default: the twin's error
-            after commissioning is systematic within a regime (a 2-sigma offset held for two
-            seconds is no fault), which a window of squared innovations reads as scatter
-            (training units of bench detection).
-        inertia_gate: a block whose inertia torque |J dw/dt| exceeds this multiple of its
-            drag torque is gated: the drive's acceleration, not friction, makes the signal [-].
-    """
-
-    residual: ResidualSettings = field(default_factory=ResidualSettings)
-    tracker: TrackerSettings = field(default_factory=TrackerSettings)
-    false_alarm_rate: float = 0.01
-    warmup: float = 5.0
-    cusum_shift: float = 5.0
-    chi_square_window: int = 20
-    spectral_window: float = 4.0
-    spectral_period: float = 1.0
-    min_revolutions: float = 4.0
-    spectral_noise_time: float = 0.05
-    classification_window: float = 8.0
-    classification_patience: float = 30.0
-    confident_class: float = 0.9
-    warn_fraction: float = 0.5
-    error_correlation_time: float = 1.0
-    drift_error_time: float = 10.0
-    detectors: tuple[str, ...] = ("cusum", "local", "spectral")
-    inertia_gate: float = 1.0
-
-    def __post_init__(self) -> None:
-        """Reject values outside their meaning."""
-        check_rate(self.false_alarm_rate, 1.0 / self.residual.block_duration)
-        for name, unit in (
-            ("warmup", "s"),
-            ("cusum_shift", "-"),
-            ("spectral_window", "s"),
-            ("spectral_period", "s"),
-            ("min_revolutions", "-"),
-            ("spectral_noise_time", "s"),
-            ("classification_window", "s"),
-            ("classification_patience", "s"),
-            ("confident_class", "-"),
-            ("error_correlation_time", "s"),
-            ("drift_error_time", "s"),
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
-        if self.confident_class > 1.0:
-            raise ConfigError(
-                f"health settings: confident_class = {self.confident_class!r} must be <= 1"
-            )
-        check_detectors(self.detectors)
-        if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
-            raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
-        if self.chi_square_window < 2:
-            raise ConfigError(
-                f"health settings: chi_square_window = {self.chi_square_window!r} must be >= 2"
-            )
-        if not 0.0 < self.warn_fraction < 1.0:
-            raise ConfigError(
-                f"health settings: warn_fraction = {self.warn_fraction!r} must be in (0, 1)"
-            )
-
-
-@dataclass(frozen=True)
-class HealthSample:
-    """Result of one block (what the node publishes as a HealthResidual).
-
-    Attributes:
-        time: block mid time [s] (the stamps' clock).
-        measured: block mean torque [N m].
-        predicted: twin torque at the block's operating point [N m] (nan if none).
-        residual: measured - predicted [N m].
-        normalized_residual: residual / sqrt(sigma_s^2 / n + sigma_m^2) [-].
-        innovation: normalised Kalman innovation [-] (nan before the filter runs).
-        statistics: detector -> (statistic, threshold) [-].
-        test_statistic: statistic of the detector closest to its threshold [-].
-        threshold: that detector's threshold [-].
-        verdict: OK, WARN, FAULT or UNKNOWN.
-        fault_class: likely class (FAULT only), else "".
-        confidence: 0..1, see :meth:`HealthMonitor._verdict`.
-        operating_point: measured operating point of the block, None if none.
-        state: tracked (bias [N m], friction scale [-], preload change [N]).
-        note: why the verdict is UNKNOWN, or which detector alarmed.
-    """
-
-    time: float
-    measured: float
-    predicted: float
-    residual: float
-    normalized_residual: float
-    innovation: float
-    statistics: dict[str, tuple[float, float]]
-    test_statistic: float
-    threshold: float
-    verdict: int
-    fault_class: str
-    confidence: float
-    operating_point: OperatingPoint | None
-    state: tuple[float, float, float]
-    note: str = ""
-
-
-@dataclass
-class Alarm:
-    """The first alarm of a run.
-
-    Attributes:
-        time: time of the alarm: stamp of the last sample of the block that raised it [s].
-        detector: which detector fired.
-        onset: estimated change time [s].
-        classification: the class and its confidence (refined until ``final``).
-        final: whether the classification window has passed.
-    """
-
-    time: float
-    detector: str
-    onset: float
-    classification: Classification
-    final: bool = False
 
 
 @dataclass(frozen=True)
@@ -376,13 +204,6 @@ class HealthMonitor:
                 s.residual, gate_angle=min(s.residual.gate_angle, baseline.settling_angle)
             )
         self.gate = ReversalGate(gate_settings)
-        self._angle_at: tuple[float, float, float] | None = None
-        #: The last blocks' (stamps [s], speed [rad/s]), gated ones too: the speed on both sides
-        #: of a block for its inertia torque per sample (:meth:`_finish_raw`).
-        self._speed_trail: deque[tuple[FloatArray, FloatArray]] = deque(maxlen=3)
-        #: A compared block's (stamps [s], residual without the inertia torque [N m], angle
-        #: [rad], drag [N m]), waiting for the next block's speed (:meth:`_finish_raw`).
-        self._pending_raw: tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None = None
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
         #: Blocks that share one error of the twin in the tracker's update [-].
@@ -398,7 +219,8 @@ class HealthMonitor:
         self._local_stat = 0.0
         self.chi_square = WindowChiSquare(s.chi_square_window, share, block_rate)
         self.orders = defect_orders(config)
-        self.spectral = OrderSpectralTest(share, 1.0 / s.spectral_period, len(self.orders))
+        #: The order test on the per-sample residual (:mod:`.order_stage`).
+        self.order = OrderStage(s, self.orders, baseline, share)
         self.alarm: Alarm | None = None
         #: Following error of the friction over the last compared block [N m].
         self._last_lag = 0.0
@@ -414,11 +236,6 @@ class HealthMonitor:
         #: (a block's is asked again at every refinement of the class; one alarm per monitor,
         #: which re-arming replaces, so it holds at most the blocks of one classification)
         self._fault_changes: dict[tuple[str, float], FloatArray] = {}
-        self._raw: deque[tuple[FloatArray, FloatArray, FloatArray, FloatArray]] = deque()
-        self._next_spectral = -math.inf
-        self._spectral_stat = 0.0
-        self._spectral_ratios: dict[str, float] = {}
-        self._ripple_alarm = False
         #: Largest power ratio of each order in the tests since the alarm's onset [-]: the
         #: ripple evidence the class is judged on (a defect's ripple also shifts the mean).
         self._order_peaks: dict[str, float] = {}
@@ -431,7 +248,7 @@ class HealthMonitor:
             "cusum": self.cusum.threshold,
             "local": self.local_cusum.threshold,
             "chi_square": self.chi_square.threshold,
-            "spectral": self.spectral.threshold,
+            "spectral": self.order.test.threshold,
         }
         return {name: every[name] for name in self.settings.detectors}
 
@@ -575,9 +392,7 @@ class HealthMonitor:
         in_warmup = block.time - self._start < s.warmup
         speed = float(np.mean(block.speed))
         op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
-        angle = self._block_angle(block)
-        self._speed_trail.append((block.stamps, block.speed))
-        self._finish_raw()
+        angle = self.order.angle(block)
         gate = self.gate.check(block)
         if not gate and "speed" in block.held:
             gate = "gated: the speed was held past its last sample (late or ended)"
@@ -683,10 +498,10 @@ class HealthMonitor:
                 local_change,
             )
         )
-        # per sample for the order test; the inertia torque is taken off when the next block's
-        # speed is known (:meth:`_finish_raw`)
+        # per sample for the order test, which takes the inertia torque off when the next
+        # block's speed is known
         expected = b.torque_gain * drags + b.torque_bias
-        self._pending_raw = (block.stamps, block.torque - expected, angle, drags)
+        self.order.hold(block.stamps, block.torque - expected, angle, drags)
         e = step.normalized
         if in_warmup:
             return self._sample(block, measured, predicted, residual, normalized, e, {}, op)
@@ -700,19 +515,21 @@ class HealthMonitor:
         # the residual with the drag's sign, and reversals must not undo what it accumulated
         cusum = self.cusum.update(e if drag >= 0.0 else -e)
         chi_stat, chi_alarm = self.chi_square.update(e)
-        self._spectral(block.time)
+        if self.order.run(block.time) and self.alarm is not None and not self.alarm.final:
+            for name, ratio in self.order.ratios.items():
+                self._order_peaks[name] = max(ratio, self._order_peaks.get(name, 0.0))
         statistics = {
             "cusum": cusum.statistic,
             "local": self._local_stat,
             "chi_square": chi_stat,
-            "spectral": self._spectral_stat,
+            "spectral": self.order.statistic,
         }
         stats = {name: (statistics[name], limit) for name, limit in self.thresholds.items()}
         if self.alarm is None:
             fired = [
                 name
                 for name, hit in (
-                    ("spectral", self._ripple_alarm),
+                    ("spectral", self.order.ripple_alarm),
                     ("cusum", cusum.alarm),
                     ("local", local_step is not None and local_step.alarm),
                     ("chi_square", chi_alarm),
@@ -734,7 +551,7 @@ class HealthMonitor:
                 self.alarm = Alarm(
                     float(block.stamps[-1]), detector, onset, Classification("", 0.0, {}, {})
                 )
-                self._order_peaks = dict(self._spectral_ratios)
+                self._order_peaks = dict(self.order.ratios)
                 self.tracker.frozen = True
         if self.alarm is not None and not self.alarm.final:
             self.alarm.classification = self._classify()
@@ -835,127 +652,11 @@ class HealthMonitor:
             note=note,
         )
 
-    # ------------------------------------------------------------------ spectral test
-    def _block_angle(self, block: Block) -> FloatArray:
-        """Screw angle at the block's stamps [rad]: the trapezoidal integral of the speed,
-        continued over every block (gated ones too) so that the order test keeps the phase
-        across the gaps it skips."""
-        t, w = block.stamps, block.speed
-        if self._angle_at is None:
-            self._angle_at = (float(t[0]), float(w[0]), 0.0)
-        t0, w0, a0 = self._angle_at
-        times = np.concatenate([[t0], t])
-        speeds = np.concatenate([[w0], w])
-        steps = 0.5 * (speeds[1:] + speeds[:-1]) * np.diff(times)
-        angle = a0 + np.cumsum(steps)
-        self._angle_at = (float(t[-1]), float(w[-1]), float(angle[-1]))
-        return np.asarray(angle)
-
-    def _finish_raw(self) -> None:
-        """Take the inertia torque g J dw/dt off the waiting block's per-sample residual and
-        keep it for the order test (:meth:`_buffer_raw`), now that the speed after it is known
-        (the test runs one block late).
-
-        dw/dt at each sample is the slope of a straight line fitted to the speed over
-        INERTIA_WINDOW centred on it (:func:`centred_acceleration`), across block edges:
-        - continuous from block to block. A fit per block alone (a quadratic of its speed,
-          until round 15 of issue 13) jumps at the block edges, and where the jumps repeat
-          from block to block they make lines at multiples of the block rate: held-out unit
-          13028 (round 14) at 63.4 rad/s, whose encoder ripple of one period a revolution
-          makes nearly one period a 0.1 s block, had a 50 Hz line at order 4.95 against the
-          sphere spin order 4.94, a false alarm;
-        - short: a hard acceleration that ends inside a block is followed within some 25 ms
-          (a continuous line through the blocks' mean accelerations, tried in round 15, lagged
-          by a block and left a torque error of up to 1.7 mN m after a start to -27 rad/s:
-          held-out unit 14029, a false alarm);
-        - a low pass: the speed samples' interpolation images (100 Hz apart) fall far above it.
-        """
-        pending = self._pending_raw
-        if pending is None:
-            return
-        self._pending_raw = None
-        stamps, residual, angle, drag = pending
-        trail = list(self._speed_trail)
-        where = next(i for i, entry in enumerate(trail) if entry[0] is stamps)
-        step = float(np.median(np.diff(stamps))) if len(stamps) > 1 else 0.0
-        first, last = where, where
-        while first > 0 and trail[first][0][0] - trail[first - 1][0][-1] <= 1.5 * step:
-            first -= 1
-        while last < len(trail) - 1 and trail[last + 1][0][0] - trail[last][0][-1] <= 1.5 * step:
-            last += 1
-        times = np.concatenate([entry[0] for entry in trail[first : last + 1]])
-        speeds = np.concatenate([entry[1] for entry in trail[first : last + 1]])
-        start = sum(len(entry[0]) for entry in trail[first:where])
-        acceleration = centred_acceleration(times, speeds, INERTIA_WINDOW)[
-            start : start + len(stamps)
-        ]
-        b = self.baseline
-        self._buffer_raw(stamps, residual - b.torque_gain * b.inertia * acceleration, angle, drag)
-
-    def _buffer_raw(
-        self, stamps: FloatArray, residual: FloatArray, angle: FloatArray, drag: FloatArray
-    ) -> None:
-        """Keep the per-sample residual [N m], angle [rad] and predicted drag [N m] at
-        ``stamps`` [s] of the last ``spectral_window`` of compared blocks for the order test."""
-        self._raw.append((stamps, residual, angle, drag))
-        while self._raw and self._raw[0][0][0] < stamps[-1] - self.settings.spectral_window:
-            self._raw.popleft()
-
-    def _spectral(self, now: float) -> None:
-        """Run the order test when due (updates the spectral statistic and alarm flag)."""
-        s = self.settings
-        if now < self._next_spectral or not self._raw:
-            return
-        self._next_spectral = now + s.spectral_period
-        t = np.concatenate([r[0] for r in self._raw])
-        x = np.concatenate([r[1] for r in self._raw])
-        angle = np.concatenate([r[2] for r in self._raw])
-        drag = np.concatenate([r[3] for r in self._raw])
-        if len(t) < 16 or t[-1] - t[0] < 0.9 * s.spectral_window:
-            return
-        if float(np.ptp(angle)) < 2.0 * math.pi * s.min_revolutions:
-            self._spectral_stat = 0.0
-            return
-        intervals = np.diff(t)
-        step = float(np.median(intervals))
-        nyquist = 0.5 / step
-        # fastest rotation between neighbouring samples [rev/s]
-        adjacent = neighbouring(t, step)
-        if not np.any(adjacent):
-            self._spectral_stat = 0.0
-            return
-        rates = np.abs(np.diff(angle))[adjacent] / intervals[adjacent]
-        rotation = float(np.max(rates)) / (2.0 * math.pi)
-        names = [n for n, m in self.orders.items() if m * rotation < 0.9 * nyquist]
-        if not names:
-            self._spectral_stat = 0.0
-            return
-        centred = t - t.mean()
-        x = x - np.polyval(np.polyfit(centred, x, 1), centred)
-        weights, revolutions = order_test_weights(
-            t, x, angle, drag, step, max(1, round(s.spectral_noise_time / step))
-        )
-        if not revolutions > 0.0:
-            self._spectral_stat = 0.0
-            return
-        weighted = x * weights
-        weighted -= np.mean(weighted)
-        result = self.spectral.test(
-            weighted, angle, np.array([self.orders[n] for n in names]), revolutions
-        )
-        self._spectral_ratios = dict(zip(names, result.ratios.tolist(), strict=True))
-        self._spectral_stat = float(np.max(result.ratios))
-        if self._spectral_stat > self.spectral.threshold and "spectral" in s.detectors:
-            self._ripple_alarm = True
-        if self.alarm is not None and not self.alarm.final:
-            for name, ratio in self._spectral_ratios.items():
-                self._order_peaks[name] = max(ratio, self._order_peaks.get(name, 0.0))
-
     # ------------------------------------------------------------------ classification
     def _classify(self) -> Classification:
         """Class of the current alarm from the evidence since its onset."""
         assert self.alarm is not None
-        threshold = self.spectral.threshold
+        threshold = self.order.test.threshold
         if any(r > threshold for r in self._order_peaks.values()):
             # an order line since the alarm names a defect whichever detector alarmed first
             # (its ripple shifts the mean drag by half its peak, which the mean-shift tests see;

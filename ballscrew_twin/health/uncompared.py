@@ -15,7 +15,8 @@ from collections.abc import Sequence
 import numpy as np
 
 from ..bags.recording import BenchRecording
-from .monitor import HealthSample, MonitorSettings
+from .monitor_settings import MonitorSettings
+from .verdicts import HealthSample
 
 #: Channels the monitor needs at the same time.
 NEEDED = ("torque", "speed", "temperature", "preload")

@@ -13,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from ..health.detect import DetectionResult
-from ..health.monitor import DETECTORS, FAULT, OK, UNKNOWN, WARN
+from ..health.monitor_settings import DETECTORS
+from ..health.verdicts import FAULT, OK, UNKNOWN, WARN
 
 
 def plot(result: DetectionResult, out: Path, truth: dict[str, Any] | None) -> list[Path]:

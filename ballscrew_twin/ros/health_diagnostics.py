@@ -10,7 +10,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..health.monitor import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthMonitor, HealthSample
+from ..health.monitor import HealthMonitor
+from ..health.verdicts import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
 from . import diagnostics
 from .diagnostics import STALE, Check
 

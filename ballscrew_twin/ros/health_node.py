@@ -59,17 +59,11 @@ from std_srvs.srv import Trigger  # type: ignore[import-untyped]
 from ..errors import BallscrewTwinError, ConfigError
 from ..health.baseline import load_baseline
 from ..health.commission import commission
-from ..health.monitor import (
-    FAULT,
-    UNKNOWN,
-    VERDICT_NAMES,
-    WARN,
-    HealthMonitor,
-    HealthSample,
-    check_detectors,
-)
-from ..health.monitor import MonitorSettings as Settings
+from ..health.monitor import HealthMonitor
+from ..health.monitor_settings import MonitorSettings as Settings
+from ..health.monitor_settings import check_detectors
 from ..health.residuals import ResidualSettings, StampOrderError
+from ..health.verdicts import FAULT, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
 from ..params import load_config
 from ..units import celsius_to_kelvin
 from . import health_diagnostics

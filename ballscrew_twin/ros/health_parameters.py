@@ -1,12 +1,12 @@
 """The health-monitor node's parameter table (no rclpy here). ``config/health_node.yaml``
 holds the same defaults (tested), ``docs/nodes.md`` describes them; the detection defaults
-are those of :class:`~ballscrew_twin.health.monitor.MonitorSettings` and
+are those of :class:`~ballscrew_twin.health.monitor_settings.MonitorSettings` and
 :class:`~ballscrew_twin.health.residuals.ResidualSettings`.
 """
 
 from __future__ import annotations
 
-from ..health.monitor import DETECTORS, MonitorSettings
+from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
 from .parameters import ParameterSpec
 from .twin_parameters import SCREW_FRAME_ID

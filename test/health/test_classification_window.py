@@ -11,7 +11,8 @@ import pytest
 
 from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.fault_profiles import FaultedTwin, FaultState
-from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
+from ballscrew_twin.health.monitor import HealthMonitor, feed
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.params import TwinConfig, load_config

@@ -19,7 +19,8 @@ from ballscrew_twin.health.memory import (
     ResidualMemory,
     bin_key,
 )
-from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
+from ballscrew_twin.health.monitor import HealthMonitor, feed
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 

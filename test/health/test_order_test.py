@@ -10,7 +10,8 @@ import pytest
 from ballscrew_twin.health.classify import defect_orders
 from ballscrew_twin.health.detectors import centred_acceleration
 from ballscrew_twin.health.fault_profiles import ripple_torque
-from ballscrew_twin.health.monitor import HealthMonitor, MonitorSettings, feed
+from ballscrew_twin.health.monitor import HealthMonitor, feed
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.params import load_config
 
@@ -111,7 +112,7 @@ def test_the_encoder_ripple_near_the_block_rate_makes_no_order_line() -> None:
         if "spectral" in s.statistics
     ]
     assert monitor.alarm is None
-    assert max(statistics) < 0.5 * monitor.spectral.threshold
+    assert max(statistics) < 0.5 * monitor.order.test.threshold
 
 
 def test_the_acceleration_is_the_centred_slope_of_the_speed() -> None:

@@ -11,12 +11,8 @@ import pytest
 
 from ballscrew_twin.health.baseline import SHIFT_EXTRAPOLATION, Baseline
 from ballscrew_twin.health.bench_units import presliding_reference
-from ballscrew_twin.health.monitor import (
-    LAG_ANGLES_TO_SETTLE,
-    HealthMonitor,
-    MonitorSettings,
-    feed,
-)
+from ballscrew_twin.health.monitor import LAG_ANGLES_TO_SETTLE, HealthMonitor, feed
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import (
     BlockAligner,
     ResidualSettings,

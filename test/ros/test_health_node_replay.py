@@ -55,8 +55,9 @@ from ballscrew_twin.health.detect import (
     run_monitor,
     summary,
 )
-from ballscrew_twin.health.monitor import UNKNOWN, VERDICT_NAMES, MonitorSettings
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import TwinPredictor, shared_predictor
+from ballscrew_twin.health.verdicts import UNKNOWN, VERDICT_NAMES
 from ballscrew_twin.params import load_config
 from ballscrew_twin.ros.health_node import HealthNode
 

@@ -1,0 +1,120 @@
+"""The health monitor's detection settings (:class:`MonitorSettings`, with the residual and
+tracker settings nested) and the names of its detectors."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+from ..errors import ConfigError
+from .detectors import check_rate
+from .residuals import ResidualSettings
+from .tracker import TrackerSettings
+
+#: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
+DETECTORS: tuple[str, ...] = ("cusum", "local", "chi_square", "spectral")
+
+
+def check_detectors(names: Iterable[str]) -> tuple[str, ...]:
+    """``names`` as a tuple when they are one or more of :data:`DETECTORS`; a ConfigError
+    naming the valid ones otherwise."""
+    chosen = tuple(names)
+    if not chosen or set(chosen) - set(DETECTORS):
+        raise ConfigError(
+            f"health settings: detectors {list(chosen)} must be one or more of {list(DETECTORS)}"
+        )
+    return chosen
+
+
+@dataclass(frozen=True, kw_only=True)
+class MonitorSettings:
+    """Detection settings (the residual and tracker settings are nested).
+
+    Attributes:
+        false_alarm_rate: target false alarms per hour over all detectors [1/h].
+        warmup: healthy time at the start used to learn the noise and settle the filter [s].
+        cusum_shift: mean shift the CUSUM is tuned for, in innovation sigmas [-].
+        chi_square_window: blocks summed by the chi-square test [-].
+        spectral_window: length of the torque window of the order test [s].
+        spectral_period: time between two order tests [s].
+        min_revolutions: fewest screw revolutions in a window for the order test [-].
+        spectral_noise_time: span over which the order test estimates the residual's local
+            noise variance, each sample weighted by its inverse [s].
+        classification_window: time after the alarm over which the class is refined [s]; the
+            longer, the likelier the operating point moves, which separates the classes.
+        classification_patience: longest time after the alarm over which a class named with
+            a confidence below ``confident_class`` is refined further [s] (two classes that
+            change the torque alike at one operating point part when it moves).
+        confident_class: confidence from which a class is kept once ``classification_window``
+            has passed [-].
+        warn_fraction: statistic / threshold from which the verdict is WARN [-].
+        error_correlation_time: time over which the twin's error stays alike [s]: blocks
+            within it count as one piece of evidence for the class posterior.
+        drift_error_time: the same for the drift tracker's update [s]: blocks within it share
+            the twin's error, so they teach the tracked bias, scale and preload change what
+            one block would (see :mod:`.tracker`). Longer than ``error_correlation_time``:
+            the tracker carries what it learns to every other operating point, while a class
+            is fitted over the window it explains.
+        detectors: the detectors that may raise an alarm (of :data:`DETECTORS`; they share
+            the false-alarm budget). The chi-square test is off by default: the twin's error
+            after commissioning is systematic within a regime (a 2-sigma offset held for two
+            seconds is no fault), which a window of squared innovations reads as scatter
+            (training units of bench detection).
+        inertia_gate: a block whose inertia torque |J dw/dt| exceeds this multiple of its
+            drag torque is gated: the drive's acceleration, not friction, makes the signal [-].
+    """
+
+    residual: ResidualSettings = field(default_factory=ResidualSettings)
+    tracker: TrackerSettings = field(default_factory=TrackerSettings)
+    false_alarm_rate: float = 0.01
+    warmup: float = 5.0
+    cusum_shift: float = 5.0
+    chi_square_window: int = 20
+    spectral_window: float = 4.0
+    spectral_period: float = 1.0
+    min_revolutions: float = 4.0
+    spectral_noise_time: float = 0.05
+    classification_window: float = 8.0
+    classification_patience: float = 30.0
+    confident_class: float = 0.9
+    warn_fraction: float = 0.5
+    error_correlation_time: float = 1.0
+    drift_error_time: float = 10.0
+    detectors: tuple[str, ...] = ("cusum", "local", "spectral")
+    inertia_gate: float = 1.0
+
+    def __post_init__(self) -> None:
+        """Reject values outside their meaning."""
+        check_rate(self.false_alarm_rate, 1.0 / self.residual.block_duration)
+        for name, unit in (
+            ("warmup", "s"),
+            ("cusum_shift", "-"),
+            ("spectral_window", "s"),
+            ("spectral_period", "s"),
+            ("min_revolutions", "-"),
+            ("spectral_noise_time", "s"),
+            ("classification_window", "s"),
+            ("classification_patience", "s"),
+            ("confident_class", "-"),
+            ("error_correlation_time", "s"),
+            ("drift_error_time", "s"),
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0.0):
+                raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
+        if self.confident_class > 1.0:
+            raise ConfigError(
+                f"health settings: confident_class = {self.confident_class!r} must be <= 1"
+            )
+        check_detectors(self.detectors)
+        if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
+            raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
+        if self.chi_square_window < 2:
+            raise ConfigError(
+                f"health settings: chi_square_window = {self.chi_square_window!r} must be >= 2"
+            )
+        if not 0.0 < self.warn_fraction < 1.0:
+            raise ConfigError(
+                f"health settings: warn_fraction = {self.warn_fraction!r} must be in (0, 1)"
+            )
