@@ -24,6 +24,19 @@ def stamp_to_ns(stamp: Any) -> int:
     return int(stamp.sec) * NS_PER_S + int(stamp.nanosec)
 
 
+def stamp_to_seconds(stamp: Any) -> float:
+    """A builtin_interfaces/Time (``sec``, ``nanosec``) as float seconds [s] (the health
+    monitor's time; a double keeps 1e-7 s over a Unix epoch's 1.7e9 s)."""
+    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
+
+
+def seconds_to_stamp(seconds: float) -> tuple[int, int]:
+    """Float seconds [s] as the (``sec``, ``nanosec``) of a builtin_interfaces/Time, nanosec
+    rounded and kept below one second."""
+    sec = math.floor(seconds)
+    return int(sec), min(round((seconds - sec) * 1e9), NS_PER_S - 1)
+
+
 def ns_to_stamp(ns: int) -> tuple[int, int]:
     """Integer nanoseconds [ns] as the (``sec``, ``nanosec``) of a builtin_interfaces/Time."""
     return divmod(ns, NS_PER_S)

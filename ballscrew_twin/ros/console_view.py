@@ -33,7 +33,7 @@ from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
-from ..units import RPM
+from ..units import RPM, stamp_to_seconds
 from .diagnostics import LEVEL_NAMES, level_of
 from .executors import make_executor, spin
 
@@ -116,7 +116,7 @@ class ConsoleView(Node):
         return time.monotonic() - self.created if self.start is None else 0.0
 
     def _on_torque(self, msg: DragTorque) -> None:
-        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        stamp = stamp_to_seconds(msg.header.stamp)
         if self._first_stamp is None:
             self._first_stamp = stamp
             self.start = time.monotonic()
@@ -132,7 +132,7 @@ class ConsoleView(Node):
         self.latest = msg
 
     def _on_diagnostics(self, msg: DiagnosticArray) -> None:
-        stamp = msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec
+        stamp = stamp_to_seconds(msg.header.stamp)
         for status in msg.status:
             self._note_rejections(status, stamp)
             level = LEVEL_NAMES[min(level_of(status), 3)]

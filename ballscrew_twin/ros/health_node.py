@@ -65,7 +65,7 @@ from ..health.monitor_settings import check_detectors
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..health.verdicts import FAULT, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
 from ..params import load_config
-from ..units import celsius_to_kelvin
+from ..units import celsius_to_kelvin, seconds_to_stamp, stamp_to_seconds
 from . import health_diagnostics
 from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import Check, to_message
@@ -81,15 +81,10 @@ WARN_THROTTLE = 2.0
 WATCHDOG_PERIOD = 0.1
 
 
-def _seconds(stamp: Any) -> float:
-    """A builtin_interfaces/Time as seconds [s]."""
-    return float(stamp.sec) + 1e-9 * float(stamp.nanosec)
-
-
 def _time_msg(seconds: float) -> Time:
     """Seconds [s] as a builtin_interfaces/Time."""
-    sec = math.floor(seconds)
-    return Time(sec=int(sec), nanosec=min(round((seconds - sec) * 1e9), 999_999_999))
+    sec, nanosec = seconds_to_stamp(seconds)
+    return Time(sec=sec, nanosec=nanosec)
 
 
 class HealthNode(TableNode):
@@ -434,7 +429,7 @@ class HealthNode(TableNode):
     # ------------------------------------------------------------------ inputs
     def _on_torque_wrench(self, msg: WrenchStamped) -> None:
         self._last_torque_wall = time.monotonic()
-        self._feed("torque", _seconds(msg.header.stamp), float(msg.wrench.torque.z))
+        self._feed("torque", stamp_to_seconds(msg.header.stamp), float(msg.wrench.torque.z))
 
     def _on_torque_float(self, msg: Float64) -> None:
         self._last_torque_wall = time.monotonic()
@@ -454,17 +449,17 @@ class HealthNode(TableNode):
             self.dropped += 1
             self._warn("joint", f"JointState without a velocity for {self._joint!r}")
             return
-        self._feed("speed", _seconds(msg.header.stamp), float(msg.velocity[index]))
+        self._feed("speed", stamp_to_seconds(msg.header.stamp), float(msg.velocity[index]))
 
     def _on_speed_float(self, msg: Float64) -> None:
         self._feed("speed", self._now(), float(msg.data))
 
     def _on_temperature(self, msg: Temperature) -> None:
         kelvin = celsius_to_kelvin(float(msg.temperature))
-        self._feed("temperature", _seconds(msg.header.stamp), kelvin)
+        self._feed("temperature", stamp_to_seconds(msg.header.stamp), kelvin)
 
     def _on_preload_wrench(self, msg: WrenchStamped) -> None:
-        self._feed("preload", _seconds(msg.header.stamp), float(msg.wrench.force.z))
+        self._feed("preload", stamp_to_seconds(msg.header.stamp), float(msg.wrench.force.z))
 
     def _on_preload_float(self, msg: Float64) -> None:
         self._feed("preload", self._now(), float(msg.data))
