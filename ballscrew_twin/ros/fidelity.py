@@ -14,7 +14,7 @@ Modes, from the most to the least detailed:
   ``quasi_static``: its millisecond solves do not fit a 1 kHz step.
 
 The real-time model's table is the one in hand (``ModelSettings.table``: the node's table of
-its screw, see ``ros/tables.py``) or the one :func:`~ballscrew_twin.models.steady_map.find_map`
+its screw, see ``ros/tables.py``) or the one :func:`~ballscrew_twin.models.map_store.find_map`
 finds for the screw (the ``realtime_map`` file, the packaged table, the user cache); a table
 built for other parameters is never used.
 """
@@ -34,7 +34,8 @@ from ..models.base import (
     TwinOutput,
 )
 from ..models.catalog import CatalogModel
-from ..models.steady_map import SteadyMap, find_map
+from ..models.map_store import find_map
+from ..models.steady_map import SteadyMap
 from ..models.validity import ValidatedModel, ValidityEnvelope
 from ..params import TwinConfig
 
