@@ -15,6 +15,8 @@ import sys
 import time
 from pathlib import Path
 
+from tqdm import tqdm
+
 from ..errors import MapError
 from ..models import map_build, map_grid, map_store
 from ..params import load_config
@@ -66,13 +68,19 @@ def run(args: argparse.Namespace) -> int:
         print(f"{out}: already built for {config.source} (--force builds it again)")
         return 0
     start = time.monotonic()
+    bar = tqdm(desc="steady map", unit="line", disable=args.no_progress)
+
+    def show(done: int, total: int, _elapsed: float) -> None:
+        bar.total = total
+        bar.update(done - bar.n)
+
     try:
-        table = map_build.build_map(
-            config, grid, workers=args.workers, progress=not args.no_progress
-        )
+        table = map_build.build_map(config, grid, workers=args.workers, on_progress=show)
     except KeyboardInterrupt:
         print(f"interrupted: nothing written to {out}", file=sys.stderr)
         return 130
+    finally:
+        bar.close()
     map_store.save_atomic(table, out)
     filled = int(table.filled.sum())
     print(

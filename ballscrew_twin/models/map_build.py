@@ -177,7 +177,6 @@ def build_map(
     config: TwinConfig,
     grid: MapGrid | None = None,
     workers: int = 2,
-    progress: bool = True,
     on_progress: Progress | None = None,
     niceness: int = 0,
 ) -> SteadyMap:
@@ -187,15 +186,13 @@ def build_map(
         config: parameter set.
         grid: nodes (default :class:`MapGrid()`).
         workers: worker processes (1: solve in this process).
-        progress: show a tqdm progress bar on stderr.
-        on_progress: called after each line of nodes (see :data:`Progress`).
+        on_progress: called after each line of nodes (see :data:`Progress`; ``map build``
+            draws its progress bar with it).
         niceness: added to the worker processes' niceness (with ``workers`` > 1). On Linux it
             is added to the calling thread's niceness before the workers start, so that they
             start niced (their imports included; a dedicated build thread stays niced);
             elsewhere each worker lowers its own priority once started.
     """
-    from tqdm import tqdm
-
     grid = grid if grid is not None else MapGrid()
     grid.check_buildable()
     speeds, temps, preloads = grid.speeds, grid.temperatures, grid.preloads
@@ -209,15 +206,12 @@ def build_map(
     start = time.monotonic()
 
     def store(results: Iterable[_LineResult]) -> None:
-        bar = tqdm(total=len(lines), desc="steady map", unit="line", disable=not progress)
         for done, res in enumerate(results, start=1):
             where = (res.line.sign, slice(None), res.line.temperature, res.line.preload)
             torque[where], contacts[where], failed[where] = res.torque, res.contacts, res.failed
             static[res.line.temperature, res.line.preload] = res.static
-            bar.update()
             if on_progress is not None:
                 on_progress(done, len(lines), time.monotonic() - start)
-        bar.close()
 
     if workers <= 1:
         _worker_init(config, grid)

@@ -105,7 +105,7 @@ class RealTimeTables:
             table = load_map(path) if cached else None
             if table is None:
                 self._log(f"no real-time table for {self.config.source}: building a preview")
-                table = map_build.build_map(self.config, grid, workers=1, progress=False)
+                table = map_build.build_map(self.config, grid, workers=1)
                 map_store.save_atomic(table, path)
         except (BallscrewTwinError, OSError) as err:
             self._error = f"preview table: {err}"
@@ -141,7 +141,6 @@ class RealTimeTables:
                 self.config,
                 grid,
                 workers=self.workers,
-                progress=False,
                 on_progress=self._on_progress,
                 niceness=map_build.WORKER_NICENESS,
             )

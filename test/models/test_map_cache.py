@@ -110,10 +110,14 @@ def test_map_command_finds_and_builds_the_preview_table(
     assert main(["map", "find", "--config", str(NEW_SCREW)]) == 1
     assert "map build --config" in capsys.readouterr().out
     args = ["map", "build", "--config", str(NEW_SCREW), "--preview", "--workers", "1"]
-    assert main([*args, "--no-progress"]) == 0
+    assert main(args) == 0
     new = load_config(NEW_SCREW)
-    path = map_store.cached_map_path(new, map_grid.grid_for(new, preview=True))
-    assert str(path) in capsys.readouterr().out
+    grid = map_grid.grid_for(new, preview=True)
+    path = map_store.cached_map_path(new, grid)
+    printed = capsys.readouterr()
+    assert str(path) in printed.out
+    lines = 2 * grid.temperature_nodes * grid.preload_nodes  # one task per sign and node pair
+    assert "steady map" in printed.err and f"{lines}/{lines}" in printed.err  # the bar, done
     table = sm.load_map(path)
     assert table.fingerprint == sm.config_fingerprint(new)
     # The preview table agrees with the steady model at one of its own nodes.
