@@ -15,8 +15,9 @@ inequality): a catalogue bound measured against the steady model adds the steady
 bound against the dynamic one.
 
 Candidates: the catalogue formula (Eq. 52) evaluated quasi-statically; the real-time model
-(:func:`realtime_model`, ``models/realtime.py``, once its bound is in the file); the steady-
-state model quasi-statically, symmetric or full; the dynamic model. The acceptable one with the
+(``models/realtime.py``, once its bound is in the file); the steady-state model
+quasi-statically, symmetric or full; the dynamic model (the names of
+:mod:`ballscrew_twin.models.registry`, with its ``scene`` spellings). The acceptable one with the
 smallest estimated CPU time (measured cost per evaluation or step times the scene's distinct
 operating points or steps) is chosen. The file must have been measured for the scene's
 parameter set (:func:`config_fingerprint`). The selection reports the chosen model, every
@@ -291,22 +292,6 @@ def _add(*parts: float | None) -> float | None:
     return float(sum(p for p in parts if p is not None))
 
 
-def realtime_available() -> bool:
-    """True when the real-time model (``models/realtime.py``) and its table are installed."""
-    try:
-        from .models import realtime  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-def realtime_model(config: TwinConfig) -> Any:
-    """The real-time model of the node (``TimeSteppingModel``): the one line to switch."""
-    from .models.realtime import RealTimeModel  # type: ignore[import-not-found, unused-ignore]
-
-    return RealTimeModel(config)
-
-
 #: Significant digits to which two operating points must agree to count as unchanged [-].
 POINT_DIGITS = 12
 
@@ -370,9 +355,7 @@ def _candidates(scene: Scene, bounds: Bounds, orientation: str) -> list[Candidat
             rt_reason = why
     cost = None if rt is None else scene.duration / rt["step_s"] * rt["cost_s"]
     cand = Candidate("realtime", rt_bounds, cost)
-    if not realtime_available():
-        cand.rejected = "models/realtime.py not installed yet"
-    elif rt is None:
+    if rt is None:
         cand.rejected = "no measured bound in the bounds file (rerun bench skips)"
     elif orientation != "vertical":
         cand.rejected = "its table and bounds are of the vertical screw"

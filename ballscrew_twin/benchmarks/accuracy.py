@@ -45,9 +45,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import MapError, SolverError
+from ..models import registry
 from ..models.base import OperatingPoint, QuasiStaticModel, TwinOutput
-from ..models.catalog import CatalogModel
-from ..models.realtime import RealTimeModel
+from ..models.registry import ModelName, ModelOptions
 from ..models.steady import SteadyStateModel
 from ..models.steady_map import SteadyMap, load_map
 from ..params import TwinConfig, load_config
@@ -257,24 +257,22 @@ Row = dict[str, Any]
 
 def _map_models(config: TwinConfig, table: SteadyMap) -> list[tuple[str, Any]]:
     """The real-time model on the map and on its half-resolution version."""
-    models: list[tuple[str, Any]] = [("realtime-map", RealTimeModel(config, table))]
-    half = half_resolution(table)
-    if half is not None:
-        models.append(("realtime-map-half", RealTimeModel(config, half)))
-    return models
+    tables = [("realtime-map", table), ("realtime-map-half", half_resolution(table))]
+    return [
+        (label, registry.build(ModelName.REALTIME, config, ModelOptions(table=half_or_full)))
+        for label, half_or_full in tables
+        if half_or_full is not None
+    ]
 
 
 def _steady_models(config: TwinConfig, table: SteadyMap, quick: bool) -> list[tuple[str, Any]]:
     """Every steady-capable model (``quick``: without the full-mode steady model, which costs
     as much as the reference)."""
-    full = [] if quick else [("steady-full", SteadyStateModel(config, mode="full"))]
-    return [
-        ("catalog-literature", CatalogModel(config, formula="literature")),
-        ("catalog-zhou", CatalogModel(config, formula="zhou")),
-        ("steady-symmetric", SteadyStateModel(config, mode="symmetric")),
-        *full,
-        *_map_models(config, table),
-    ]
+    names = [ModelName.CATALOG_LITERATURE, ModelName.CATALOG_ZHOU, ModelName.STEADY_SYMMETRIC]
+    names += [] if quick else [ModelName.STEADY_FULL]
+    return [(str(name), registry.build(name, config)) for name in names] + _map_models(
+        config, table
+    )
 
 
 def run_steady(
@@ -358,7 +356,9 @@ def run_low_preload(
         for n in (SPEEDS_RPM[:2] if quick else SPEEDS_RPM)
     ]
     reference = SteadyStateModel(config, mode="symmetric", tolerance=REFERENCE_TOLERANCE)
-    model = RealTimeModel(config, table)
+    model = registry.as_evaluating(
+        registry.build(ModelName.REALTIME, config, ModelOptions(table=table))
+    )
     point_rows: list[Row] = []
     results: list[tuple[OperatingPoint, dict[str, float]]] = []
     failed: list[OperatingPoint] = []
@@ -464,10 +464,9 @@ def run_transients(config: TwinConfig, table: SteadyMap, quick: bool, progress: 
             )
         )
         models: list[tuple[str, Any]] = [
-            ("quasi-static catalog-literature", QuasiStaticModel(CatalogModel(config))),
-            (
-                "quasi-static steady-symmetric",
-                QuasiStaticModel(SteadyStateModel(config, mode="symmetric")),
+            *(
+                (f"quasi-static {name}", registry.as_stepping(registry.build(name, config)))
+                for name in (ModelName.CATALOG_ZHOU, ModelName.STEADY_SYMMETRIC)
             ),
             *_map_models(config, table),
         ]
@@ -530,7 +529,7 @@ def run_dynamic(progress: bool) -> list[Row]:
     bar.close()
     wall = time.perf_counter() - start
     config = build_config(scenario)
-    steady = SteadyStateModel(config, mode="full")
+    steady = registry.as_evaluating(registry.build(ModelName.STEADY_FULL, config))
     # The steady drag is the mechanisms' dissipation / speed; normal damping is zero there.
     mechanisms = [k for k, name in enumerate(MECHANISMS) if name != "normal_damping"]
     dissipation = result.mechanism_dissipation[:, mechanisms].sum(axis=1)

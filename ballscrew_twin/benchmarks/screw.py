@@ -39,9 +39,11 @@ import numpy as np
 
 from ..errors import SolverError
 from ..models.base import OperatingPoint, TwinOutput
+from ..models.map_grid import grid_for
+from ..models.map_store import cached_map_path, find_map
 from ..models.realtime import RealTimeModel
 from ..models.steady import SteadyStateModel
-from ..models.steady_map import SteadyMap, cached_map_path, find_map, grid_for, load_map
+from ..models.steady_map import SteadyMap, load_map
 from ..params import TwinConfig, load_config
 from ..units import RPM
 from .accuracy import errors

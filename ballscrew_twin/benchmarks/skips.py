@@ -47,8 +47,8 @@ import yaml
 
 from ..errors import BallscrewTwinError, SolverError
 from ..fidelity import config_fingerprint
+from ..models import registry
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
-from ..models.catalog import CatalogModel
 from ..models.steady import SteadyStateModel
 from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
@@ -224,17 +224,13 @@ def _merge(forward: list[float], backward: list[float]) -> list[float]:
 
 
 def _realtime(config: TwinConfig) -> Any:
-    """The real-time model of the vertical screw, or None (not installed, or its table was
-    built for other parameters: message printed)."""
-    from ..fidelity import realtime_available, realtime_model
-
-    if not realtime_available():
-        return None
+    """The real-time model of the vertical screw, or None (its table was built for other
+    parameters: message printed)."""
     vertical = dataclasses.replace(
         config, screw=dataclasses.replace(config.screw, orientation="vertical")
     )
     try:
-        return realtime_model(vertical)
+        return registry.build(registry.ModelName.REALTIME, vertical)
     except BallscrewTwinError as err:
         print(f"real-time model not measured: {err}", file=sys.stderr)
         return None
@@ -264,7 +260,7 @@ def measure_grid(
     columns = ["preload_N", "speed_rad_s", "temperature_K", "drag_torque_Nm", "min_tallian"]
     columns += [f"{rule}.{metric}" for rule in RULES for metric in METRICS]
     solvers = _variants(config)
-    catalog = CatalogModel(config)
+    catalog = registry.as_evaluating(registry.build(registry.ModelName.CATALOG_ZHOU, config))
     realtime = _realtime(config)
     realtime_times: list[float] = []
     by_point: dict[tuple[float, float, float], list[float]] = {}

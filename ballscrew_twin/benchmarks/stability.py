@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
-import importlib
 import math
 import statistics
 import time
@@ -41,8 +40,9 @@ from typing import Any
 import numpy as np
 
 from ..errors import BallscrewTwinError, NonFiniteOutputError, SolverError
-from ..models.base import OperatingPoint, QuasiStaticModel, TimeSteppingModel, TwinOutput
-from ..models.catalog import CatalogModel
+from ..models import registry
+from ..models.base import OperatingPoint, TimeSteppingModel, TwinOutput
+from ..models.registry import ModelName
 from ..models.scenario import Scenario
 from ..models.simulation import simulate
 from ..models.steady import SteadyStateModel
@@ -257,60 +257,37 @@ class Entry:
     cold: bool = False
 
 
-def _realtime_model(config: TwinConfig) -> TimeSteppingModel | None:
-    """``models.realtime.RealTimeModel(config)`` when that module exists, else None.
-
-    Raises:
-        BallscrewTwinError: the module exists but the model cannot be built (e.g. its map).
-    """
-    try:
-        module = importlib.import_module("ballscrew_twin.models.realtime")
-    except ModuleNotFoundError as err:
-        if err.name != "ballscrew_twin.models.realtime":
-            raise
-        return None
-    model: TimeSteppingModel = module.RealTimeModel(config)
-    return model
-
-
-#: Optional models: row label -> factory returning the model, or None when not installed.
-OPTIONAL_MODELS: dict[str, Callable[[TwinConfig], TimeSteppingModel | None]] = {
-    "realtime": _realtime_model,
-}
+#: The models that step, by row label (``(cold)``: the steady model's warm start is forgotten
+#: before every tick; the real-time model's label adds its name).
+STEPPING_MODELS: tuple[tuple[str, ModelName, bool], ...] = (
+    ("catalog-literature", ModelName.CATALOG_LITERATURE, False),
+    ("catalog-zhou", ModelName.CATALOG_ZHOU, False),
+    ("steady-symmetric (cold)", ModelName.STEADY_SYMMETRIC, True),
+    ("steady-full (cold)", ModelName.STEADY_FULL, True),
+    ("quasi_static_steady (warm)", ModelName.STEADY, False),
+    ("realtime", ModelName.REALTIME, False),
+)
 
 
 def model_registry(config: TwinConfig, quick: bool) -> tuple[list[Entry], list[CaseResult]]:
-    """Every model of the package that steps (``quick``: without the cold steady solves), and
-    one ``exception`` row for each optional model that exists but could not be built."""
-    entries = [
-        Entry("catalog-literature", QuasiStaticModel(CatalogModel(config, formula="literature"))),
-        Entry("catalog-zhou", QuasiStaticModel(CatalogModel(config, formula="zhou"))),
-    ]
-    if not quick:
-        entries += [
-            Entry(
-                "steady-symmetric (cold)",
-                QuasiStaticModel(SteadyStateModel(config, mode="symmetric")),
-                cold=True,
-            ),
-            Entry(
-                "steady-full (cold)",
-                QuasiStaticModel(SteadyStateModel(config, mode="full")),
-                cold=True,
-            ),
-        ]
-    entries.append(Entry("quasi_static_steady (warm)", QuasiStaticModel(SteadyStateModel(config))))
+    """Every model of the package that steps, built by the registry (``quick``: without the
+    cold steady solves), and one ``exception`` row for each model that could not be built
+    (e.g. the real-time model without a table for ``config``)."""
+    entries: list[Entry] = []
     unavailable: list[CaseResult] = []
-    for label, factory in OPTIONAL_MODELS.items():
+    for label, name, cold in STEPPING_MODELS:
+        if quick and cold:
+            continue
         try:
-            model = factory(config)
+            model = registry.as_stepping(registry.build(name, config))
         except BallscrewTwinError as err:
             failed = CaseResult(model=label, case="(construction)", planned=0, other=1)
             failed.first_message = str(err)
             unavailable.append(failed)
             continue
-        if model is not None:
-            entries.append(Entry(f"{label} ({model.name})", model))
+        if name is ModelName.REALTIME:
+            label = f"{label} ({model.name})"
+        entries.append(Entry(label, model, cold=cold))
     return entries, unavailable
 
 

@@ -3,7 +3,7 @@
 Speeds are given in rpm and temperatures in degrees Celsius on the command line, as the paper
 and the catalogues state them, and converted to rad/s and K here, at the edge; the output is SI
 (``--json``) or a table. The point is evaluated inside the validity envelope (clamped, with a
-note, outside it). :func:`build_model` is also the model factory of ``sweep``.
+note, outside it). :func:`command_line_model` is also the model factory of ``sweep``.
 """
 
 from __future__ import annotations
@@ -15,29 +15,33 @@ import sys
 from typing import Any
 
 from ..errors import BallscrewTwinError
-from ..models.base import OperatingPoint, TwinOutput
+from ..models.base import OperatingPoint, SteadyStateModel, TwinOutput
+from ..models.registry import (
+    ModelName,
+    accepted_names,
+    as_evaluating,
+    build,
+    model_name,
+    with_steady_mode,
+)
 from ..models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
 from ..params import TwinConfig, load_config
 from ..physics.geometry import HALF_GROOVE_NAMES
 from ..plots.contact_states import NUT_NAMES, from_contact_states, plot_sphere_states
 from ..units import CELSIUS_ZERO, RPM
 
+#: Models ``drag`` and ``sweep`` evaluate (``--model``): those with a steady ``evaluate``, by
+#: their registry names or the older catalog (Eq. 51), zhou (Eq. 52) and steady.
+MODEL_CHOICES = tuple(name for name in accepted_names("cli") if name != ModelName.DYNAMIC)
+#: Models that resolve every sphere's contacts (``--plot``).
+_PER_SPHERE = (ModelName.STEADY, ModelName.STEADY_SYMMETRIC, ModelName.STEADY_FULL)
 
-def build_model(name: str, config: TwinConfig, mode: str = "auto") -> Any:
-    """A model by its command-line name: catalog (Eq. 51), zhou (Eq. 52) or steady."""
-    if name == "catalog":
-        from ..models.catalog import CatalogModel
 
-        return CatalogModel(config, formula="literature")
-    if name == "zhou":
-        from ..models.catalog import CatalogModel
-
-        return CatalogModel(config, formula="zhou")
-    if name == "steady":
-        from ..models.steady import SteadyStateModel
-
-        return SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
-    raise BallscrewTwinError(f"unknown model {name!r}: use catalog, zhou or steady")
+def command_line_model(model: str, mode: str, config: TwinConfig) -> SteadyStateModel:
+    """The model of ``--model`` (:data:`MODEL_CHOICES`) and ``--mode`` (spheres of the steady
+    model: auto, symmetric or full; the other models ignore it), built by the registry."""
+    name = with_steady_mode(model_name(model, "cli"), mode)
+    return as_evaluating(build(name, config))
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -47,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--temperature", type=float, required=True, help="temperature [deg C]")
     parser.add_argument("--axial-load", type=float, default=0.0, help="external load [N]")
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
-    parser.add_argument("--model", default="steady", choices=("catalog", "zhou", "steady"))
+    parser.add_argument("--model", default="steady", choices=MODEL_CHOICES)
     parser.add_argument("--mode", default="auto", choices=("auto", "symmetric", "full"))
     parser.add_argument("--json", action="store_true", help="machine-readable output (SI)")
     parser.add_argument(
@@ -152,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
     note of the output, also printed on stderr; a temperature that reads as kelvin typed as
     degrees Celsius is refused with that hint.
     """
-    if args.plot is not None and args.model != "steady":
+    if args.plot is not None and model_name(args.model, "cli") not in _PER_SPHERE:
         raise BallscrewTwinError(
             f"--plot: the {args.model} model does not resolve contacts; use --model steady"
         )
@@ -164,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
         preload=args.preload,
         axial_load=args.axial_load,
     )
-    model = ValidatedModel(build_model(args.model, config, args.mode), envelope)
+    model = ValidatedModel(command_line_model(args.model, args.mode, config), envelope)
     out = model.evaluate(op)
     for note in out.notes:
         if note.startswith("validity:"):

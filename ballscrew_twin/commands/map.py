@@ -1,9 +1,9 @@
 """``ballscrew-twin map build|find --config YAML``: the real-time table of any screw.
 
 ``build`` solves the symmetric steady model on the table's grid for the screw of ``--config``
-(:func:`~ballscrew_twin.models.steady_map.grid_for`) in ``--workers`` processes, with a
+(:func:`~ballscrew_twin.models.map_grid.grid_for`) in ``--workers`` processes, with a
 progress bar, and saves it in the user cache under the parameter set's fingerprint
-(:func:`~ballscrew_twin.models.steady_map.cached_map_path`), where the twin node finds it, or
+(:func:`~ballscrew_twin.models.map_store.cached_map_path`), where the twin node finds it, or
 to ``--out``. ``find`` says which table the node would use for that screw, and why each other
 one is refused.
 """
@@ -15,8 +15,10 @@ import sys
 import time
 from pathlib import Path
 
+from tqdm import tqdm
+
 from ..errors import MapError
-from ..models import steady_map
+from ..models import map_build, map_grid, map_store
 from ..params import load_config
 
 
@@ -34,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     build.add_argument(
         "--preview",
         action="store_true",
-        help=f"the small preview table ({'x'.join(map(str, steady_map.PREVIEW_NODES))} nodes)",
+        help=f"the small preview table ({'x'.join(map(str, map_grid.PREVIEW_NODES))} nodes)",
     )
     build.add_argument(
         "--force", action="store_true", help="build even when the cache holds the table"
@@ -46,11 +48,11 @@ def run(args: argparse.Namespace) -> int:
     """Build or find the table; errors are raised as BallscrewTwinError (one line)."""
     config = load_config(args.config)
     if args.action == "find":
-        search = steady_map.find_map(config)
+        search = map_store.find_map(config)
         for line in search.refused:
             print(f"refused: {line}")
         if search.table is None:
-            path = steady_map.cached_map_path(config, steady_map.grid_for(config))
+            path = map_store.cached_map_path(config, map_grid.grid_for(config))
             print(
                 f"no table for {config.source}: build it with `ballscrew-twin map build "
                 f"--config {config.source}` (it goes to {path})"
@@ -60,20 +62,26 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.workers < 1:
         raise MapError(f"--workers = {args.workers} must be >= 1")
-    grid = steady_map.grid_for(config, preview=args.preview)
-    out = Path(args.out) if args.out else steady_map.cached_map_path(config, grid)
+    grid = map_grid.grid_for(config, preview=args.preview)
+    out = Path(args.out) if args.out else map_store.cached_map_path(config, grid)
     if out.is_file() and not args.force and not args.out:
         print(f"{out}: already built for {config.source} (--force builds it again)")
         return 0
     start = time.monotonic()
+    bar = tqdm(desc="steady map", unit="line", disable=args.no_progress)
+
+    def show(done: int, total: int, _elapsed: float) -> None:
+        bar.total = total
+        bar.update(done - bar.n)
+
     try:
-        table = steady_map.build_map(
-            config, grid, workers=args.workers, progress=not args.no_progress
-        )
+        table = map_build.build_map(config, grid, workers=args.workers, on_progress=show)
     except KeyboardInterrupt:
         print(f"interrupted: nothing written to {out}", file=sys.stderr)
         return 130
-    steady_map.save_atomic(table, out)
+    finally:
+        bar.close()
+    map_store.save_atomic(table, out)
     filled = int(table.filled.sum())
     print(
         f"wrote {out}: {table.node_count} nodes in {time.monotonic() - start:.1f} s, "

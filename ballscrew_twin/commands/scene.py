@@ -34,8 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import BallscrewTwinError, SolverError
-from ..fidelity import Bounds, Selection, load_bounds, point_key, realtime_model, select
-from ..models.base import MECHANISMS, OperatingPoint, TwinOutput
+from ..fidelity import Bounds, Selection, load_bounds, point_key, select
+from ..models import registry
+from ..models.base import MECHANISMS, OperatingPoint, SteadyStateModel, TwinOutput
 from ..models.faults import faults_from_mapping
 from ..models.validity import ValidityEnvelope, refuse_outside
 from ..params import TwinConfig, load_config
@@ -140,15 +141,12 @@ def _store(result: SceneResult, i: int, out: TwinOutput, per_sphere: bool) -> No
         _store_contacts(result, i, out)
 
 
-def build_quasi_static(selection: Selection, config: TwinConfig) -> Any:
-    """The steady-state model (``evaluate``) of a quasi-static selection."""
-    if selection.model == "catalog":
-        from ..models.catalog import CatalogModel
-
-        return CatalogModel(config)
-    from ..models.steady import SteadyStateModel
-
-    return SteadyStateModel(config, mode=selection.settings["mode"])
+def build_quasi_static(selection: Selection, config: TwinConfig) -> SteadyStateModel:
+    """The steady-state model (``evaluate``) of a quasi-static selection (registry names,
+    ``catalog`` being Eq. 52 there)."""
+    return registry.as_evaluating(
+        registry.build(registry.model_name(selection.model, "scene"), config)
+    )
 
 
 def run_quasi_static(
@@ -211,15 +209,15 @@ def run_dynamic(
     from ..models.dynamic_state import Commands
 
     time_step = bounds.dynamic.get("time_step_s", 1e-6)
-    temperature = scene.range("temperature")[0]
-    model = DynamicModel(
-        config,
-        temperature,
+    options = registry.ModelOptions(
+        temperature=scene.range("temperature")[0],
         time_step=time_step,
         faults=faults_from_mapping(
             scene.faults_mapping, config.screw.balls_per_nut, f"{scene.source}: faults"
         ),
     )
+    model = registry.build(registry.ModelName.DYNAMIC, config, options)
+    assert isinstance(model, DynamicModel)
     state = model.initial_state(scene.preload(0.0))
     steps = round(scene.duration / time_step)
     sample_steps = {round(float(t) / time_step): i for i, t in enumerate(result.time)}
@@ -288,12 +286,14 @@ def run_selection(
     times = scene.output_times()
     result = _empty(scene, times)
     bar = tqdm(total=len(times), file=sys.stderr, disable=quiet, unit="sample", desc=scene.name)
+    name = registry.model_name(selection.model, "scene")
     started = time.perf_counter()
     try:
-        if selection.model == "dynamic":
+        if name is registry.ModelName.DYNAMIC:
             stats = run_dynamic(scene, config, bounds, bar.update, result)
-        elif selection.model == "realtime":
-            stats = run_time_stepping(scene, realtime_model(config), bar.update, result)
+        elif name is registry.ModelName.REALTIME:
+            realtime = registry.build(name, config)
+            stats = run_time_stepping(scene, registry.as_stepping(realtime), bar.update, result)
         else:
             model = build_quasi_static(selection, config)
             stats = run_quasi_static(scene, model, bar.update, result)
@@ -302,7 +302,8 @@ def run_selection(
     wall = time.perf_counter() - started
     if result.contacts:
         # Physical spheres each row stands for: a whole nut in symmetric mode, else one.
-        count = config.screw.balls_per_nut if selection.model == "steady-symmetric" else 1
+        symmetric = name is registry.ModelName.STEADY_SYMMETRIC
+        count = config.screw.balls_per_nut if symmetric else 1
         result.contacts["spheres_represented"] = np.full(
             len(result.contacts["contact_sphere"]), count
         )

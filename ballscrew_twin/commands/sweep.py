@@ -57,10 +57,8 @@ from ..models.base import MECHANISMS, OperatingPoint
 from ..models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
 from ..params import TwinConfig, config_from_mapping, load_config
 from ..units import RPM
-from .drag import build_model
+from .drag import MODEL_CHOICES, command_line_model
 
-#: Models a sweep can evaluate (names of :func:`ballscrew_twin.cli.build_model`).
-MODELS = ("catalog", "zhou", "steady")
 #: Operating-point dimensions: name -> (SI unit, CLI unit, CLI -> SI conversion).
 OPERATING_DIMENSIONS: dict[str, tuple[str, str, Callable[[float], float]]] = {
     "screw_speed": ("rad/s", "rpm", lambda rpm: rpm * RPM),
@@ -252,7 +250,7 @@ class SweepTask:
     """What every worker needs to evaluate points: picklable, SI units.
 
     Attributes:
-        model: ``catalog``, ``zhou`` or ``steady``.
+        model: a ``--model`` name (``drag.MODEL_CHOICES``).
         mode: steady-model mode (``auto``, ``symmetric``, ``full``).
         config: the parameter set before the per-point overrides.
         version: the client's package version; a worker with another version refuses the
@@ -281,7 +279,7 @@ def evaluate_point(task: SweepTask, point: dict[str, float]) -> dict[str, Any]:
         config = with_overrides(task.config, overrides)
         op = OperatingPoint(**{k: point[k] for k in OPERATING_DIMENSIONS})
         model = ValidatedModel(
-            build_model(task.model, config, task.mode), ValidityEnvelope.for_config(config)
+            command_line_model(task.model, task.mode, config), ValidityEnvelope.for_config(config)
         )
         out = model.evaluate(op)
     except Exception as err:  # a failed point is a row, never a crash of the sweep
@@ -512,7 +510,7 @@ def write_plot(result: SweepResult, dimensions: Sequence[Dimension], path: Path)
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``sweep``."""
-    parser.add_argument("--model", default="steady", choices=MODELS)
+    parser.add_argument("--model", default="steady", choices=MODEL_CHOICES)
     parser.add_argument("--mode", default="auto", choices=("auto", "symmetric", "full"))
     parser.add_argument("--config", default=None, help="parameter YAML (default: paper screw)")
     parser.add_argument("--speed", default="100", help="screw speed [rpm] (list or range)")

@@ -8,7 +8,7 @@ the kernels' cached machine code, so this file is part of their dependency stamp
 
 from __future__ import annotations
 
-from .contacts import F_DISS_DAMPING, F_DISS_LUBRICANT
+from .contact_layout import F_DISS_DAMPING, F_DISS_LUBRICANT
 
 # Body state (8,): time [s], screw angle [rad], screw speed [rad/s], controller integral [rad],
 # nut positions (2) [m], nut velocities (2) [m/s].

@@ -58,7 +58,7 @@ from . import contacts as _contacts_module
 from . import dynamic_layouts as _layouts_module
 from . import dynamic_predictor as _predictor_module
 from .cache_stamp import dependency_stamp
-from .contacts import (
+from .contact_layout import (
     F_DISS_DAMPING,
     F_DISS_LUBRICANT,
     F_GROOVE_MZ,
@@ -66,9 +66,8 @@ from .contacts import (
     R_FORCE,
     R_GROOVE_FORCE,
     R_MOMENT,
-    contacts_kinetics_kernel,
-    contacts_statics_kernel,
 )
+from .contacts import contacts_kinetics_kernel, contacts_statics_kernel
 from .dynamic_layouts import (
     B_ANGLE,
     B_INTEGRAL,

@@ -30,7 +30,7 @@ BoolArray = NDArray[np.bool_]
 @njit(cache=True, inline="always")
 def _catmull_rom(t: float, out: FloatArray) -> None:
     """Weights of the nodes i-1, i, i+1, i+2 at fraction ``t`` of cell [i, i+1] into ``out``
-    (as ``steady_map.catmull_rom_weights``)."""
+    (as ``map_interpolation.catmull_rom_weights``)."""
     t2 = t * t
     t3 = t * t * t
     out[0] = 0.5 * (-t3 + 2.0 * t2 - t)
@@ -100,7 +100,7 @@ def nut_torques(
         preload_cells, preload_fractions: (2,) cell and fraction of each nut's equivalent
             preload.
         blend: standstill factor, 1 on the map, -> 0 at standstill [-].
-        torque_scale: ``steady_map.TORQUE_SCALE`` [N m].
+        torque_scale: ``map_grid.TORQUE_SCALE`` [N m].
     """
     width = table.shape[4]
     ws = np.empty(4)

@@ -48,7 +48,8 @@ from numpy.typing import NDArray
 from . import contacts as _contacts_module
 from . import dual as _dual_module
 from .cache_stamp import dependency_stamp
-from .contacts import (
+from .contact_law import contact_geometry, contact_law, law_constants
+from .contact_layout import (
     F_ANGLE,
     F_APPROACH,
     F_DISS_LUBRICANT,
@@ -70,19 +71,11 @@ from .contacts import (
     R_FORCE,
     R_GROOVE_FORCE,
     R_MOMENT,
-    _add,
-    _cross,
-    _dot,
-    _helical,
-    _scale,
-    _sub,
-    contact_geometry,
-    contact_law,
-    law_constants,
-    scene_from_array,
 )
+from .contacts import scene_from_array
 from .dual import make_dual
 from .solver_settings import DIAGONAL_SHIFT, LINE_SEARCH_STEPS, MIN_STEP, NEWTON_MAX_ITER
+from .vector3 import _add, _cross, _dot, _helical, _scale, _sub
 
 FloatArray = NDArray[np.float64]
 

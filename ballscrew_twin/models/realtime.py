@@ -11,7 +11,7 @@ measured by ``ballscrew-twin bench accuracy`` (docs/benchmarks.md, "Work-precisi
 
 On a vertical screw every sphere of a nut is equivalent, so the per-sphere contact states are
 the map's per-nut states repeated over the nut's spheres. The external axial load enters
-through each nut's equivalent preload (:func:`~.steady_map.equivalent_preloads`). Commands
+through each nut's equivalent preload (:func:`~.map_grid.equivalent_preloads`). Commands
 outside the map are clamped to it and every clamping is named in ``notes``.
 
 Cost per step: a caller that does not need the contact states on a tick (the node publishes
@@ -32,15 +32,8 @@ import numpy as np
 from ..errors import ConfigError, MapError
 from ..params import TwinConfig
 from .base import MECHANISMS, ContactStates, FloatArray, OperatingPoint, TorqueBreakdown, TwinOutput
-from .steady_map import (
-    CONTACT_FIELDS,
-    HALF_GROOVES,
-    NUTS,
-    SteadyMap,
-    config_fingerprint,
-    equivalent_preloads,
-    load_map,
-)
+from .map_grid import CONTACT_FIELDS, HALF_GROOVES, NUTS, equivalent_preloads
+from .steady_map import SteadyMap, config_fingerprint, load_map
 
 _FIELD = {name: j for j, name in enumerate(CONTACT_FIELDS)}
 #: Tabulated 0/1 contact flag read back as "in contact" above this value [-].

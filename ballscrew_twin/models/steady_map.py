@@ -11,7 +11,7 @@ as functions of
 - the temperature, on uniform nodes;
 - the nut's *equivalent preload* (the preload that loads the nut alike with no external load:
   preload + axial load for the master nut, the preload for the slave nut; see
-  :func:`equivalent_preloads`), on nodes uniform in its square root (the Hertz laws are
+  :func:`~.map_grid.equivalent_preloads`), on nodes uniform in its square root (the Hertz laws are
   steepest near zero load).
 
 Between the nodes each quantity is a tensor product of Catmull-Rom cubics (C1; the edge cells
@@ -27,40 +27,54 @@ continuation, are filled from their nearest solved neighbour in speed (a line so
 speed: the nearest such line in preload) and flagged; a sample that leans on a filled node
 says so.
 
-Build the committed table with ``ballscrew-twin map build --out
-ballscrew_twin/data/steady_map.npz --force`` (progress bar; 2 worker processes by default).
-
-Any other screw: ``ballscrew-twin map build --config YOUR.yaml`` builds the table of
-:func:`grid_for` that screw into the user cache (:func:`cache_dir`, never the package), under
-the parameter set's fingerprint (:func:`cached_map_path`); :func:`find_map` finds the table of
-a parameter set (a given file, the packaged table, the cache) and says why each other one is
-refused. A table is only ever used for the parameter set it was built for (its fingerprint).
+Modules: :mod:`.map_grid` (what is tabulated, on which nodes), :mod:`.map_interpolation` (the
+Catmull-Rom stencils), here the table itself (:class:`SteadyMap`, :func:`load_map`),
+:mod:`.map_build` (solving the nodes) and :mod:`.map_store` (the user's cache and
+:func:`~.map_store.find_map`). Build the committed table with ``ballscrew-twin map build --out
+ballscrew_twin/data/steady_map.npz --force`` (progress bar; 2 worker processes by default); any
+other screw's table goes to the user's cache under its parameter set's fingerprint
+(:func:`config_fingerprint`). A table is only ever used for the parameter set it was built for.
 """
 
 from __future__ import annotations
 
 import hashlib
 import math
-import multiprocessing
-import os
-import signal
-import sys
-import threading
-import time
-from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
-from ..errors import MapError, SolverError
+from ..errors import MapError
 from ..params import TwinConfig
 from ..units import CELSIUS_ZERO, RPM
-from .base import MECHANISMS, OperatingPoint
-from .steady import SteadyStateModel
+from .base import MECHANISMS
+from .map_grid import (
+    CONTACT_FIELDS,
+    HALF_GROOVES,
+    LOG_SCALES,
+    NUT_NAMES,
+    NUTS,
+    TORQUE_SCALE,
+    MapGrid,
+)
+from .map_interpolation import (
+    AxisCell,
+    Positions,
+    QueryCells,
+    axis_cell,
+    catmull_rom_rows,
+    catmull_rom_weights,
+    pad_axis,
+    preload_node,
+    query_cells,
+    stencil,
+    stencil_2d,
+    stencil_position,
+    temperature_node,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -68,54 +82,12 @@ FloatArray = NDArray[np.float64]
 FORMAT_VERSION = 1
 #: The committed map of the default parameter set (package data).
 DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map.npz"
-#: Steady-solver tolerance of the map's nodes (scaled residual) [-].
-MAP_TOLERANCE = 1e-9
-#: Torque scale of the asinh transform of the nut torque [N m] (linear below, log above).
-TORQUE_SCALE = 1e-6
-#: Contact quantities tabulated per half groove (names of :class:`~.base.ContactStates`);
-#: ``in_contact`` is tabulated as 0/1 and read back as "interpolated value > 0.5".
-CONTACT_FIELDS: tuple[str, ...] = (
-    "normal_force",
-    "friction_force",
-    "contact_angle",
-    "approach",
-    "stiffness",
-    "max_pressure",
-    "semi_axis_x",
-    "semi_axis_y",
-    "film_thickness",
-    "tallian_parameter",
-    "load_share",
-    "shear_stress",
-    "lubricant_share",
-    "slip_speed",
-    "in_contact",
-)
-#: Contact fields that follow power laws of speed, viscosity and load (the film and what it
-#: drives): interpolated as asinh(value / scale), logarithmic well above the scale (SI units).
-LOG_SCALES: dict[str, float] = {
-    "friction_force": 1e-9,
-    "film_thickness": 1e-12,
-    "tallian_parameter": 1e-6,
-    "shear_stress": 1e-3,
-    "slip_speed": 1e-9,
-}
 _LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])
 _LOG_SCALE_VALUES = np.array([LOG_SCALES[name] for name in CONTACT_FIELDS if name in LOG_SCALES])
-#: Lower bound of each field after interpolation: 0 except for the contact angle.
 #: The scales by field, 1 where the field is interpolated as it is (the compiled kernel's form).
 _LOG_SCALES_FULL = np.array([LOG_SCALES.get(name, 1.0) for name in CONTACT_FIELDS])
+#: Lower bound of each field after interpolation: 0 except for the contact angle.
 _LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in CONTACT_FIELDS])
-HALF_GROOVES = 4
-NUTS = 2
-NUT_NAMES = ("master", "slave")
-#: Node counts (speed, temperature, preload) of the preview table of a new screw: built in
-#: seconds, it serves while the full table is built (its error is measured by ``bench screw``).
-PREVIEW_NODES = (9, 7, 9)
-#: Niceness of the worker processes of a build (the real-time ticks of a node go first).
-WORKER_NICENESS = 10
-#: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
-CACHE_FOLDER = "ballscrew_twin"
 
 
 def config_fingerprint(config: TwinConfig) -> str:
@@ -124,546 +96,8 @@ def config_fingerprint(config: TwinConfig) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def map_fingerprint(path: str | Path) -> str:
-    """The fingerprint saved in a map file (read alone, without the tables).
-
-    Raises:
-        MapError: the file is missing or not a map.
-    """
-    try:
-        with np.load(Path(path), allow_pickle=False) as data:
-            return str(data["fingerprint"])
-    except (OSError, KeyError, ValueError, EOFError) as err:
-        raise MapError(f"{path}: not a readable steady map ({err})") from err
-
-
-def cache_dir() -> Path:
-    """The user's cache of built tables: ``$XDG_CACHE_HOME/ballscrew_twin`` (``$XDG_CACHE_HOME``
-    unset or relative: ``~/.cache``), never inside the package."""
-    base = os.environ.get("XDG_CACHE_HOME", "")
-    root = Path(base) if base and Path(base).is_absolute() else Path.home() / ".cache"
-    return root / CACHE_FOLDER
-
-
-def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
-    """Preload [N] that loads the (master, slave) nut as ``op`` does, with no external load.
-
-    The external axial load acts on the master nut only (``SteadyStateModel.nut_axial_loads``),
-    so the master nut carries preload + axial load and the slave nut the preload.
-    """
-    return op.preload + op.axial_load, op.preload
-
-
-@dataclass(frozen=True)
-class MapGrid:
-    """Nodes of the map (odd node counts for a map: the contact table keeps every other node).
-
-    Attributes:
-        speed_min: lowest tabulated |screw speed| [rad/s] (> 0).
-        speed_max: highest tabulated |screw speed| [rad/s].
-        speed_nodes: nodes per speed sign, uniform in log |speed|.
-        temperature_min: lowest temperature [K].
-        temperature_max: highest temperature [K].
-        temperature_nodes: nodes uniform in temperature.
-        preload_max: highest equivalent preload [N] (the lowest is 0 N).
-        preload_nodes: nodes uniform in sqrt(preload).
-    """
-
-    speed_min: float = 0.05 * RPM
-    speed_max: float = 6000.0 * RPM
-    speed_nodes: int = 49
-    temperature_min: float = CELSIUS_ZERO - 40.0
-    temperature_max: float = CELSIUS_ZERO + 100.0
-    temperature_nodes: int = 29
-    preload_max: float = 4000.0
-    preload_nodes: int = 33
-
-    def __post_init__(self) -> None:
-        checks = (
-            ("speed_min", 0.0 < self.speed_min < self.speed_max, "rad/s, 0 < speed_min < max"),
-            ("temperature_min", 138.0 < self.temperature_min < self.temperature_max, "K, < max"),
-            ("preload_max", self.preload_max > 0.0, "N, > 0"),
-        )
-        for name, ok, unit in checks:
-            if not ok:
-                raise MapError(f"map grid: {name} = {getattr(self, name)!r} is invalid ({unit})")
-        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
-            if getattr(self, name) < 2:
-                raise MapError(f"map grid: {name} = {getattr(self, name)} must be >= 2")
-
-    def check_buildable(self) -> None:
-        """Raise :class:`MapError` unless every node count is odd and >= 5 (see :meth:`coarse`)."""
-        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
-            count = getattr(self, name)
-            if count < 5 or count % 2 == 0:
-                raise MapError(f"map grid: {name} = {count} must be odd and >= 5")
-
-    @property
-    def speeds(self) -> FloatArray:
-        """|Speed| nodes [rad/s], ascending."""
-        low, high = math.log(self.speed_min), math.log(self.speed_max)
-        return np.exp(np.linspace(low, high, self.speed_nodes))
-
-    @property
-    def temperatures(self) -> FloatArray:
-        """Temperature nodes [K]."""
-        return np.linspace(self.temperature_min, self.temperature_max, self.temperature_nodes)
-
-    @property
-    def preloads(self) -> FloatArray:
-        """Equivalent-preload nodes [N], uniform in sqrt(preload)."""
-        return np.linspace(0.0, math.sqrt(self.preload_max), self.preload_nodes) ** 2
-
-    def coarse(self) -> MapGrid:
-        """Every other node of each axis (the grid of the contact table)."""
-        return replace(
-            self,
-            speed_nodes=self.speed_nodes // 2 + 1,
-            temperature_nodes=self.temperature_nodes // 2 + 1,
-            preload_nodes=self.preload_nodes // 2 + 1,
-        )
-
-    def as_array(self) -> FloatArray:
-        """The grid as 8 numbers (for saving)."""
-        return np.array(
-            [
-                self.speed_min,
-                self.speed_max,
-                self.speed_nodes,
-                self.temperature_min,
-                self.temperature_max,
-                self.temperature_nodes,
-                self.preload_max,
-                self.preload_nodes,
-            ],
-            dtype=np.float64,
-        )
-
-    @classmethod
-    def from_array(cls, values: FloatArray) -> MapGrid:
-        """Inverse of :meth:`as_array`."""
-        v = [float(x) for x in values]
-        if len(v) != 8:
-            raise MapError(f"map grid: {len(v)} numbers, expected 8")
-        return cls(v[0], v[1], int(v[2]), v[3], v[4], int(v[5]), v[6], int(v[7]))
-
-
-def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
-    """The grid of ``config``'s table: the packaged table's nodes, with the speed range ending at
-    the screw's critical speed when that is below 6000 rpm (the validity envelope clamps any
-    faster command there, so nodes beyond it would never be read). ``preview``: the
-    :data:`PREVIEW_NODES` grid over the same ranges."""
-    grid = MapGrid()
-    # params.py keeps the critical speed >= 1 rad/s, far above the lowest node (0.05 rpm).
-    grid = replace(grid, speed_max=min(grid.speed_max, config.screw.critical_speed))
-    if preview:
-        speed, temperature, preload = PREVIEW_NODES
-        grid = replace(
-            grid, speed_nodes=speed, temperature_nodes=temperature, preload_nodes=preload
-        )
-    return grid
-
-
-def cached_map_path(config: TwinConfig, grid: MapGrid) -> Path:
-    """Where the table of ``config`` on ``grid`` is cached: :func:`cache_dir` / a name made of
-    the fingerprint and the node counts."""
-    nodes = f"{grid.speed_nodes}x{grid.temperature_nodes}x{grid.preload_nodes}"
-    rpm = f"{grid.speed_max / RPM:.0f}rpm"
-    return cache_dir() / f"steady_map_{config_fingerprint(config)[:20]}_{nodes}_{rpm}.npz"
-
-
-@dataclass(frozen=True)
-class MapSearch:
-    """What :func:`find_map` found.
-
-    Attributes:
-        table: the table built for the parameter set, or None.
-        path: the file it came from ("" when none).
-        refused: one line per file considered and refused, with the reason.
-    """
-
-    table: SteadyMap | None
-    path: str
-    refused: tuple[str, ...]
-
-
-def find_map(config: TwinConfig, path: str | Path = "") -> MapSearch:
-    """The table built for ``config``: ``path`` if given, else the packaged table, else the
-    cached table of :func:`grid_for` ``config``; a file built for other parameters (another
-    fingerprint), unreadable or missing is refused and the reason kept."""
-    fingerprint = config_fingerprint(config)
-    refused: list[str] = []
-    candidates = [Path(path).expanduser()] if path else []
-    candidates += [DEFAULT_MAP_PATH, cached_map_path(config, grid_for(config))]
-    for index, file in enumerate(candidates):
-        explicit = bool(path) and index == 0
-        if not file.is_file():
-            if explicit:
-                refused.append(f"{file}: no such file")
-            continue
-        try:
-            saved = map_fingerprint(file)
-            if saved != fingerprint:
-                refused.append(
-                    f"{file}: built for other parameters (fingerprint {saved[:12]}, "
-                    f"{config.source or config.name} has {fingerprint[:12]})"
-                )
-                continue
-            return MapSearch(load_map(file), str(file), tuple(refused))
-        except MapError as err:
-            refused.append(str(err))
-    return MapSearch(None, "", tuple(refused))
-
-
-def save_atomic(table: SteadyMap, path: Path) -> None:
-    """Save ``table`` to ``path`` through a temporary file in the same folder (created), so a
-    reader never sees a half-written table."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(f".{path.stem}.{os.getpid()}.partial.npz")
-    try:
-        table.save(partial)
-        os.replace(partial, path)
-    finally:
-        partial.unlink(missing_ok=True)
-
-
-@dataclass(frozen=True)
-class NodeValues:
-    """What one steady solve contributes to the table (index 0 master nut, 1 slave nut).
-
-    Attributes:
-        torque: (2, 6) drag torque per nut and mechanism [N m], :data:`~.base.MECHANISMS` order.
-        contacts: (2, 4, F) contact quantities per nut and half groove, :data:`CONTACT_FIELDS`.
-    """
-
-    torque: FloatArray
-    contacts: FloatArray
-
-
-def node_values(model: SteadyStateModel, op: OperatingPoint) -> NodeValues:
-    """Solve the symmetric steady state at ``op`` and extract the per-nut table entries.
-
-    Raises:
-        MapError: ``model`` does not solve one sphere per nut (symmetric mode).
-        SolverError: the steady solver failed.
-    """
-    solution = model.solve(op)
-    balls = solution.balls
-    if not np.array_equal(balls.nut, np.arange(NUTS)):
-        raise MapError("steady map: the steady model must run in symmetric mode (2 spheres)")
-    torque = np.zeros((NUTS, len(MECHANISMS)))
-    speed = solution.output.operating_point.screw_speed
-    if solution.output.drag_torque != 0.0:  # zero at (or solved as) standstill
-        for j, mechanism in enumerate(MECHANISMS):
-            power = solution.contacts.dissipation[mechanism].sum(axis=1) * balls.weight
-            torque[:, j] = power / speed
-    states = solution.output.contacts
-    assert states is not None  # the steady model always resolves its contacts
-    contacts = np.stack(
-        [np.asarray(getattr(states, name), dtype=np.float64) for name in CONTACT_FIELDS], axis=-1
-    ).reshape(NUTS, HALF_GROOVES, len(CONTACT_FIELDS))
-    return NodeValues(torque=torque, contacts=contacts)
-
-
-# ---------------------------------------------------------------------------------------------
-# Building
-
-
-@dataclass(frozen=True)
-class _Line:
-    """One build task: every speed of one sign at one temperature and preload node."""
-
-    sign: int  # 0: positive speeds, 1: negative speeds
-    temperature: int
-    preload: int
-
-
-@dataclass(frozen=True)
-class _LineResult:
-    line: _Line
-    torque: FloatArray  # (S, 2, 6)
-    contacts: FloatArray  # (S, 2, 4, F)
-    failed: NDArray[np.bool_]  # (S,)
-    static: FloatArray  # (2, 4, F)
-
-
-_WORKER: dict[str, SteadyStateModel | MapGrid] = {}
-
-
-def _pool_worker_init(config: TwinConfig, grid: MapGrid, niceness: int) -> None:
-    """Initialiser of a worker process (never of the calling process: its handler stays)."""
-    # Ctrl-C reaches the whole process group: the parent alone stops the build (it terminates
-    # the pool), so a worker does not print a KeyboardInterrupt traceback of its own.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if niceness:
-        os.nice(niceness)
-    _worker_init(config, grid)
-
-
-def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
-    _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
-    _WORKER["grid"] = grid
-
-
-def _solve_line(line: _Line) -> _LineResult:
-    """Standstill, then the speeds in ascending order, each warm-started from the last.
-
-    A node the warm-started solve misses is solved cold by the steady model itself (its
-    start-up path and fallbacks, a function of the node alone: docs/model.md 7a); if that
-    fails too the node stays NaN and is flagged (not solved cold a second time, which would
-    repeat the same path).
-    """
-    model, grid = _WORKER["model"], _WORKER["grid"]
-    assert isinstance(model, SteadyStateModel) and isinstance(grid, MapGrid)
-    temperature = float(grid.temperatures[line.temperature])
-    preload = float(grid.preloads[line.preload])
-    sign = 1.0 if line.sign == 0 else -1.0
-    speeds = grid.speeds
-    torque = np.full((len(speeds), NUTS, len(MECHANISMS)), np.nan)
-    contacts = np.full((len(speeds), NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
-    failed = np.zeros(len(speeds), dtype=bool)
-    model.forget_warm_start()
-    static_op = OperatingPoint(screw_speed=0.0, temperature=temperature, preload=preload)
-    static = node_values(model, static_op).contacts
-    for i, speed in enumerate(speeds):
-        op = OperatingPoint(screw_speed=sign * speed, temperature=temperature, preload=preload)
-        try:
-            values = node_values(model, op)
-        except SolverError:
-            model.forget_warm_start()
-            failed[i] = True
-            continue
-        torque[i], contacts[i] = values.torque, values.contacts
-    return _LineResult(line, torque, contacts, failed, static)
-
-
-def _fill_failed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
-    """Replace failed nodes by the nearest solved node along the speed axis (axis 1), in place;
-    a speed line that failed at every speed takes the whole nearest line along the last axis
-    (the preload) that has a solved node.
-
-    Raises:
-        MapError: every line along the last axis failed at every speed.
-    """
-    count = failed.shape[1]
-    whole = np.asarray(failed.all(axis=1))  # (sign, *rest): lines without a solved speed
-    for sign, i, *rest in zip(*np.nonzero(failed), strict=True):
-        if whole[(sign, *rest)]:
-            continue
-        for j in sorted(range(count), key=lambda k: abs(k - i)):
-            if not failed[(sign, j, *rest)]:
-                table[(sign, i, *rest)] = table[(sign, j, *rest)]
-                break
-    last = whole.shape[-1]
-    for sign, *rest in zip(*np.nonzero(whole), strict=True):
-        *other, k = rest
-        for m in sorted(range(last), key=lambda q: abs(q - k)):
-            if not whole[(sign, *other, m)]:
-                table[(sign, slice(None), *other, k)] = table[(sign, slice(None), *other, m)]
-                break
-        else:
-            raise MapError(f"steady map: the solver failed at every speed of lines {sign, *other}")
-
-
-#: Progress callback of :func:`build_map`: (lines done, lines in all, seconds elapsed).
-Progress = Callable[[int, int, float], None]
-
-
-def build_map(
-    config: TwinConfig,
-    grid: MapGrid | None = None,
-    workers: int = 2,
-    progress: bool = True,
-    on_progress: Progress | None = None,
-    niceness: int = 0,
-) -> SteadyMap:
-    """Solve every node of ``grid`` with the symmetric steady model.
-
-    Args:
-        config: parameter set.
-        grid: nodes (default :class:`MapGrid()`).
-        workers: worker processes (1: solve in this process).
-        progress: show a tqdm progress bar on stderr.
-        on_progress: called after each line of nodes (see :data:`Progress`).
-        niceness: added to the worker processes' niceness (with ``workers`` > 1). On Linux it
-            is added to the calling thread's niceness before the workers start, so that they
-            start niced (their imports included; a dedicated build thread stays niced);
-            elsewhere each worker lowers its own priority once started.
-    """
-    from tqdm import tqdm
-
-    grid = grid if grid is not None else MapGrid()
-    grid.check_buildable()
-    speeds, temps, preloads = grid.speeds, grid.temperatures, grid.preloads
-    shape = (2, len(speeds), len(temps), len(preloads))
-    torque = np.full((*shape, NUTS, len(MECHANISMS)), np.nan)
-    contacts = np.full((*shape, NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
-    failed = np.zeros(shape, dtype=bool)
-    static = np.full((*shape[2:], NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
-    lines = [_Line(s, t, p) for s in range(2) for t in range(shape[2]) for p in range(shape[3])]
-
-    start = time.monotonic()
-
-    def store(results: Iterable[_LineResult]) -> None:
-        bar = tqdm(total=len(lines), desc="steady map", unit="line", disable=not progress)
-        for done, res in enumerate(results, start=1):
-            where = (res.line.sign, slice(None), res.line.temperature, res.line.preload)
-            torque[where], contacts[where], failed[where] = res.torque, res.contacts, res.failed
-            static[res.line.temperature, res.line.preload] = res.static
-            bar.update()
-            if on_progress is not None:
-                on_progress(done, len(lines), time.monotonic() - start)
-        bar.close()
-
-    if workers <= 1:
-        _worker_init(config, grid)
-        store(_solve_line(line) for line in lines)
-    else:
-        context = multiprocessing.get_context("spawn")
-        inherited = niceness > 0 and sys.platform == "linux"
-        if inherited:  # Linux: a thread's niceness is its own, and a process it starts inherits it
-            thread = threading.get_native_id()
-            os.setpriority(
-                os.PRIO_PROCESS, thread, os.getpriority(os.PRIO_PROCESS, thread) + niceness
-            )
-        init = (config, grid, 0 if inherited else niceness)
-        with context.Pool(workers, initializer=_pool_worker_init, initargs=init) as pool:
-            store(pool.imap_unordered(_solve_line, lines, chunksize=2))
-    if failed.any():
-        _fill_failed(torque, failed)
-        _fill_failed(contacts, failed)
-    return SteadyMap(
-        grid=grid,
-        torque=torque.astype(np.float32),
-        contacts=contacts[:, ::2, ::2, ::2].astype(np.float32),
-        static=static[::2, ::2].astype(np.float32),
-        filled=failed,
-        fingerprint=config_fingerprint(config),
-        orientation=config.screw.orientation,
-    )
-
-
-# ---------------------------------------------------------------------------------------------
-# Interpolation
-
-
-def catmull_rom_weights(t: float) -> FloatArray:
-    """Weights of the four nodes i-1, i, i+1, i+2 at fraction ``t`` in [0, 1] of cell [i, i+1]."""
-    t2, t3 = t * t, t * t * t
-    return 0.5 * np.array(
-        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
-    )
-
-
-def _catmull_rom_rows(t: FloatArray) -> FloatArray:
-    """(N, 4) weights of :func:`catmull_rom_weights` for each fraction of ``t`` (N,)."""
-    t2, t3 = t * t, t * t * t
-    return 0.5 * np.column_stack(
-        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
-    )
-
-
-def pad_axis(table: FloatArray, axis: int) -> FloatArray:
-    """Add a linearly extrapolated ghost node at both ends of ``axis``."""
-    first, second = np.take(table, [0], axis=axis), np.take(table, [1], axis=axis)
-    last, before = np.take(table, [-1], axis=axis), np.take(table, [-2], axis=axis)
-    return np.concatenate([2.0 * first - second, table, 2.0 * last - before], axis=axis)
-
-
-#: Where a query falls on one axis: index of its cell (= the first node of its 4-node stencil
-#: in the padded table) and the fraction of the cell [-].
-AxisCell = tuple[int, float]
-
-
-def axis_cell(u: float, count: int) -> AxisCell:
-    """Cell and fraction of ``u`` in node units (0 .. count-1) on an axis of ``count`` nodes,
-    clamped to the axis."""
-    u = min(max(u, 0.0), count - 1.0)
-    cell = min(int(u), count - 2)
-    return cell, u - cell
-
-
-def speed_node(grid: MapGrid, speed: float) -> float:
-    """|speed| [rad/s] in node units of ``grid``'s speed axis (uniform in log |speed|) [-]."""
-    u = math.log(max(speed, grid.speed_min) / grid.speed_min) / math.log(
-        grid.speed_max / grid.speed_min
-    )
-    return u * (grid.speed_nodes - 1)
-
-
-def temperature_node(grid: MapGrid, temperature: float) -> float:
-    """The temperature [K] in node units of ``grid``'s temperature axis (uniform) [-]."""
-    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
-    return u * (grid.temperature_nodes - 1)
-
-
-def preload_node(grid: MapGrid, preload: float) -> float:
-    """The equivalent preload [N] in node units of ``grid``'s preload axis (uniform in
-    sqrt(preload)) [-]."""
-    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
-    return u * (grid.preload_nodes - 1)
-
-
-class QueryCells(NamedTuple):
-    """Where one query falls on the axes of one grid (one preload cell per nut)."""
-
-    speed: AxisCell
-    temperature: AxisCell
-    preloads: tuple[AxisCell, ...]
-
-
-def query_cells(
-    grid: MapGrid, speed: float, temperature: float, preloads: tuple[float, float]
-) -> QueryCells:
-    """The cells of |``speed``| [rad/s], ``temperature`` [K] and each nut's equivalent preload
-    [N] on ``grid``."""
-    return QueryCells(
-        axis_cell(speed_node(grid, speed), grid.speed_nodes),
-        axis_cell(temperature_node(grid, temperature), grid.temperature_nodes),
-        tuple(axis_cell(preload_node(grid, p), grid.preload_nodes) for p in preloads),
-    )
-
-
-@dataclass(frozen=True)
-class AxisPosition:
-    """A 4-node stencil on one axis: its first node in the padded table and its weights."""
-
-    start: int
-    weights: FloatArray
-
-
-def _position(cell: AxisCell) -> AxisPosition:
-    """The Catmull-Rom stencil of ``cell``."""
-    return AxisPosition(start=cell[0], weights=catmull_rom_weights(cell[1]))
-
-
 #: One nut's interpolated torque values, contact rows and standstill rows (None: not needed).
 _NutStencils = tuple[FloatArray, FloatArray, FloatArray | None]
-
-
-@dataclass(frozen=True)
-class _Positions:
-    """Stencils of one query on the three axes."""
-
-    speed: AxisPosition
-    temperature: AxisPosition
-    preload: AxisPosition
-
-
-def _stencil(table: FloatArray, pos: _Positions) -> FloatArray:
-    """Interpolate a padded (S, T, P, nut, V) table at ``pos``: (nut, V)."""
-    s, t, p = pos.speed.start, pos.temperature.start, pos.preload.start
-    block = table[s : s + 4, t : t + 4, p : p + 4]
-    w = np.outer(np.outer(pos.speed.weights, pos.temperature.weights), pos.preload.weights)
-    return np.asarray(w.reshape(64) @ block.reshape(64, -1)).reshape(table.shape[3:])
-
-
-def _stencil_2d(table: FloatArray, pos: _Positions) -> FloatArray:
-    """Interpolate a padded (T, P, nut, V) table at ``pos`` (speed unused): (nut, V)."""
-    t, p = pos.temperature.start, pos.preload.start
-    w = np.outer(pos.temperature.weights, pos.preload.weights)
-    block = table[t : t + 4, p : p + 4]
-    return np.asarray(w.reshape(16) @ block.reshape(16, -1)).reshape(table.shape[2:])
 
 
 def _nut_torques(values: FloatArray, blend: float) -> FloatArray:
@@ -814,7 +248,7 @@ class SteadyMap:
             screw_speed: signed screw speed [rad/s].
             temperature: temperature [K].
             preloads: equivalent preload of the (master, slave) nut [N],
-                :func:`equivalent_preloads`.
+                :func:`~.map_grid.equivalent_preloads`.
             contacts: interpolate the contact states too (False: torque only, about half the
                 work; ``MapSample.contacts`` is None).
             compiled: the numba kernels of ``kernels/map_sample.py`` (~10 us); False: the numpy
@@ -857,7 +291,7 @@ class SteadyMap:
         )
         u = np.clip(u * (g.speed_nodes - 1), 0.0, g.speed_nodes - 1.0)
         cell = np.minimum(u.astype(np.int64), g.speed_nodes - 2)
-        ws = _catmull_rom_rows(u - cell)
+        ws = catmull_rom_rows(u - cell)
         t_cell, t_fraction = axis_cell(temperature_node(g, temperature), g.temperature_nodes)
         wt = catmull_rom_weights(t_fraction)
         total = np.zeros(len(speeds))
@@ -881,28 +315,29 @@ class SteadyMap:
         speed ``sign`` (0: >= 0) at the query's cells on the fine (torque) and coarse
         (contact) grids, with the standstill ``blend`` [-]: the readable numpy reference."""
         torque_table = self._padded["torque"][sign]
-        speed, temperature = _position(fine.speed), _position(fine.temperature)
+        speed, temperature = stencil_position(fine.speed), stencil_position(fine.temperature)
         values = np.empty((NUTS, len(MECHANISMS) + 1))
         if coarse is None:
             stencils: dict[AxisCell, FloatArray] = {}
             for nut, cell in enumerate(fine.preloads):
                 if cell not in stencils:  # one stencil when the nuts' loads agree
-                    pos = _Positions(speed, temperature, _position(cell))
-                    stencils[cell] = _stencil(torque_table, pos)
+                    pos = Positions(speed, temperature, stencil_position(cell))
+                    stencils[cell] = stencil(torque_table, pos)
                 values[nut] = stencils[cell][nut]
             return _nut_torques(values, blend), None
-        coarse_speed, coarse_temperature = _position(coarse.speed), _position(coarse.temperature)
+        coarse_speed = stencil_position(coarse.speed)
+        coarse_temperature = stencil_position(coarse.temperature)
         rows = np.empty((NUTS, HALF_GROOVES * len(CONTACT_FIELDS)))
         still = np.empty_like(rows)
         solved: dict[tuple[AxisCell, AxisCell], _NutStencils] = {}
         for nut, cells in enumerate(zip(fine.preloads, coarse.preloads, strict=True)):
             if cells not in solved:  # both nuts at once; one stencil when the loads agree
-                pos = _Positions(speed, temperature, _position(cells[0]))
-                coarse_pos = _Positions(coarse_speed, coarse_temperature, _position(cells[1]))
+                pos = Positions(speed, temperature, stencil_position(cells[0]))
+                coarse_pos = Positions(coarse_speed, coarse_temperature, stencil_position(cells[1]))
                 solved[cells] = (
-                    _stencil(torque_table, pos),
-                    _stencil(self._padded["contacts"][sign], coarse_pos),
-                    _stencil_2d(self._padded["static"], coarse_pos) if blend < 1.0 else None,
+                    stencil(torque_table, pos),
+                    stencil(self._padded["contacts"][sign], coarse_pos),
+                    stencil_2d(self._padded["static"], coarse_pos) if blend < 1.0 else None,
                 )
             nut_values, nut_rows, nut_still = solved[cells]
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]

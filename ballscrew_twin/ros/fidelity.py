@@ -3,29 +3,31 @@
 Modes, from the most to the least detailed:
 
 - ``realtime``: :class:`ballscrew_twin.models.realtime.RealTimeModel` (time-stepping, per-sphere
-  states at >= 1 kHz), when that module is installed;
+  states at >= 1 kHz);
 - ``quasi_static``: the steady-state model of every loaded sphere
   (:class:`~ballscrew_twin.models.steady.SteadyStateModel`) as a time-stepping model, solved
   again only when the command changes (3-9 ms a solve: ticks are late after each change);
 - ``catalog``: the catalogue formula Eq. 52 (microseconds; preload only, no contact states);
-- ``auto``: the real-time model if it can be built here (its module and its steady-state map
-  for this screw), else the catalogue; the node steps down to the catalogue when the model
+- ``auto``: the real-time model if it can be built here (a steady-state map built for this
+  screw), else the catalogue; the node steps down to the catalogue when the model
   does not fit into the step budget or fails (see ``TwinNode``). ``auto`` never takes
   ``quasi_static``: its millisecond solves do not fit a 1 kHz step.
 
-The real-time model's table is the one in hand (``ModelSettings.table``: the node's table of
-its screw, see ``ros/tables.py``) or the one :func:`~ballscrew_twin.models.steady_map.find_map`
-finds for the screw (the ``realtime_map`` file, the packaged table, the user cache); a table
-built for other parameters is never used.
+Each mode names a model of the registry (:mod:`ballscrew_twin.models.registry`, which maps
+these spellings: ``catalog`` is Eq. 52 there, ``quasi_static`` the steady model with
+``steady_mode``), built by its :func:`~ballscrew_twin.models.registry.build`. The real-time
+model's table is the one in hand (``ModelSettings.table``: the node's table of its screw, see
+``ros/tables.py``) or the one :func:`~ballscrew_twin.models.map_store.find_map` finds for the
+screw (the ``realtime_map`` file, the packaged table, the user cache); a table built for other
+parameters is never used.
 """
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import dataclass, field
-from typing import Literal, cast
 
-from ..errors import BallscrewTwinError, ConfigError, FidelityError, MapError
+from ..errors import BallscrewTwinError, ConfigError, FidelityError
+from ..models import registry
 from ..models.base import (
     OperatingPoint,
     QuasiStaticModel,
@@ -33,8 +35,8 @@ from ..models.base import (
     TimeSteppingModel,
     TwinOutput,
 )
-from ..models.catalog import CatalogModel
-from ..models.steady_map import SteadyMap, find_map
+from ..models.registry import ModelName, ModelOptions, SteadyMode
+from ..models.steady_map import SteadyMap
 from ..models.validity import ValidatedModel, ValidityEnvelope
 from ..params import TwinConfig
 
@@ -42,11 +44,6 @@ from ..params import TwinConfig
 FIDELITY_MODES: tuple[str, ...] = ("auto", "realtime", "quasi_static", "catalog")
 #: Concrete modes, most detailed first: what ``auto`` tries in turn.
 LADDER: tuple[str, ...] = ("realtime", "quasi_static", "catalog")
-#: Module and class of the real-time model.
-REALTIME_MODULE = "ballscrew_twin.models.realtime"
-REALTIME_CLASS = "RealTimeModel"
-
-SteadyMode = Literal["auto", "symmetric", "full"]
 
 
 @dataclass(frozen=True)
@@ -105,17 +102,6 @@ class CachedQuasiStatic(QuasiStaticModel):
         return out
 
 
-def realtime_unavailable() -> str | None:
-    """Why the real-time model cannot be used here, or None when it can."""
-    try:
-        module = importlib.import_module(REALTIME_MODULE)
-    except ImportError as err:
-        return f"{REALTIME_MODULE} not importable ({err})"
-    if not hasattr(module, REALTIME_CLASS):
-        return f"{REALTIME_MODULE} has no {REALTIME_CLASS}"
-    return None
-
-
 def build(mode: str, settings: ModelSettings) -> TimeSteppingModel:
     """The model of one concrete mode (``realtime``, ``quasi_static`` or ``catalog``), run only
     inside the validity envelope of the screw (a clamped input adds a ``validity:`` note)."""
@@ -124,35 +110,27 @@ def build(mode: str, settings: ModelSettings) -> TimeSteppingModel:
 
 
 def _build_raw(mode: str, settings: ModelSettings) -> TimeSteppingModel:
-    """The model of one concrete mode, as it comes."""
-    if mode == "catalog":
-        return QuasiStaticModel(CatalogModel(settings.config, mu_lit=settings.mu_lit))
-    if mode == "quasi_static":
-        from ..models.steady import SteadyStateModel as SteadySolver
-
-        return CachedQuasiStatic(
-            SteadySolver(settings.config, mode=settings.steady_mode, tolerance=settings.tolerance)
-        )
-    if mode == "realtime":
-        model_class = getattr(importlib.import_module(REALTIME_MODULE), REALTIME_CLASS)
-        table = settings.table
-        if table is None:
-            search = find_map(settings.config, settings.realtime_map)
-            if search.table is None:
-                refused = "; ".join(search.refused) or "no table found"
-                raise MapError(
-                    f"no real-time table for {settings.config.source or settings.config.name} "
-                    f"({refused}): build it with `ballscrew-twin map build --config FILE`"
-                )
-            table = search.table
-        return cast(TimeSteppingModel, model_class(settings.config, steady_map=table))
-    raise ConfigError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
+    """The model of one concrete mode, as the registry builds it; the steady model solved again
+    only when the command changes (:class:`CachedQuasiStatic`)."""
+    if mode not in LADDER:
+        raise ConfigError(f"fidelity {mode!r} is not one of {', '.join(LADDER)}")
+    name = registry.with_steady_mode(registry.model_name(mode, "node"), settings.steady_mode)
+    options = ModelOptions(
+        mu_lit=settings.mu_lit,
+        tolerance=settings.tolerance,
+        table=settings.table,
+        map_path=settings.realtime_map,
+    )
+    model = registry.build(name, settings.config, options)
+    if name == ModelName.REALTIME:
+        return registry.as_stepping(model)
+    if name == ModelName.CATALOG_ZHOU:
+        return QuasiStaticModel(registry.as_evaluating(model))
+    return CachedQuasiStatic(registry.as_evaluating(model))
 
 
 def _try_build(mode: str, settings: ModelSettings) -> tuple[TimeSteppingModel | None, str]:
     """Build ``mode``, or return None and why it cannot be built here."""
-    if mode == "realtime" and (why := realtime_unavailable()) is not None:
-        return None, why
     try:
         return build(mode, settings), ""
     except (BallscrewTwinError, ValueError, OSError) as err:  # e.g. MapError: map missing/stale
@@ -160,7 +138,7 @@ def _try_build(mode: str, settings: ModelSettings) -> tuple[TimeSteppingModel | 
 
 
 def unavailable(mode: str, settings: ModelSettings) -> str | None:
-    """Why ``mode`` cannot be built here (module missing, map missing or stale), or None."""
+    """Why ``mode`` cannot be built here (e.g. its map missing or stale), or None."""
     return _try_build(mode, settings)[1] or None
 
 

@@ -3,13 +3,13 @@
 No rclpy here: the node reads :meth:`RealTimeTables.table` for its models,
 :meth:`RealTimeTables.check` for ``/diagnostics`` and polls :meth:`RealTimeTables.take_built`.
 
-On start-up :func:`~ballscrew_twin.models.steady_map.find_map` looks for a table built for the
+On start-up :func:`~ballscrew_twin.models.map_store.find_map` looks for a table built for the
 screw's parameter set (the ``realtime_map`` file if given, the packaged table, the user cache);
 a file built for other parameters is refused (fingerprint) and the reason is kept for
 ``/diagnostics``. Without a table, and with ``workers`` > 0, the node
 
 1. loads or builds (in this process, about 3 s) the small preview table of the screw
-   (:data:`~ballscrew_twin.models.steady_map.PREVIEW_NODES`), so that the real-time model
+   (:data:`~ballscrew_twin.models.map_grid.PREVIEW_NODES`), so that the real-time model
    serves per-sphere states from the first ticks;
 2. builds the full table on a thread of its own in ``workers`` niced processes (the node's
    ticks keep their core), reporting progress to the console and to ``/diagnostics``, saves it
@@ -25,8 +25,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import BallscrewTwinError, BuildCancelledError
-from ..models import steady_map
-from ..models.steady_map import MapSearch, SteadyMap
+from ..models import map_build, map_grid, map_store
+from ..models.map_store import MapSearch
+from ..models.steady_map import SteadyMap, config_fingerprint, load_map
 from ..params import TwinConfig
 from . import diagnostics
 
@@ -67,7 +68,7 @@ class RealTimeTables:
         self.workers = workers
         self._log = log
         self._lock = threading.Lock()
-        self.search = steady_map.find_map(config, path) if wanted else MapSearch(None, "", ())
+        self.search = map_store.find_map(config, path) if wanted else MapSearch(None, "", ())
         self._table: SteadyMap | None = self.search.table
         self.source = self.search.path
         self.preview = False
@@ -95,17 +96,17 @@ class RealTimeTables:
 
     def _start_preview(self) -> None:
         """Load or build (one process) the preview table of the screw; on failure no table."""
-        grid = steady_map.grid_for(self.config, preview=True)
-        path = steady_map.cached_map_path(self.config, grid)
+        grid = map_grid.grid_for(self.config, preview=True)
+        path = map_store.cached_map_path(self.config, grid)
         start = time.monotonic()
         try:
-            fingerprint = steady_map.config_fingerprint(self.config)
-            cached = path.is_file() and steady_map.map_fingerprint(path) == fingerprint
-            table = steady_map.load_map(path) if cached else None
+            fingerprint = config_fingerprint(self.config)
+            cached = path.is_file() and map_store.map_fingerprint(path) == fingerprint
+            table = load_map(path) if cached else None
             if table is None:
                 self._log(f"no real-time table for {self.config.source}: building a preview")
-                table = steady_map.build_map(self.config, grid, workers=1, progress=False)
-                steady_map.save_atomic(table, path)
+                table = map_build.build_map(self.config, grid, workers=1)
+                map_store.save_atomic(table, path)
         except (BallscrewTwinError, OSError) as err:
             self._error = f"preview table: {err}"
             self._log(self._error)
@@ -133,18 +134,17 @@ class RealTimeTables:
     def _build(self) -> None:
         """Build thread: the full table, saved to the cache, then offered by take_built."""
         start = time.monotonic()
-        grid = steady_map.grid_for(self.config)
-        path = steady_map.cached_map_path(self.config, grid)
+        grid = map_grid.grid_for(self.config)
+        path = map_store.cached_map_path(self.config, grid)
         try:
-            table = steady_map.build_map(
+            table = map_build.build_map(
                 self.config,
                 grid,
                 workers=self.workers,
-                progress=False,
                 on_progress=self._on_progress,
-                niceness=steady_map.WORKER_NICENESS,
+                niceness=map_build.WORKER_NICENESS,
             )
-            steady_map.save_atomic(table, path)
+            map_store.save_atomic(table, path)
         except BuildCancelledError:
             return
         except Exception as err:  # a failed build must not stop the node: reported instead

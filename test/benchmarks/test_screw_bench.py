@@ -12,10 +12,12 @@ import pytest
 
 from ballscrew_twin.benchmarks import screw
 from ballscrew_twin.cli import main
+from ballscrew_twin.models import map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.params import load_config
+from ballscrew_twin.units import RPM
 
 NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
 
@@ -26,7 +28,7 @@ def test_continued_reference_is_the_steady_state_of_the_point() -> None:
     config = load_config(NEW_SCREW)
     model = SteadyStateModel(config, mode="symmetric", tolerance=1e-11)
     op = OperatingPoint(screw_speed=-80.0, temperature=293.15, preload=1500.0)
-    continued = screw.continued(model, op, sm.grid_for(config).speed_min)
+    continued = screw.continued(model, op, map_grid.grid_for(config).speed_min)
     assert continued.operating_point == op
     cold = SteadyStateModel(config, mode="symmetric", tolerance=1e-11).evaluate(op)
     assert continued.drag_torque == pytest.approx(cold.drag_torque, rel=1e-8)
@@ -36,12 +38,12 @@ def test_accuracy_rows_of_a_small_table(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    original = sm.grid_for
+    original = map_grid.grid_for
 
-    def small(config: object, preview: bool = False) -> sm.MapGrid:
+    def small(config: object, preview: bool = False) -> map_grid.MapGrid:
         return replace(original(config, preview), speed_nodes=5)  # type: ignore[arg-type]
 
-    monkeypatch.setattr(sm, "grid_for", small)
+    monkeypatch.setattr(map_grid, "grid_for", small)
     monkeypatch.setattr(screw, "grid_for", small)
     build = ["map", "build", "--config", str(NEW_SCREW), "--workers", "1", "--no-progress"]
     assert main([*build, "--preview"]) == 0
@@ -60,7 +62,7 @@ def test_accuracy_rows_of_a_small_table(
     assert not any("| full |" in line for line in text.splitlines())  # none built
     config = load_config(NEW_SCREW)
     grid = small(config, preview=True)
-    ops = screw.accuracy_points(sm.load_map(sm.cached_map_path(config, grid)), 200, 1)
+    ops = screw.accuracy_points(sm.load_map(map_store.cached_map_path(config, grid)), 200, 1)
     assert all(0.0 <= op.preload <= screw.MAX_PRELOAD for op in ops)
-    assert all(0.1 * sm.RPM <= abs(op.screw_speed) <= grid.speed_max * (1 + 1e-12) for op in ops)
+    assert all(0.1 * RPM <= abs(op.screw_speed) <= grid.speed_max * (1 + 1e-12) for op in ops)
     assert any(op.preload < 20.0 for op in ops) and not any(math.isnan(op.preload) for op in ops)

@@ -23,7 +23,8 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from ballscrew_twin.kernels import contacts as kernel
+from ballscrew_twin.kernels import contact_law, contact_layout
+from ballscrew_twin.kernels import scalar_laws as kernel
 from ballscrew_twin.kernels.contacts import (
     contacts_kernel,
     evaluate_contacts_compiled,
@@ -224,8 +225,8 @@ def test_law_constants_are_those_of_the_reference() -> None:
         assert getattr(kernel, name) == getattr(rolling, name), name
     from ballscrew_twin.models import contact_forces
 
-    assert kernel.SPIN_SLIDING_FACTOR == contact_forces.SPIN_SLIDING_FACTOR
-    rows = kernel.CONTACT_FIELDS[-len(DISSIPATION_KEYS) :]  # "spin" is a field name too
+    assert contact_law.SPIN_SLIDING_FACTOR == contact_forces.SPIN_SLIDING_FACTOR
+    rows = contact_layout.CONTACT_FIELDS[-len(DISSIPATION_KEYS) :]  # "spin" is a field name too
     assert rows == (*MECHANISMS[:-1], "spin_dissipation", "normal_damping")
 
 

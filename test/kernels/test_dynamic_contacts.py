@@ -7,8 +7,8 @@ The numba kernel against the numpy reference, and the reference against its own 
 import numpy as np
 import pytest
 
+from ballscrew_twin.kernels.contact_layout import N_STATICS
 from ballscrew_twin.kernels.contacts import (
-    N_STATICS,
     contacts_kernel,
     contacts_kinetics_kernel,
     contacts_statics_kernel,

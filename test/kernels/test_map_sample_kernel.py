@@ -9,6 +9,7 @@ import itertools
 import numpy as np
 import pytest
 
+from ballscrew_twin.models import map_grid
 from ballscrew_twin.models import steady_map as sm
 
 RNG_SEED = 20261121
@@ -19,7 +20,7 @@ def table() -> sm.SteadyMap:
     return sm.load_map()
 
 
-def _queries(grid: sm.MapGrid, count: int) -> list[tuple[float, float, tuple[float, float]]]:
+def _queries(grid: map_grid.MapGrid, count: int) -> list[tuple[float, float, tuple[float, float]]]:
     """Random queries over and beyond the map: both speed signs, the standstill blend below
     speed_min, exact zero, clamping on every axis, equal and unequal nut preloads, and nodes."""
     rng = np.random.default_rng(RNG_SEED)
@@ -50,7 +51,7 @@ def test_compiled_equals_reference(table: sm.SteadyMap, contacts: bool) -> None:
         fast = table.sample(speed, temperature, preloads, contacts=contacts, compiled=True)
         ref = table.sample(speed, temperature, preloads, contacts=contacts, compiled=False)
         assert fast.notes == ref.notes
-        assert fast.torque.shape == ref.torque.shape == (sm.NUTS, 6)
+        assert fast.torque.shape == ref.torque.shape == (map_grid.NUTS, 6)
         scale = np.abs(ref.torque).max() + 1e-12
         worst_torque = max(worst_torque, float(np.abs(fast.torque - ref.torque).max() / scale))
         if not contacts:

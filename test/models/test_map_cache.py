@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.cli import main
+from ballscrew_twin.models import map_build, map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
@@ -25,14 +26,14 @@ RPM = 2.0 * math.pi / 60.0
 def user_cache(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A user cache of this test alone."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    return tmp_path / "cache" / sm.CACHE_FOLDER
+    return tmp_path / "cache" / map_store.CACHE_FOLDER
 
 
 def _tiny_map(config_fingerprint: str) -> sm.SteadyMap:
     """A map of the smallest buildable grid with constant tables (content is not read)."""
-    grid = sm.MapGrid(speed_nodes=5, temperature_nodes=5, preload_nodes=5)
+    grid = map_grid.MapGrid(speed_nodes=5, temperature_nodes=5, preload_nodes=5)
     coarse = grid.coarse()
-    f = len(sm.CONTACT_FIELDS)
+    f = len(map_grid.CONTACT_FIELDS)
     shape = (2, grid.speed_nodes, grid.temperature_nodes, grid.preload_nodes)
     small = (2, coarse.speed_nodes, coarse.temperature_nodes, coarse.preload_nodes)
     return sm.SteadyMap(
@@ -56,48 +57,48 @@ def test_the_new_screw_loads_and_differs_from_the_paper_screw() -> None:
 def test_cache_dir_follows_xdg_and_falls_back_to_home(
     user_cache: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    assert sm.cache_dir() == user_cache
+    assert map_store.cache_dir() == user_cache
     monkeypatch.setenv("XDG_CACHE_HOME", "relative/path")  # not absolute: ignored (XDG spec)
-    assert sm.cache_dir() == Path.home() / ".cache" / sm.CACHE_FOLDER
-    assert sm.DEFAULT_MAP_PATH.parent not in sm.cache_dir().parents
+    assert map_store.cache_dir() == Path.home() / ".cache" / map_store.CACHE_FOLDER
+    assert sm.DEFAULT_MAP_PATH.parent not in map_store.cache_dir().parents
 
 
 def test_grid_ends_at_the_critical_speed_and_the_paper_grid_is_the_packaged_one() -> None:
     new = load_config(NEW_SCREW)
-    grid = sm.grid_for(new)
+    grid = map_grid.grid_for(new)
     assert grid.speed_max == pytest.approx(new.screw.critical_speed)
     assert (grid.speed_nodes, grid.temperature_nodes) == (49, 29)
-    preview = sm.grid_for(new, preview=True)
+    preview = map_grid.grid_for(new, preview=True)
     nodes = (preview.speed_nodes, preview.temperature_nodes, preview.preload_nodes)
-    assert nodes == sm.PREVIEW_NODES
+    assert nodes == map_grid.PREVIEW_NODES
     assert preview.speed_max == grid.speed_max
-    assert sm.grid_for(load_config(None)) == sm.load_map().grid
+    assert map_grid.grid_for(load_config(None)) == sm.load_map().grid
     slowest = replace(new, screw=replace(new.screw, critical_speed=1.0))  # lowest allowed
-    assert sm.grid_for(slowest).speed_max == 1.0
+    assert map_grid.grid_for(slowest).speed_max == 1.0
 
 
 def test_find_map_refuses_a_table_of_other_parameters_and_says_why(user_cache: Path) -> None:
     new = load_config(NEW_SCREW)
     paper = load_config(None)
     # The packaged table serves the paper screw and is refused for the new one.
-    assert sm.find_map(paper).path == str(sm.DEFAULT_MAP_PATH)
-    search = sm.find_map(new)
+    assert map_store.find_map(paper).path == str(sm.DEFAULT_MAP_PATH)
+    search = map_store.find_map(new)
     assert search.table is None
     assert len(search.refused) == 1 and "built for other parameters" in search.refused[0]
     # A table of the paper screw passed as a file is refused too, named.
     other = user_cache / "other.npz"
-    sm.save_atomic(_tiny_map(sm.config_fingerprint(paper)), other)
-    search = sm.find_map(new, other)
+    map_store.save_atomic(_tiny_map(sm.config_fingerprint(paper)), other)
+    search = map_store.find_map(new, other)
     assert search.table is None and str(other) in search.refused[0]
     # A missing or corrupt file is named; the table cached under the fingerprint is found.
-    assert "no such file" in sm.find_map(new, user_cache / "none.npz").refused[0]
+    assert "no such file" in map_store.find_map(new, user_cache / "none.npz").refused[0]
     corrupt = user_cache / "corrupt.npz"
     corrupt.write_bytes(b"not a map")
-    assert "not a readable steady map" in sm.find_map(new, corrupt).refused[0]
-    cached = sm.cached_map_path(new, sm.grid_for(new))
+    assert "not a readable steady map" in map_store.find_map(new, corrupt).refused[0]
+    cached = map_store.cached_map_path(new, map_grid.grid_for(new))
     assert cached.parent == user_cache and sm.config_fingerprint(new)[:20] in cached.name
-    sm.save_atomic(_tiny_map(sm.config_fingerprint(new)), cached)
-    found = sm.find_map(new, other)
+    map_store.save_atomic(_tiny_map(sm.config_fingerprint(new)), cached)
+    found = map_store.find_map(new, other)
     assert found.table is not None and found.path == str(cached)
     assert len(found.refused) == 2  # the file given and the packaged table, each with why
     assert sorted(p.name for p in user_cache.iterdir() if "partial" in p.name) == []
@@ -109,10 +110,14 @@ def test_map_command_finds_and_builds_the_preview_table(
     assert main(["map", "find", "--config", str(NEW_SCREW)]) == 1
     assert "map build --config" in capsys.readouterr().out
     args = ["map", "build", "--config", str(NEW_SCREW), "--preview", "--workers", "1"]
-    assert main([*args, "--no-progress"]) == 0
+    assert main(args) == 0
     new = load_config(NEW_SCREW)
-    path = sm.cached_map_path(new, sm.grid_for(new, preview=True))
-    assert str(path) in capsys.readouterr().out
+    grid = map_grid.grid_for(new, preview=True)
+    path = map_store.cached_map_path(new, grid)
+    printed = capsys.readouterr()
+    assert str(path) in printed.out
+    lines = 2 * grid.temperature_nodes * grid.preload_nodes  # one task per sign and node pair
+    assert "steady map" in printed.err and f"{lines}/{lines}" in printed.err  # the bar, done
     table = sm.load_map(path)
     assert table.fingerprint == sm.config_fingerprint(new)
     # The preview table agrees with the steady model at one of its own nodes.
@@ -122,7 +127,7 @@ def test_map_command_finds_and_builds_the_preview_table(
         temperature=float(g.temperatures[2]),
         preload=float(g.preloads[6]),
     )
-    steady = SteadyStateModel(new, mode="symmetric", tolerance=sm.MAP_TOLERANCE)
+    steady = SteadyStateModel(new, mode="symmetric", tolerance=map_build.MAP_TOLERANCE)
     expected = steady.evaluate(op).drag_torque
     sample = table.sample(op.screw_speed, op.temperature, (op.preload, op.preload), False)
     assert sample.torque.sum() == pytest.approx(expected, rel=1e-6)  # float32 storage

@@ -10,13 +10,14 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.errors import MapError
+from ballscrew_twin.models import map_build, map_grid
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.params import load_config
 
 RPM = 2.0 * math.pi / 60.0
-GRID = sm.MapGrid(
+GRID = map_grid.MapGrid(
     speed_min=10 * RPM,
     speed_max=1000 * RPM,
     speed_nodes=5,
@@ -26,10 +27,10 @@ GRID = sm.MapGrid(
     preload_max=1600.0,
     preload_nodes=5,
 )
-F = len(sm.CONTACT_FIELDS)
+F = len(map_grid.CONTACT_FIELDS)
 
 
-def _coordinates(grid: sm.MapGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _coordinates(grid: map_grid.MapGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Node coordinates in which the map is uniform: log speed, temperature, sqrt preload."""
     return np.log(grid.speeds), grid.temperatures, np.sqrt(grid.preloads)
 
@@ -42,7 +43,7 @@ def _linear(
 
 def _from_interpolated(name: str, value: np.ndarray | float) -> np.ndarray:
     """The field value whose interpolated form (asinh for LOG_SCALES fields) is ``value``."""
-    scale = sm.LOG_SCALES.get(name)
+    scale = map_grid.LOG_SCALES.get(name)
     return np.asarray(value if scale is None else scale * np.sinh(value))
 
 
@@ -53,13 +54,15 @@ def _synthetic_map() -> sm.SteadyMap:
     torque = np.zeros((2, *s.shape, 2, len(MECHANISMS)))
     for sign, direction in enumerate((1.0, -1.0)):
         for nut in range(2):
-            total = direction * sm.TORQUE_SCALE * np.sinh(_linear(s, t, p, 0.9, 0.01, 0.02 + nut))
+            total = (
+                direction * map_grid.TORQUE_SCALE * np.sinh(_linear(s, t, p, 0.9, 0.01, 0.02 + nut))
+            )
             shares = np.linspace(0.1, 0.3, len(MECHANISMS))
             torque[sign, ..., nut, :] = total[..., None] * shares / shares.sum()
     coarse = GRID.coarse()
     cs, ct, cp = np.meshgrid(*_coordinates(coarse), indexing="ij")
     contacts = np.zeros((2, *cs.shape, 2, 4, F))
-    for j, name in enumerate(sm.CONTACT_FIELDS):
+    for j, name in enumerate(map_grid.CONTACT_FIELDS):
         linear = _linear(cs, ct, cp, 1.0 + j, 0.02, 0.5)[None, ..., None, None]
         contacts[..., j] = _from_interpolated(name, linear)
     static = np.full((*cs.shape[1:], 2, 4, F), 7.0)
@@ -87,7 +90,7 @@ def test_interpolation_reproduces_linear_fields(sign: float) -> None:
         for nut in range(2):
             exact = (
                 sign
-                * sm.TORQUE_SCALE
+                * map_grid.TORQUE_SCALE
                 * math.sinh(
                     1.0
                     + 0.9 * math.log(speed)
@@ -104,7 +107,7 @@ def test_interpolation_reproduces_linear_fields(sign: float) -> None:
                     + 0.02 * temperature
                     + 0.5 * math.sqrt(preloads[nut]),
                 )
-                for j, name in enumerate(sm.CONTACT_FIELDS)
+                for j, name in enumerate(map_grid.CONTACT_FIELDS)
             ]
             np.testing.assert_allclose(sample.contacts[nut, 2], expected, rtol=1e-9)
 
@@ -162,7 +165,7 @@ def test_grid_validation() -> None:
         replace(GRID, speed_min=-1.0)
     with pytest.raises(MapError, match="odd"):
         replace(GRID, preload_nodes=6).check_buildable()
-    assert sm.MapGrid.from_array(GRID.as_array()) == GRID
+    assert map_grid.MapGrid.from_array(GRID.as_array()) == GRID
 
 
 def test_failed_nodes_take_the_nearest_solved_speed_or_line() -> None:
@@ -170,17 +173,17 @@ def test_failed_nodes_take_the_nearest_solved_speed_or_line() -> None:
     failed = np.zeros_like(table, dtype=bool)
     failed[0, 0, 1] = failed[0, 1, 1] = failed[1, 3, 0] = True
     filled = table.copy()
-    sm._fill_failed(filled, failed)
+    map_build.fill_failed(filled, failed)
     assert filled[0, 0, 1] == table[0, 2, 1] and filled[0, 1, 1] == table[0, 2, 1]
     assert filled[1, 3, 0] == table[1, 2, 0]  # nearer below than above: ties go down
     failed[1, :, 1] = True  # a whole speed line: the nearest line in the last axis
     filled = table.copy()
-    sm._fill_failed(filled, failed)
+    map_build.fill_failed(filled, failed)
     assert np.array_equal(filled[1, :3, 1], table[1, :3, 0])
     assert filled[1, 3, 1] == table[1, 2, 0]  # that line's own failed node, filled first
     failed[1, :, 0] = True
     with pytest.raises(MapError, match="every speed"):
-        sm._fill_failed(table.copy(), failed)
+        map_build.fill_failed(table.copy(), failed)
 
 
 def test_nuts_are_independent_given_their_equivalent_preload() -> None:
@@ -192,10 +195,10 @@ def test_nuts_are_independent_given_their_equivalent_preload() -> None:
     )
     master_alike = replace(point, preload=1300.0, axial_load=0.0)
     slave_alike = replace(point, axial_load=0.0)
-    assert sm.equivalent_preloads(point) == (1300.0, 900.0)
-    both = sm.node_values(model, point)
-    master = sm.node_values(model, master_alike)
-    slave = sm.node_values(model, slave_alike)
+    assert map_grid.equivalent_preloads(point) == (1300.0, 900.0)
+    both = map_build.node_values(model, point)
+    master = map_build.node_values(model, master_alike)
+    slave = map_build.node_values(model, slave_alike)
     np.testing.assert_allclose(both.torque[0], master.torque[0], rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(both.torque[1], slave.torque[1], rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(both.contacts[0], master.contacts[0], rtol=1e-6, atol=1e-12)
@@ -219,11 +222,11 @@ def test_committed_map_matches_the_current_steady_model() -> None:
             temperature=float(rng.uniform(253.15, 353.15)),
             preload=float(rng.uniform(200.0, 3500.0)),
         )
-        sample = table.sample(op.screw_speed, op.temperature, sm.equivalent_preloads(op))
+        sample = table.sample(op.screw_speed, op.temperature, map_grid.equivalent_preloads(op))
         reference = model.evaluate(op)
         assert sample.torque.sum() == pytest.approx(reference.drag_torque, rel=0.01), op
         assert reference.contacts is not None
-        force = sample.contacts[..., sm.CONTACT_FIELDS.index("normal_force")].reshape(-1)
+        force = sample.contacts[..., map_grid.CONTACT_FIELDS.index("normal_force")].reshape(-1)
         np.testing.assert_allclose(force, reference.contacts.normal_force, rtol=0.02, atol=1e-6)
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
@@ -14,18 +15,21 @@ from ballscrew_twin.ros import fidelity
 from ballscrew_twin.ros.fidelity import CachedQuasiStatic, ModelSettings, choose
 
 SETTINGS = ModelSettings(config=load_config(None))
+NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
 OP = OperatingPoint(screw_speed=10.47, temperature=293.15, preload=1500.0)
 
 
 def test_auto_without_realtime_takes_catalog_and_says_why(
-    monkeypatch: pytest.MonkeyPatch,
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(fidelity, "REALTIME_MODULE", "ballscrew_twin.models.no_such_module")
-    choice = choose("auto", SETTINGS)
+    """A screw with no real-time table (none packaged for it, an empty user cache)."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    settings = ModelSettings(config=load_config(NEW_SCREW))
+    choice = choose("auto", settings)
     assert choice.mode == "catalog"
-    assert "realtime" in choice.reason and "not importable" in choice.reason
+    assert "realtime" in choice.reason and "no real-time table" in choice.reason
     with pytest.raises(FidelityError, match="realtime"):
-        choose("realtime", SETTINGS)
+        choose("realtime", settings)
 
 
 def test_stepping_down_never_goes_up() -> None:

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from rclpy.executors import SingleThreadedExecutor
 
+from ballscrew_twin.models import map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.params import load_config
@@ -27,14 +28,14 @@ NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
 def small_grids(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A user cache of this test alone and tables of a few nodes (built in about a second)."""
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
-    original = sm.grid_for
+    original = map_grid.grid_for
 
-    def small(config: object, preview: bool = False) -> sm.MapGrid:
+    def small(config: object, preview: bool = False) -> map_grid.MapGrid:
         grid = original(config, preview)  # type: ignore[arg-type]
         nodes = 5 if preview else 7
         return replace(grid, speed_nodes=nodes, temperature_nodes=5, preload_nodes=nodes)
 
-    monkeypatch.setattr(sm, "grid_for", small)
+    monkeypatch.setattr(map_grid, "grid_for", small)
 
 
 def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
@@ -56,7 +57,10 @@ def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
         time.sleep(0.05)
     assert built is not None, lines
     assert not tables.preview and tables.table is built.table
-    assert built.path == sm.cached_map_path(config, sm.grid_for(config)) and built.path.is_file()
+    assert (
+        built.path == map_store.cached_map_path(config, map_grid.grid_for(config))
+        and built.path.is_file()
+    )
     assert any("100%" in line for line in lines)  # progress on the console
     check = tables.check()
     assert check.level == diagnostics.OK and str(built.path) in check.message

@@ -403,7 +403,6 @@ def _with_fake_realtime(monkeypatch: pytest.MonkeyPatch, fail: bool) -> None:
     def build(mode: str, settings: ModelSettings) -> object:
         return FakeRealTime(fail) if mode == "realtime" else real_build(mode, settings)
 
-    monkeypatch.setattr(fidelity, "realtime_unavailable", lambda: None)
     monkeypatch.setattr(fidelity, "build", build)
 
 

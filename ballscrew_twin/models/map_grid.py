@@ -1,0 +1,177 @@
+"""What the steady map tabulates and on which nodes: its layout, :class:`MapGrid`, :func:`grid_for`.
+
+The table holds, per speed sign, speed, temperature and equivalent-preload node and per nut, the
+drag torque by mechanism and the states of one sphere's four half-groove contacts
+(:data:`CONTACT_FIELDS`); :mod:`.steady_map` reads it, :mod:`.map_build` fills it. SI units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import MapError
+from ..params import TwinConfig
+from ..units import CELSIUS_ZERO, RPM
+from .base import OperatingPoint
+
+FloatArray = NDArray[np.float64]
+
+#: Torque scale of the asinh transform of the nut torque [N m] (linear below, log above).
+TORQUE_SCALE = 1e-6
+#: Contact quantities tabulated per half groove (names of :class:`~.base.ContactStates`);
+#: ``in_contact`` is tabulated as 0/1 and read back as "interpolated value > 0.5".
+CONTACT_FIELDS: tuple[str, ...] = (
+    "normal_force",
+    "friction_force",
+    "contact_angle",
+    "approach",
+    "stiffness",
+    "max_pressure",
+    "semi_axis_x",
+    "semi_axis_y",
+    "film_thickness",
+    "tallian_parameter",
+    "load_share",
+    "shear_stress",
+    "lubricant_share",
+    "slip_speed",
+    "in_contact",
+)
+#: Contact fields that follow power laws of speed, viscosity and load (the film and what it
+#: drives): interpolated as asinh(value / scale), logarithmic well above the scale (SI units).
+LOG_SCALES: dict[str, float] = {
+    "friction_force": 1e-9,
+    "film_thickness": 1e-12,
+    "tallian_parameter": 1e-6,
+    "shear_stress": 1e-3,
+    "slip_speed": 1e-9,
+}
+HALF_GROOVES = 4
+NUTS = 2
+NUT_NAMES = ("master", "slave")
+#: Node counts (speed, temperature, preload) of the preview table of a new screw: built in
+#: seconds, it serves while the full table is built (its error is measured by ``bench screw``).
+PREVIEW_NODES = (9, 7, 9)
+
+
+def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
+    """Preload [N] that loads the (master, slave) nut as ``op`` does, with no external load.
+
+    The external axial load acts on the master nut only (``SteadyStateModel.nut_axial_loads``),
+    so the master nut carries preload + axial load and the slave nut the preload.
+    """
+    return op.preload + op.axial_load, op.preload
+
+
+@dataclass(frozen=True)
+class MapGrid:
+    """Nodes of the map (odd node counts for a map: the contact table keeps every other node).
+
+    Attributes:
+        speed_min: lowest tabulated |screw speed| [rad/s] (> 0).
+        speed_max: highest tabulated |screw speed| [rad/s].
+        speed_nodes: nodes per speed sign, uniform in log |speed|.
+        temperature_min: lowest temperature [K].
+        temperature_max: highest temperature [K].
+        temperature_nodes: nodes uniform in temperature.
+        preload_max: highest equivalent preload [N] (the lowest is 0 N).
+        preload_nodes: nodes uniform in sqrt(preload).
+    """
+
+    speed_min: float = 0.05 * RPM
+    speed_max: float = 6000.0 * RPM
+    speed_nodes: int = 49
+    temperature_min: float = CELSIUS_ZERO - 40.0
+    temperature_max: float = CELSIUS_ZERO + 100.0
+    temperature_nodes: int = 29
+    preload_max: float = 4000.0
+    preload_nodes: int = 33
+
+    def __post_init__(self) -> None:
+        checks = (
+            ("speed_min", 0.0 < self.speed_min < self.speed_max, "rad/s, 0 < speed_min < max"),
+            ("temperature_min", 138.0 < self.temperature_min < self.temperature_max, "K, < max"),
+            ("preload_max", self.preload_max > 0.0, "N, > 0"),
+        )
+        for name, ok, unit in checks:
+            if not ok:
+                raise MapError(f"map grid: {name} = {getattr(self, name)!r} is invalid ({unit})")
+        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
+            if getattr(self, name) < 2:
+                raise MapError(f"map grid: {name} = {getattr(self, name)} must be >= 2")
+
+    def check_buildable(self) -> None:
+        """Raise :class:`MapError` unless every node count is odd and >= 5 (see :meth:`coarse`)."""
+        for name in ("speed_nodes", "temperature_nodes", "preload_nodes"):
+            count = getattr(self, name)
+            if count < 5 or count % 2 == 0:
+                raise MapError(f"map grid: {name} = {count} must be odd and >= 5")
+
+    @property
+    def speeds(self) -> FloatArray:
+        """|Speed| nodes [rad/s], ascending."""
+        low, high = math.log(self.speed_min), math.log(self.speed_max)
+        return np.exp(np.linspace(low, high, self.speed_nodes))
+
+    @property
+    def temperatures(self) -> FloatArray:
+        """Temperature nodes [K]."""
+        return np.linspace(self.temperature_min, self.temperature_max, self.temperature_nodes)
+
+    @property
+    def preloads(self) -> FloatArray:
+        """Equivalent-preload nodes [N], uniform in sqrt(preload)."""
+        return np.linspace(0.0, math.sqrt(self.preload_max), self.preload_nodes) ** 2
+
+    def coarse(self) -> MapGrid:
+        """Every other node of each axis (the grid of the contact table)."""
+        return replace(
+            self,
+            speed_nodes=self.speed_nodes // 2 + 1,
+            temperature_nodes=self.temperature_nodes // 2 + 1,
+            preload_nodes=self.preload_nodes // 2 + 1,
+        )
+
+    def as_array(self) -> FloatArray:
+        """The grid as 8 numbers (for saving)."""
+        return np.array(
+            [
+                self.speed_min,
+                self.speed_max,
+                self.speed_nodes,
+                self.temperature_min,
+                self.temperature_max,
+                self.temperature_nodes,
+                self.preload_max,
+                self.preload_nodes,
+            ],
+            dtype=np.float64,
+        )
+
+    @classmethod
+    def from_array(cls, values: FloatArray) -> MapGrid:
+        """Inverse of :meth:`as_array`."""
+        v = [float(x) for x in values]
+        if len(v) != 8:
+            raise MapError(f"map grid: {len(v)} numbers, expected 8")
+        return cls(v[0], v[1], int(v[2]), v[3], v[4], int(v[5]), v[6], int(v[7]))
+
+
+def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
+    """The grid of ``config``'s table: the packaged table's nodes, with the speed range ending at
+    the screw's critical speed when that is below 6000 rpm (the validity envelope clamps any
+    faster command there, so nodes beyond it would never be read). ``preview``: the
+    :data:`PREVIEW_NODES` grid over the same ranges."""
+    grid = MapGrid()
+    # params.py keeps the critical speed >= 1 rad/s, far above the lowest node (0.05 rpm).
+    grid = replace(grid, speed_max=min(grid.speed_max, config.screw.critical_speed))
+    if preview:
+        speed, temperature, preload = PREVIEW_NODES
+        grid = replace(
+            grid, speed_nodes=speed, temperature_nodes=temperature, preload_nodes=preload
+        )
+    return grid

@@ -1,0 +1,136 @@
+"""Tensor Catmull-Rom interpolation on the steady map's grid (numpy, the readable reference).
+
+Each axis is a sequence of nodes; a query falls in a cell of each axis (:func:`axis_cell`, in
+node units: :func:`speed_node`, :func:`temperature_node`, :func:`preload_node`) and is the
+weighted sum of the 4 x 4 x 4 nodes around it (:func:`catmull_rom_weights`; C1). The edge cells
+use a linearly extrapolated ghost node (:func:`pad_axis`). The compiled twin is
+``kernels/map_sample.py``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .map_grid import MapGrid
+
+FloatArray = NDArray[np.float64]
+
+
+def catmull_rom_weights(t: float) -> FloatArray:
+    """Weights of the four nodes i-1, i, i+1, i+2 at fraction ``t`` in [0, 1] of cell [i, i+1]."""
+    t2, t3 = t * t, t * t * t
+    return 0.5 * np.array(
+        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
+    )
+
+
+def catmull_rom_rows(t: FloatArray) -> FloatArray:
+    """(N, 4) weights of :func:`catmull_rom_weights` for each fraction of ``t`` (N,)."""
+    t2, t3 = t * t, t * t * t
+    return 0.5 * np.column_stack(
+        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
+    )
+
+
+def pad_axis(table: FloatArray, axis: int) -> FloatArray:
+    """Add a linearly extrapolated ghost node at both ends of ``axis``."""
+    first, second = np.take(table, [0], axis=axis), np.take(table, [1], axis=axis)
+    last, before = np.take(table, [-1], axis=axis), np.take(table, [-2], axis=axis)
+    return np.concatenate([2.0 * first - second, table, 2.0 * last - before], axis=axis)
+
+
+#: Where a query falls on one axis: index of its cell (= the first node of its 4-node stencil
+#: in the padded table) and the fraction of the cell [-].
+AxisCell = tuple[int, float]
+
+
+def axis_cell(u: float, count: int) -> AxisCell:
+    """Cell and fraction of ``u`` in node units (0 .. count-1) on an axis of ``count`` nodes,
+    clamped to the axis."""
+    u = min(max(u, 0.0), count - 1.0)
+    cell = min(int(u), count - 2)
+    return cell, u - cell
+
+
+def speed_node(grid: MapGrid, speed: float) -> float:
+    """|speed| [rad/s] in node units of ``grid``'s speed axis (uniform in log |speed|) [-]."""
+    u = math.log(max(speed, grid.speed_min) / grid.speed_min) / math.log(
+        grid.speed_max / grid.speed_min
+    )
+    return u * (grid.speed_nodes - 1)
+
+
+def temperature_node(grid: MapGrid, temperature: float) -> float:
+    """The temperature [K] in node units of ``grid``'s temperature axis (uniform) [-]."""
+    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
+    return u * (grid.temperature_nodes - 1)
+
+
+def preload_node(grid: MapGrid, preload: float) -> float:
+    """The equivalent preload [N] in node units of ``grid``'s preload axis (uniform in
+    sqrt(preload)) [-]."""
+    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
+    return u * (grid.preload_nodes - 1)
+
+
+class QueryCells(NamedTuple):
+    """Where one query falls on the axes of one grid (one preload cell per nut)."""
+
+    speed: AxisCell
+    temperature: AxisCell
+    preloads: tuple[AxisCell, ...]
+
+
+def query_cells(
+    grid: MapGrid, speed: float, temperature: float, preloads: tuple[float, float]
+) -> QueryCells:
+    """The cells of |``speed``| [rad/s], ``temperature`` [K] and each nut's equivalent preload
+    [N] on ``grid``."""
+    return QueryCells(
+        axis_cell(speed_node(grid, speed), grid.speed_nodes),
+        axis_cell(temperature_node(grid, temperature), grid.temperature_nodes),
+        tuple(axis_cell(preload_node(grid, p), grid.preload_nodes) for p in preloads),
+    )
+
+
+@dataclass(frozen=True)
+class AxisPosition:
+    """A 4-node stencil on one axis: its first node in the padded table and its weights."""
+
+    start: int
+    weights: FloatArray
+
+
+def stencil_position(cell: AxisCell) -> AxisPosition:
+    """The Catmull-Rom stencil of ``cell``."""
+    return AxisPosition(start=cell[0], weights=catmull_rom_weights(cell[1]))
+
+
+@dataclass(frozen=True)
+class Positions:
+    """Stencils of one query on the three axes."""
+
+    speed: AxisPosition
+    temperature: AxisPosition
+    preload: AxisPosition
+
+
+def stencil(table: FloatArray, pos: Positions) -> FloatArray:
+    """Interpolate a padded (S, T, P, nut, V) table at ``pos``: (nut, V)."""
+    s, t, p = pos.speed.start, pos.temperature.start, pos.preload.start
+    block = table[s : s + 4, t : t + 4, p : p + 4]
+    w = np.outer(np.outer(pos.speed.weights, pos.temperature.weights), pos.preload.weights)
+    return np.asarray(w.reshape(64) @ block.reshape(64, -1)).reshape(table.shape[3:])
+
+
+def stencil_2d(table: FloatArray, pos: Positions) -> FloatArray:
+    """Interpolate a padded (T, P, nut, V) table at ``pos`` (speed unused): (nut, V)."""
+    t, p = pos.temperature.start, pos.preload.start
+    w = np.outer(pos.temperature.weights, pos.preload.weights)
+    block = table[t : t + 4, p : p + 4]
+    return np.asarray(w.reshape(16) @ block.reshape(16, -1)).reshape(table.shape[2:])
