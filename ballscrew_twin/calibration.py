@@ -256,22 +256,15 @@ def steady_segments(recording: BenchRecording, criteria: SteadyCriteria) -> list
 
 
 def bag_targets(
-    args: argparse.Namespace, criteria: SteadyCriteria
+    path: str | Path, topics: BenchTopics, criteria: SteadyCriteria
 ) -> tuple[list[Target], list[Segment]]:
-    """Targets of the steady segments of the bag ``args.data`` (topics of ``args``; the screw's
+    """Targets of the steady segments of the bag at ``path`` (its bench ``topics``; the screw's
     angle is not needed)."""
-    topics = BenchTopics(
-        torque=args.torque_topic,
-        speed=args.speed_topic,
-        temperature=args.temperature_topic,
-        preload=args.preload_topic,
-        joint_name=args.joint,
-    )
-    recording = read_bench_bag(args.data, topics, required=STEADY_CHANNELS)
+    recording = read_bench_bag(path, topics, required=STEADY_CHANNELS)
     segments = steady_segments(recording, criteria)
     if not segments:
         raise ConfigError(
-            f"{args.data}: no steady segment (speed, temperature and preload steady over "
+            f"{path}: no steady segment (speed, temperature and preload steady over "
             f"{criteria.window:g} s at >= {criteria.min_speed:g} rad/s)"
         )
     targets = []
@@ -291,9 +284,10 @@ def is_bag(path: str | Path) -> bool:
 
 
 def load_targets(
-    args: argparse.Namespace, log: Callable[[str], None] = print
+    args: argparse.Namespace, topics: BenchTopics, log: Callable[[str], None] = print
 ) -> tuple[list[Target], str]:
-    """The targets of ``args.data`` (CSV or bag; None: the paper's statement) and their name.
+    """The targets of ``args.data`` (CSV or bag, read on its bench ``topics``; None: the
+    paper's statement) and their name.
 
     A bag's steady segments are logged (one line each) as they are found.
     """
@@ -303,7 +297,7 @@ def load_targets(
     if not is_bag(args.data):
         return read_targets(args.data), str(args.data)
     criteria = SteadyCriteria(window=args.steady_window)
-    targets, segments = bag_targets(args, criteria)
+    targets, segments = bag_targets(args.data, topics, criteria)
     log(f"{args.data}: {len(segments)} steady segment(s) of >= {criteria.window:g} s")
     for seg in segments:
         log(

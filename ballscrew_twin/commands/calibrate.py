@@ -25,7 +25,7 @@ from ..calibration import (
 from ..errors import ConfigError
 from ..params import load_config
 from ..units import CELSIUS_ZERO, RPM
-from .detect import add_topic_arguments
+from .detect import add_topic_arguments, bench_topics
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -73,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     def log(line: str) -> None:  # with --json, stdout carries the JSON only
         print(line, file=sys.stderr if args.json else sys.stdout, flush=True)
 
-    targets, name = load_targets(args, log)
+    targets, name = load_targets(args, bench_topics(args), log)
     if args.data is not None:
         refuse_outside_envelope(targets, config, args.data)
     if args.save_targets:

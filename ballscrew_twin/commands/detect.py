@@ -66,16 +66,20 @@ def add_topic_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--joint", default=BenchTopics.joint_name, help="joint of the screw")
 
 
-def read_recording(args: argparse.Namespace) -> BenchRecording:
-    """The bag of ``args.bag`` with the topics of :func:`add_topic_arguments`."""
-    topics = BenchTopics(
+def bench_topics(args: argparse.Namespace) -> BenchTopics:
+    """The bench topics and joint of :func:`add_topic_arguments`."""
+    return BenchTopics(
         torque=args.torque_topic,
         speed=args.speed_topic,
         temperature=args.temperature_topic,
         preload=args.preload_topic,
         joint_name=args.joint,
     )
-    return read_bench_bag(args.bag, topics, required=CHANNELS)
+
+
+def read_recording(args: argparse.Namespace) -> BenchRecording:
+    """The bag of ``args.bag`` with the topics of :func:`add_topic_arguments`."""
+    return read_bench_bag(args.bag, bench_topics(args), required=CHANNELS)
 
 
 def run(args: argparse.Namespace) -> int:
