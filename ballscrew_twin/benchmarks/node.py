@@ -153,7 +153,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _model_parameters(requested: str) -> dict[str, Any]:
     """Node parameters of the model benchmarked (see the module docstring)."""
     from ..params import load_config
-    from ..ros.fidelity import ModelSettings, unavailable
+    from ..ros.fidelity_modes import ModelSettings, unavailable
 
     if requested:
         return {"fidelity": requested, "steady_mode": "full"}

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from ..health.commission import ERROR_SCALE, commission
-from ..health.detect import recording_channels
+from ..health.offline import recording_channels
 from ..params import load_config
 from ..plots.commissioning import plot_commissioning
 from .detect import add_topic_arguments, read_recording

@@ -1,6 +1,6 @@
 """``ballscrew-twin detect BAG --out DIR``: the health monitor run offline on a recorded bag.
 
-What it writes and how: :mod:`ballscrew_twin.health.detect`. Exit status: 0 (OK, WARN or
+What it writes and how: :mod:`ballscrew_twin.health.offline`. Exit status: 0 (OK, WARN or
 UNKNOWN), 1 (FAULT), 2 (the bag or the settings are unusable). :func:`add_topic_arguments` and
 :func:`read_recording` are shared with ``commission`` and ``calibrate``.
 """
@@ -15,8 +15,8 @@ from ..bags.bench import read_bench_bag
 from ..bags.recording import BenchRecording, BenchTopics
 from ..errors import BallscrewTwinError
 from ..health.baseline import load_baseline
-from ..health.detect import CHANNELS, recording_channels, run_monitor, summary, write_csv
 from ..health.monitor_settings import DETECTORS, MonitorSettings
+from ..health.offline import CHANNELS, recording_channels, run_monitor, summary, write_csv
 from ..health.residuals import shared_predictor
 from ..health.uncompared import why_nothing_compared
 from ..health.verdicts import FAULT, UNKNOWN

@@ -1,6 +1,6 @@
 """Figures of ``ballscrew-twin detect``: the residuals, the detectors' statistics, the classes.
 
-Each takes a :class:`~ballscrew_twin.health.detect.DetectionResult` and writes PNG files into
+Each takes a :class:`~ballscrew_twin.health.offline.DetectionResult` and writes PNG files into
 the output folder; times are seconds since the bag's first message.
 """
 
@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from ..health.detect import DetectionResult
 from ..health.monitor_settings import DETECTORS
+from ..health.offline import DetectionResult
 from ..health.verdicts import FAULT, OK, UNKNOWN, WARN
 
 

@@ -3,7 +3,7 @@
 Two causes: the model does not fit into the step budget for :data:`OVER_BUDGET_WINDOWS`
 windows of one simulated second in a row (so start-up and a single hiccup of a loaded machine
 do not count), or a step of it failed. The node books its ticks here and asks after each
-simulated second; building the cheaper model is ``ros/fidelity.py``'s job.
+simulated second; building the cheaper model is ``ros/fidelity_modes.py``'s job.
 """
 
 from __future__ import annotations

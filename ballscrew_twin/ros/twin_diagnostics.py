@@ -13,7 +13,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .diagnostics import OK, STALE, WARN, Check
-from .fidelity import ModelChoice
+from .fidelity_modes import ModelChoice
 from .inputs import InputChannel
 from .tick_counts import TickTotals, TickWindow
 

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ..models.base import OperatingPoint, TimeSteppingModel, TwinOutput
-from . import fidelity
+from . import fidelity_modes
 from .step_down import StepDown, may_step_down
 from .twin_messages import finite_output
 
@@ -40,10 +40,10 @@ class TwinModels:
 
     def __init__(
         self,
-        choice: fidelity.ModelChoice,
+        choice: fidelity_modes.ModelChoice,
         fallback: TimeSteppingModel,
         op: OperatingPoint,
-        settings: Callable[[], fidelity.ModelSettings],
+        settings: Callable[[], fidelity_modes.ModelSettings],
         log: Callable[[str], None],
         warn: Callable[[str, str], None],
     ) -> None:
@@ -56,11 +56,11 @@ class TwinModels:
         self.failures = 0
         self.step_down = StepDown()
         #: Model and fallback built for a parameter change being validated.
-        self._pending: tuple[fidelity.ModelChoice, TimeSteppingModel] | None = None
+        self._pending: tuple[fidelity_modes.ModelChoice, TimeSteppingModel] | None = None
         choice.model.reset(op)
         fallback.reset(op)
 
-    def prepare(self, choice: fidelity.ModelChoice, fallback: TimeSteppingModel) -> None:
+    def prepare(self, choice: fidelity_modes.ModelChoice, fallback: TimeSteppingModel) -> None:
         """Hold a model and fallback built for parameters being changed (see :meth:`apply`)."""
         self._pending = (choice, fallback)
 
@@ -74,7 +74,7 @@ class TwinModels:
         self.fallback = fallback
         self.fallback.reset(op)
 
-    def switch(self, choice: fidelity.ModelChoice, op: OperatingPoint) -> None:
+    def switch(self, choice: fidelity_modes.ModelChoice, op: OperatingPoint) -> None:
         """Run ``choice`` from the next step on, started in the steady state of ``op``."""
         previous = self.choice.model.name
         choice.model.reset(op)
@@ -85,9 +85,9 @@ class TwinModels:
 
     def _step_down(self, why: str, op: OperatingPoint) -> None:
         """Switch to the next cheaper model ``auto`` can build, because of ``why``."""
-        choice = fidelity.choose("auto", self._settings(), below=self.choice.mode)
+        choice = fidelity_modes.choose("auto", self._settings(), below=self.choice.mode)
         reason = f"{choice.reason}: {why}"
-        self.switch(fidelity.ModelChoice(choice.model, choice.mode, reason), op)
+        self.switch(fidelity_modes.ModelChoice(choice.model, choice.mode, reason), op)
 
     def review(
         self, op: OperatingPoint, *, requested: str, step_budget: float, period: float

@@ -36,7 +36,7 @@ from ..errors import BallscrewTwinError, ConfigError
 from ..models.base import TwinOutput
 from ..params import load_config
 from ..units import NS_PER_S, ns_to_stamp
-from . import cdr, diagnostics, fidelity, twin_diagnostics
+from . import cdr, diagnostics, fidelity_modes, twin_diagnostics
 from .executors import make_executor
 from .node_parameters import TableNode
 from .node_process import run_node_process
@@ -109,8 +109,8 @@ class TwinNode(TableNode):
         )
         settings = self._model_settings({})
         self.models = TwinModels(
-            fidelity.choose(self._str("fidelity"), settings),
-            fidelity.build("catalog", settings),
+            fidelity_modes.choose(self._str("fidelity"), settings),
+            fidelity_modes.build("catalog", settings),
             self.inputs.operating_point,
             lambda: self._model_settings({}),
             self.get_logger().warning,
@@ -154,9 +154,9 @@ class TwinNode(TableNode):
         """Simulation step rate [Hz]."""
         return self._float("sim_rate_hz")
 
-    def _model_settings(self, changes: dict[str, Any]) -> fidelity.ModelSettings:
+    def _model_settings(self, changes: dict[str, Any]) -> fidelity_modes.ModelSettings:
         """What the models are built from, after ``changes``."""
-        return fidelity.ModelSettings(
+        return fidelity_modes.ModelSettings(
             config=self.config,
             mu_lit=float(self._value("mu_lit", changes)),
             tolerance=float(self._value("tolerance", changes)),
@@ -177,8 +177,8 @@ class TwinNode(TableNode):
         if any(name in changes for name in MODEL_PARAMETERS):
             try:
                 settings = self._model_settings(changes)
-                choice = fidelity.choose(str(self._value("fidelity", changes)), settings)
-                fallback = fidelity.build("catalog", settings)
+                choice = fidelity_modes.choose(str(self._value("fidelity", changes)), settings)
+                fallback = fidelity_modes.build("catalog", settings)
             except (ValueError, BallscrewTwinError) as err:
                 return SetParametersResult(successful=False, reason=str(err))
             self.models.prepare(choice, fallback)
@@ -216,13 +216,13 @@ class TwinNode(TableNode):
         if requested == "auto" and self.models.choice.mode not in ("realtime", "catalog"):
             return
         try:
-            choice = fidelity.choose(requested, self._model_settings({}))
+            choice = fidelity_modes.choose(requested, self._model_settings({}))
         except (ValueError, BallscrewTwinError) as err:
             self.get_logger().error(f"the table built cannot serve: {err}")
             return
         reason = f"{choice.reason}; table of this screw built in {built.seconds:.0f} s"
         with self.tick_lock:
-            choice = fidelity.ModelChoice(choice.model, choice.mode, reason)
+            choice = fidelity_modes.ModelChoice(choice.model, choice.mode, reason)
             self.models.switch(choice, self.inputs.operating_point)
 
     # ------------------------------------------------------------------ schedule

@@ -6,7 +6,7 @@ describes them.
 from __future__ import annotations
 
 from ..bags.recording import BenchTopics
-from .fidelity import FIDELITY_MODES
+from .fidelity_modes import FIDELITY_MODES
 from .inputs import InputLimits
 from .parameters import ParameterSpec
 

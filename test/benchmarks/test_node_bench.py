@@ -12,7 +12,7 @@ import pytest
 from ballscrew_twin.benchmarks.node import StealMeter, steal_share
 from ballscrew_twin.cli import main
 from ballscrew_twin.params import load_config
-from ballscrew_twin.ros.fidelity import ModelSettings, unavailable
+from ballscrew_twin.ros.fidelity_modes import ModelSettings, unavailable
 
 
 def test_short_run_accounts_for_every_tick_and_message(

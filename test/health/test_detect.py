@@ -12,8 +12,8 @@ from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.cli import main
 from ballscrew_twin.health.baseline import load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR, SAMPLE_NAMES
-from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary
 from ballscrew_twin.health.monitor_settings import DETECTORS, MonitorSettings
+from ballscrew_twin.health.offline import CHANNELS, recording_channels, run_monitor, summary
 from ballscrew_twin.health.residuals import TwinPredictor, shared_predictor
 from ballscrew_twin.health.verdicts import FAULT, OK
 from ballscrew_twin.params import load_config

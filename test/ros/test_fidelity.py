@@ -11,8 +11,8 @@ from ballscrew_twin.errors import ConfigError, FidelityError
 from ballscrew_twin.models.base import OperatingPoint, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.params import load_config
-from ballscrew_twin.ros import fidelity
-from ballscrew_twin.ros.fidelity import CachedQuasiStatic, ModelSettings, choose
+from ballscrew_twin.ros import fidelity_modes
+from ballscrew_twin.ros.fidelity_modes import CachedQuasiStatic, ModelSettings, choose
 
 SETTINGS = ModelSettings(config=load_config(None))
 NEW_SCREW = Path(__file__).resolve().parents[2] / "config" / "screw_32x10.yaml"
@@ -82,11 +82,11 @@ def test_quasi_static_cache_solves_only_on_a_new_command() -> None:
 def test_contact_free_ticks_through_the_validity_wrapper() -> None:
     """The node's contacts=False reaches the real-time model (no states, same torque); models
     without optional contact states ignore it."""
-    realtime = fidelity.build("realtime", SETTINGS)
+    realtime = fidelity_modes.build("realtime", SETTINGS)
     full = realtime.step(OP, 1e-3)
     plain = realtime.step(OP, 1e-3, contacts=False)  # type: ignore[call-arg]
     assert full.contacts is not None and plain.contacts is None
     assert plain.drag_torque == full.drag_torque and plain.nut_torque == full.nut_torque
-    catalog = fidelity.build("catalog", SETTINGS)
+    catalog = fidelity_modes.build("catalog", SETTINGS)
     stepped = catalog.step(OP, 1e-3, contacts=False)  # type: ignore[call-arg]
     assert stepped.drag_torque == catalog.step(OP, 1e-3).drag_torque

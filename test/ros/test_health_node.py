@@ -20,8 +20,8 @@ from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.bags.reader import open_raw_bag
 from ballscrew_twin.health.bench_data import generate, write_bench_bag
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
-from ballscrew_twin.health.detect import CHANNELS, recording_channels, run_monitor, summary
 from ballscrew_twin.health.monitor_settings import MonitorSettings
+from ballscrew_twin.health.offline import CHANNELS, recording_channels, run_monitor, summary
 from ballscrew_twin.health.residuals import shared_predictor
 from ballscrew_twin.health.verdicts import FAULT
 from ballscrew_twin.params import load_config

@@ -21,7 +21,7 @@ from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health import monitor as monitor_module
 from ballscrew_twin.health.classify import Classification
-from ballscrew_twin.health.detect import CHANNELS, recording_channels
+from ballscrew_twin.health.offline import CHANNELS, recording_channels
 from ballscrew_twin.health.verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
 from ballscrew_twin.ros import diagnostics, health_node
 from ballscrew_twin.ros.health_node import HealthNode

@@ -48,14 +48,14 @@ from rclpy.parameter import Parameter
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from ballscrew_twin.bags.bench import read_bench_bag
-from ballscrew_twin.health.detect import (
+from ballscrew_twin.health.monitor_settings import MonitorSettings
+from ballscrew_twin.health.offline import (
     CHANNELS,
     overall_verdict,
     recording_channels,
     run_monitor,
     summary,
 )
-from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import TwinPredictor, shared_predictor
 from ballscrew_twin.health.verdicts import UNKNOWN, VERDICT_NAMES
 from ballscrew_twin.params import load_config

@@ -15,7 +15,7 @@ from ballscrew_twin.models import map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.params import load_config
-from ballscrew_twin.ros import diagnostics, fidelity
+from ballscrew_twin.ros import diagnostics, fidelity_modes
 from ballscrew_twin.ros.tables import RealTimeTables
 
 from .conftest import SpinUntil
@@ -66,8 +66,8 @@ def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
     assert check.level == diagnostics.OK and str(built.path) in check.message
     assert dict(check.values)["refused 1"].endswith(f"has {sm.config_fingerprint(config)[:12]})")
     # The real-time model runs on it with per-sphere states; the next start finds it cached.
-    settings = fidelity.ModelSettings(config=config, table=tables.table)
-    choice = fidelity.choose("auto", settings)
+    settings = fidelity_modes.ModelSettings(config=config, table=tables.table)
+    choice = fidelity_modes.choose("auto", settings)
     assert choice.mode == "realtime"
     op = OperatingPoint(screw_speed=50.0, temperature=300.0, preload=800.0)
     out = choice.model.step(op, 1e-3)
@@ -82,7 +82,7 @@ def test_without_workers_nothing_is_built_and_auto_says_why() -> None:
     assert tables.table is None and not tables.building
     check = tables.check()
     assert check.level == diagnostics.WARN and "map build --config" in check.message
-    choice = fidelity.choose("auto", fidelity.ModelSettings(config=config))
+    choice = fidelity_modes.choose("auto", fidelity_modes.ModelSettings(config=config))
     assert choice.mode == "catalog"
     assert "built for other parameters" in choice.reason and "map build" in choice.reason
 
@@ -94,9 +94,9 @@ def test_a_table_of_other_parameters_is_never_used(tmp_path: Path) -> None:
     tables = RealTimeTables(config, str(sm.DEFAULT_MAP_PATH), 0, lambda _line: None)
     assert tables.table is None
     assert str(sm.DEFAULT_MAP_PATH) in dict(tables.check().values)["refused 1"]
-    settings = fidelity.ModelSettings(config=config, realtime_map=str(sm.DEFAULT_MAP_PATH))
+    settings = fidelity_modes.ModelSettings(config=config, realtime_map=str(sm.DEFAULT_MAP_PATH))
     with pytest.raises(ValueError, match="built for other parameters"):
-        fidelity.choose("realtime", settings)
+        fidelity_modes.choose("realtime", settings)
 
 
 def test_stop_cancels_a_running_build() -> None:

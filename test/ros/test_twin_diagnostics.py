@@ -6,7 +6,7 @@ from ballscrew_twin.models.base import QuasiStaticModel
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.params import load_config
 from ballscrew_twin.ros import diagnostics
-from ballscrew_twin.ros.fidelity import ModelChoice
+from ballscrew_twin.ros.fidelity_modes import ModelChoice
 from ballscrew_twin.ros.inputs import NS_PER_S, InputChannel
 from ballscrew_twin.ros.tick_counts import ON_TIME_NS, TickTotals, TickWindow
 from ballscrew_twin.ros.twin_diagnostics import (

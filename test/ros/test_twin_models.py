@@ -11,11 +11,11 @@ import pytest
 from ballscrew_twin.models.base import OperatingPoint, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.params import load_config
-from ballscrew_twin.ros import fidelity
+from ballscrew_twin.ros import fidelity_modes
 from ballscrew_twin.ros.twin_models import TwinModels, describe
 
 OP = OperatingPoint(screw_speed=10.0, temperature=293.15, preload=1500.0)
-SETTINGS = fidelity.ModelSettings(config=load_config(None))
+SETTINGS = fidelity_modes.ModelSettings(config=load_config(None))
 
 
 class Fake:
@@ -45,8 +45,8 @@ def _models(model: Fake, mode: str = "realtime") -> tuple[TwinModels, list[str],
     logged: list[str] = []
     warned: list[str] = []
     models = TwinModels(
-        fidelity.ModelChoice(model, mode, "test"),  # type: ignore[arg-type]
-        fidelity.build("catalog", SETTINGS),
+        fidelity_modes.ModelChoice(model, mode, "test"),  # type: ignore[arg-type]
+        fidelity_modes.build("catalog", SETTINGS),
         OP,
         lambda: SETTINGS,
         logged.append,
@@ -99,8 +99,8 @@ def test_prepared_models_run_once_applied() -> None:
     models, _, _ = _models(Fake())
     models.apply(OP)  # nothing prepared: nothing changes
     assert models.switches == 0
-    catalog = fidelity.choose("catalog", SETTINGS)
-    fallback = fidelity.build("catalog", SETTINGS)
+    catalog = fidelity_modes.choose("catalog", SETTINGS)
+    fallback = fidelity_modes.build("catalog", SETTINGS)
     models.prepare(catalog, fallback)
     models.apply(OP)
     assert models.choice is catalog and models.fallback is fallback and models.switches == 1

@@ -24,8 +24,8 @@ from ballscrew_twin.models.base import OperatingPoint, TwinOutput
 from ballscrew_twin.models.catalog import CatalogModel, drag_torque_zhou
 from ballscrew_twin.models.validity import DEFAULT_MAX_PRELOAD
 from ballscrew_twin.params import load_config
-from ballscrew_twin.ros import diagnostics, fidelity
-from ballscrew_twin.ros.fidelity import ModelSettings, unavailable
+from ballscrew_twin.ros import diagnostics, fidelity_modes
+from ballscrew_twin.ros.fidelity_modes import ModelSettings, unavailable
 from ballscrew_twin.ros.inputs import NS_PER_S
 from ballscrew_twin.ros.twin_node import STARTUP_GRACE_NS, TwinNode
 
@@ -398,12 +398,12 @@ class FakeRealTime:
 
 
 def _with_fake_realtime(monkeypatch: pytest.MonkeyPatch, fail: bool) -> None:
-    real_build = fidelity.build
+    real_build = fidelity_modes.build
 
     def build(mode: str, settings: ModelSettings) -> object:
         return FakeRealTime(fail) if mode == "realtime" else real_build(mode, settings)
 
-    monkeypatch.setattr(fidelity, "build", build)
+    monkeypatch.setattr(fidelity_modes, "build", build)
 
 
 def test_auto_steps_down_when_the_model_overruns_its_budget(
