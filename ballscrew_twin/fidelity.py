@@ -20,15 +20,13 @@ quasi-statically, symmetric or full; the dynamic model (the names of
 :mod:`ballscrew_twin.models.registry`, with its ``scene`` spellings). The acceptable one with the
 smallest estimated CPU time (measured cost per evaluation or step times the scene's distinct
 operating points or steps) is chosen. The file must have been measured for the scene's
-parameter set (:func:`config_fingerprint`). The selection reports the chosen model, every
+parameter set (:func:`bounds_fingerprint`). The selection reports the chosen model, every
 skip rule with its bound and decision, and why each other candidate was rejected. A tolerance
 tighter than every candidate's bound is refused (:class:`FidelityError`), naming the bounds.
 """
 
 from __future__ import annotations
 
-import dataclasses
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,7 +37,7 @@ from numpy.typing import NDArray
 
 from .errors import ConfigError, FidelityError
 from .models.base import OperatingPoint
-from .params import TwinConfig, default_config_path, read_yaml
+from .params import TwinConfig, config_fingerprint, default_config_path, read_yaml
 from .scene import QUANTITIES, Scene
 
 FloatArray = NDArray[np.float64]
@@ -51,16 +49,11 @@ AXES = ("preload_N", "speed_rad_s", "temperature_K")
 GRID_MATCH = 1e-6
 
 
-def config_fingerprint(config: TwinConfig) -> str:
-    """Hash of every physical parameter (not the name, source or orientation: the bounds hold
-    both orientations), to tie a bounds file to the parameter set it was measured with."""
-    plain = dataclasses.replace(
-        config,
-        name="",
-        source="",
-        screw=dataclasses.replace(config.screw, orientation="vertical"),
-    )
-    return hashlib.sha256(repr(plain).encode()).hexdigest()[:16]
+def bounds_fingerprint(config: TwinConfig) -> str:
+    """The first 16 hex digits of :func:`ballscrew_twin.params.config_fingerprint` of
+    ``config`` in any orientation (the bounds hold both): what ties a bounds file to the
+    parameter set it was measured with."""
+    return config_fingerprint(config, any_orientation=True)[:16]
 
 
 def default_bounds_path() -> Path:
@@ -435,7 +428,7 @@ def select(scene: Scene, bounds: Bounds, config: TwinConfig) -> Selection:
         FidelityError: no model can serve the scene within its tolerance (message lists the
             bounds of every candidate).
     """
-    if bounds.fingerprint and bounds.fingerprint != config_fingerprint(config):
+    if bounds.fingerprint and bounds.fingerprint != bounds_fingerprint(config):
         raise FidelityError(
             f"{bounds.source} was measured for another parameter set than "
             f"{config.source or config.name}: run `ballscrew-twin bench skips --config "

@@ -11,10 +11,11 @@ screw is hard-coded here: it lives in ``config/paper_screw.yaml``.
 
 from __future__ import annotations
 
+import hashlib
 import math
 import reprlib
 import sys
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args
 
@@ -266,6 +267,18 @@ class TwinConfig:
     def composite_roughness(self) -> float:
         """sqrt(sigma_b^2 + sigma_g^2), denominator of the Tallian parameter, Eq. 38 [m]."""
         return math.hypot(self.screw.ball_roughness, self.screw.groove_roughness)
+
+
+def config_fingerprint(config: TwinConfig, *, any_orientation: bool = False) -> str:
+    """SHA-256 (hex) of every physical parameter of ``config``: its name and source are
+    ignored, and with ``any_orientation`` its screw's orientation too (for what holds for both
+    orientations, the fidelity bounds). The one fingerprint of the package: a real-time table,
+    a commissioned baseline and a fidelity-bounds file are each used only for the parameter
+    set it names."""
+    plain = replace(config, name="", source="")
+    if any_orientation:
+        plain = replace(plain, screw=replace(plain.screw, orientation="vertical"))
+    return hashlib.sha256(repr(plain).encode()).hexdigest()
 
 
 # ---------------------------------------------------------------------------------------------

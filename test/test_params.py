@@ -16,7 +16,7 @@ import yaml
 from ballscrew_twin.errors import ConfigError, SolverError
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.params import default_config_path, load_config
+from ballscrew_twin.params import config_fingerprint, default_config_path, load_config
 
 PAPER = Path(__file__).resolve().parent.parent / "config" / "paper_screw.yaml"
 RAW: dict[str, Any] = yaml.safe_load(PAPER.read_text(encoding="utf-8"))
@@ -319,3 +319,22 @@ def test_the_refused_containment_window_is_one_the_steady_solver_cannot_solve() 
     with pytest.raises(SolverError):
         SteadyStateModel(clipped, mode="symmetric").solve(op)
     assert SteadyStateModel(config, mode="symmetric").solve(op).output.drag_torque > 0.0
+
+
+def test_the_fingerprint_names_the_physical_parameters_only() -> None:
+    import hashlib
+
+    paper = load_config(None)
+    # oracle: the digest of the parameter set's repr without its name and source
+    plain = replace(paper, name="", source="")
+    assert config_fingerprint(paper) == hashlib.sha256(repr(plain).encode()).hexdigest()
+    assert config_fingerprint(replace(paper, name="renamed", source="elsewhere.yaml")) == (
+        config_fingerprint(paper)
+    )
+    lighter = replace(paper, screw=replace(paper.screw, ball_radius=paper.screw.ball_radius * 0.99))
+    assert config_fingerprint(lighter) != config_fingerprint(paper)
+    lying = replace(paper, screw=replace(paper.screw, orientation="horizontal"))
+    assert config_fingerprint(lying) != config_fingerprint(paper)
+    assert config_fingerprint(lying, any_orientation=True) == config_fingerprint(
+        paper, any_orientation=True
+    )

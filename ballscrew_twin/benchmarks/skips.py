@@ -46,7 +46,7 @@ import numpy as np
 import yaml
 
 from ..errors import BallscrewTwinError, SolverError
-from ..fidelity import config_fingerprint
+from ..fidelity import bounds_fingerprint
 from ..models import registry
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.steady import SteadyStateModel
@@ -540,7 +540,7 @@ def run(args: argparse.Namespace) -> int:
         "command": command.strip(),
         "created_utc": datetime.datetime.now(datetime.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
         "config": config.name,
-        "config_fingerprint": config_fingerprint(config),
+        "config_fingerprint": bounds_fingerprint(config),
         "metrics": {
             "drag_torque": "|T - T_ref| / |T_ref|",
             "nut_torque": "max over nuts of |T_k - T_k,ref| / |T_k,ref|",

@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig, read_yaml
+from ..params import TwinConfig, config_fingerprint, read_yaml
 from .correction import ResidualSurface
 
 FloatArray = NDArray[np.float64]
@@ -170,8 +170,6 @@ class Baseline:
     @classmethod
     def nominal(cls, config: TwinConfig) -> Baseline:
         """The nominal twin: scales 1, the screw's inertia, default model error."""
-        from ..models.steady_map import config_fingerprint
-
         return cls(
             config=config.name,
             fingerprint=config_fingerprint(config),
@@ -238,8 +236,6 @@ class Baseline:
 
     def check_config(self, config: TwinConfig) -> None:
         """ConfigError unless the baseline was fitted with ``config``'s physical values."""
-        from ..models.steady_map import config_fingerprint
-
         if self.fingerprint != config_fingerprint(config):
             raise ConfigError(
                 f"baseline fitted with parameter set {self.config!r}, not with {config.name!r} "

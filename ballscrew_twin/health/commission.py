@@ -36,8 +36,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import ConfigError
-from ..models.steady_map import config_fingerprint
-from ..params import TwinConfig
+from ..params import TwinConfig, config_fingerprint
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
     LOG_SPEED_NODES,

@@ -21,11 +21,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import MapError, SolverError
-from ..params import TwinConfig
+from ..params import TwinConfig, config_fingerprint
 from .base import MECHANISMS, OperatingPoint
 from .map_grid import CONTACT_FIELDS, HALF_GROOVES, NUTS, MapGrid
 from .steady import SteadyStateModel
-from .steady_map import SteadyMap, config_fingerprint
+from .steady_map import SteadyMap
 
 FloatArray = NDArray[np.float64]
 

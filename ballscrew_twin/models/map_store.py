@@ -15,11 +15,11 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MapError
-from ..params import TwinConfig
+from ..params import TwinConfig, config_fingerprint
 from ..units import RPM
 from . import map_grid
 from .map_grid import MapGrid
-from .steady_map import DEFAULT_MAP_PATH, SteadyMap, config_fingerprint, load_map
+from .steady_map import DEFAULT_MAP_PATH, SteadyMap, load_map
 
 #: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
 CACHE_FOLDER = "ballscrew_twin"

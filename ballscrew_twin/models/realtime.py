@@ -30,10 +30,10 @@ from dataclasses import replace
 import numpy as np
 
 from ..errors import ConfigError, MapError
-from ..params import TwinConfig
+from ..params import TwinConfig, config_fingerprint
 from .base import MECHANISMS, ContactStates, FloatArray, OperatingPoint, TorqueBreakdown, TwinOutput
 from .map_grid import CONTACT_FIELDS, HALF_GROOVES, NUTS, equivalent_preloads
-from .steady_map import SteadyMap, config_fingerprint, load_map
+from .steady_map import SteadyMap, load_map
 
 _FIELD = {name: j for j, name in enumerate(CONTACT_FIELDS)}
 #: Tabulated 0/1 contact flag read back as "in contact" above this value [-].

@@ -38,9 +38,8 @@ other screw's table goes to the user's cache under its parameter set's fingerpri
 
 from __future__ import annotations
 
-import hashlib
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -48,7 +47,6 @@ from numpy.lib.stride_tricks import sliding_window_view
 from numpy.typing import NDArray
 
 from ..errors import MapError
-from ..params import TwinConfig
 from ..units import CELSIUS_ZERO, RPM
 from .base import MECHANISMS
 from .map_grid import (
@@ -88,12 +86,6 @@ _LOG_SCALE_VALUES = np.array([LOG_SCALES[name] for name in CONTACT_FIELDS if nam
 _LOG_SCALES_FULL = np.array([LOG_SCALES.get(name, 1.0) for name in CONTACT_FIELDS])
 #: Lower bound of each field after interpolation: 0 except for the contact angle.
 _LOWER_BOUND = np.array([-np.inf if name == "contact_angle" else 0.0 for name in CONTACT_FIELDS])
-
-
-def config_fingerprint(config: TwinConfig) -> str:
-    """SHA-256 of every physical parameter of ``config`` (its name and source are ignored)."""
-    text = repr(replace(config, name="", source=""))
-    return hashlib.sha256(text.encode()).hexdigest()
 
 
 #: One nut's interpolated torque values, contact rows and standstill rows (None: not needed).

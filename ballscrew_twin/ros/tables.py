@@ -27,8 +27,8 @@ from pathlib import Path
 from ..errors import BallscrewTwinError, BuildCancelledError
 from ..models import map_build, map_grid, map_store
 from ..models.map_store import MapSearch
-from ..models.steady_map import SteadyMap, config_fingerprint, load_map
-from ..params import TwinConfig
+from ..models.steady_map import SteadyMap, load_map
+from ..params import TwinConfig, config_fingerprint
 from . import diagnostics
 
 #: Share of the lines between two progress lines on the console [-].

@@ -15,7 +15,7 @@ from ballscrew_twin.models import map_build, map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.params import load_config
+from ballscrew_twin.params import config_fingerprint, load_config
 
 ROOT = Path(__file__).resolve().parents[2]
 NEW_SCREW = ROOT / "config" / "screw_32x10.yaml"
@@ -51,7 +51,7 @@ def test_the_new_screw_loads_and_differs_from_the_paper_screw() -> None:
     config = load_config(NEW_SCREW)
     assert config.screw.balls_per_nut == 36
     assert math.degrees(config.screw.free_contact_angle) == pytest.approx(45.0, abs=0.05)
-    assert sm.config_fingerprint(config) != sm.config_fingerprint(load_config(None))
+    assert config_fingerprint(config) != config_fingerprint(load_config(None))
 
 
 def test_cache_dir_follows_xdg_and_falls_back_to_home(
@@ -87,7 +87,7 @@ def test_find_map_refuses_a_table_of_other_parameters_and_says_why(user_cache: P
     assert len(search.refused) == 1 and "built for other parameters" in search.refused[0]
     # A table of the paper screw passed as a file is refused too, named.
     other = user_cache / "other.npz"
-    map_store.save_atomic(_tiny_map(sm.config_fingerprint(paper)), other)
+    map_store.save_atomic(_tiny_map(config_fingerprint(paper)), other)
     search = map_store.find_map(new, other)
     assert search.table is None and str(other) in search.refused[0]
     # A missing or corrupt file is named; the table cached under the fingerprint is found.
@@ -96,8 +96,8 @@ def test_find_map_refuses_a_table_of_other_parameters_and_says_why(user_cache: P
     corrupt.write_bytes(b"not a map")
     assert "not a readable steady map" in map_store.find_map(new, corrupt).refused[0]
     cached = map_store.cached_map_path(new, map_grid.grid_for(new))
-    assert cached.parent == user_cache and sm.config_fingerprint(new)[:20] in cached.name
-    map_store.save_atomic(_tiny_map(sm.config_fingerprint(new)), cached)
+    assert cached.parent == user_cache and config_fingerprint(new)[:20] in cached.name
+    map_store.save_atomic(_tiny_map(config_fingerprint(new)), cached)
     found = map_store.find_map(new, other)
     assert found.table is not None and found.path == str(cached)
     assert len(found.refused) == 2  # the file given and the packaged table, each with why
@@ -119,7 +119,7 @@ def test_map_command_finds_and_builds_the_preview_table(
     lines = 2 * grid.temperature_nodes * grid.preload_nodes  # one task per sign and node pair
     assert "steady map" in printed.err and f"{lines}/{lines}" in printed.err  # the bar, done
     table = sm.load_map(path)
-    assert table.fingerprint == sm.config_fingerprint(new)
+    assert table.fingerprint == config_fingerprint(new)
     # The preview table agrees with the steady model at one of its own nodes.
     g = table.grid
     op = OperatingPoint(

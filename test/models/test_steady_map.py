@@ -14,7 +14,7 @@ from ballscrew_twin.models import map_build, map_grid
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.params import load_config
+from ballscrew_twin.params import config_fingerprint, load_config
 
 RPM = 2.0 * math.pi / 60.0
 GRID = map_grid.MapGrid(
@@ -211,7 +211,7 @@ def test_committed_map_matches_the_current_steady_model() -> None:
     equals full mode on the vertical paper screw) at random points between the nodes."""
     config = load_config(None)
     table = sm.load_map()
-    assert table.fingerprint == sm.config_fingerprint(config), "map built for other parameters"
+    assert table.fingerprint == config_fingerprint(config), "map built for other parameters"
     model = SteadyStateModel(config, mode="symmetric")
     rng = np.random.default_rng(2026)
     for _ in range(6):

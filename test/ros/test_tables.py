@@ -14,7 +14,7 @@ from rclpy.executors import SingleThreadedExecutor
 from ballscrew_twin.models import map_grid, map_store
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import OperatingPoint
-from ballscrew_twin.params import load_config
+from ballscrew_twin.params import config_fingerprint, load_config
 from ballscrew_twin.ros import diagnostics, fidelity_modes
 from ballscrew_twin.ros.tables import RealTimeTables
 
@@ -46,7 +46,7 @@ def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
     assert tables.table is not None and tables.preview  # serves from the start
     # The preview is built in this process: its Ctrl-C handler (the node's) must stay.
     assert signal.getsignal(signal.SIGINT) is handler
-    assert tables.table.fingerprint == sm.config_fingerprint(config)
+    assert tables.table.fingerprint == config_fingerprint(config)
     assert any("refused" in line and "other parameters" in line for line in lines)
     first = tables.check()
     assert first.level == diagnostics.WARN
@@ -64,7 +64,7 @@ def test_a_new_screw_gets_a_preview_then_its_own_table() -> None:
     assert any("100%" in line for line in lines)  # progress on the console
     check = tables.check()
     assert check.level == diagnostics.OK and str(built.path) in check.message
-    assert dict(check.values)["refused 1"].endswith(f"has {sm.config_fingerprint(config)[:12]})")
+    assert dict(check.values)["refused 1"].endswith(f"has {config_fingerprint(config)[:12]})")
     # The real-time model runs on it with per-sphere states; the next start finds it cached.
     settings = fidelity_modes.ModelSettings(config=config, table=tables.table)
     choice = fidelity_modes.choose("auto", settings)
