@@ -510,7 +510,12 @@ SUMMARY_POWER = 0  # 6 mechanism powers [W], models.base.MECHANISMS order
 SUMMARY_NUT_POWER = 6  # 2 dissipated powers of the master and slave nut's spheres [W]
 SUMMARY_DIRECT = 8  # sum of the moments of the spheres on the screw about its axis [N m]
 SUMMARY_BALLS_POWER = 9  # power of gravity on the spheres [W]
-SUMMARY_SIZE = 10
+#: the same over the screw speed, zero at standstill (``TwinOutput``'s torques, as
+#: ``SteadyStateModel._assemble`` divides them, so that no division remains in Python)
+SUMMARY_TORQUE = 10  # 6 mechanism torques [N m], models.base.MECHANISMS order
+SUMMARY_NUT_TORQUE = 16  # 2 torques of the master and slave nut's spheres [N m]
+SUMMARY_DRAG = 18  # drag torque, the mechanism torques summed in their order [N m]
+SUMMARY_SIZE = 19
 
 
 @njit(cache=True, error_model="numpy")
@@ -553,20 +558,20 @@ def finish_contacts(z, e_nut, nut, gravity, scene, active, out):
 
 
 @njit(cache=True, error_model="numpy")
-def summarise(z, nut, weight, gravity, scene, active, out):
-    """What a steady solution implies, from its contact buffer (``contacts_kernel`` layout).
+def summarise(z, nut, weight, gravity, scene, active, out, summary, states):
+    """What a steady solution implies, from its contact buffer (``contacts_kernel`` layout),
+    written into ``summary`` and ``states``:
 
-    Returns:
-        (summary (SUMMARY_SIZE,): the mechanism powers [W] summed over the spheres times the
-        spheres each stands for, the two nuts' dissipated powers [W], the spheres' direct moment
-        on the screw about its axis [N m] and gravity's power on the spheres [W] (as
-        ``SteadyStateModel._assemble`` and ``_potential_energy_rate``); states (len(STATE_ROWS),
-        4 B): the per-contact states of ``ContactStates``, one row per field, contact 4 i + j,
-        zero where inactive except the contact angle and the stiffness).
+    - summary (SUMMARY_SIZE,): the mechanism powers [W] summed over the spheres times the
+      spheres each stands for, the two nuts' dissipated powers [W], the spheres' direct moment
+      on the screw about its axis [N m] and gravity's power on the spheres [W] (as
+      ``SteadyStateModel._assemble`` and ``_potential_energy_rate``), and the mechanisms' and
+      nuts' powers and the drag over the screw speed [N m] (zero at standstill);
+    - states (len(STATE_ROWS), 4 B): the per-contact states of ``ContactStates``, one row per
+      field, contact 4 i + j, zero where inactive except the contact angle and the stiffness.
     """
     count = z.shape[0]
-    summary = np.zeros(SUMMARY_SIZE)
-    states = np.empty((len(STATE_ROWS), 4 * count))
+    summary[:] = 0.0
     ball_mass = scene[_I_BALL_MASS]
     lead_rate = scene[3]
     z_t, z_b = scene[4], scene[5]  # screw axis (sin helix, 0, cos helix) in Frenet components
@@ -617,7 +622,12 @@ def summarise(z, nut, weight, gravity, scene, active, out):
         )
         summary[SUMMARY_BALLS_POWER] += weight[i] * g_dot_v
     summary[SUMMARY_BALLS_POWER] *= ball_mass
-    return summary, states
+    if screw_speed != 0.0:
+        for m in range(6):
+            summary[SUMMARY_TORQUE + m] = summary[SUMMARY_POWER + m] / screw_speed
+            summary[SUMMARY_DRAG] += summary[SUMMARY_TORQUE + m]
+        for k in range(2):
+            summary[SUMMARY_NUT_TORQUE + k] = summary[SUMMARY_NUT_POWER + k] / screw_speed
 
 
 @njit(cache=True, error_model="numpy")
@@ -663,9 +673,14 @@ def newton_kernel(
     tolerance,
     scene,
     max_iterations,
+    active_pair,
+    out_pair,
+    summary,
+    states,
 ):
     """Damped Newton iteration of the steady state from (z, e_nut), updated in place, and what
-    the solution implies.
+    the solution implies, written into the last four arguments (allocated by the caller: a
+    numba function returning arrays pays ~0.7 us per array to hand them to Python).
 
     Args:
         z: (B, 6) sphere unknowns (n, b [m], w_B, omega_t,n,b [rad/s]), start and result.
@@ -688,11 +703,15 @@ def newton_kernel(
             scaled residual [-]; scene: ``scene_arrays(scene)`` as a float64 array;
             max_iterations: Newton iterations before giving up (NEWTON_MAX_ITER for a solve, fewer
             for a step of the start-up path).
+        active_pair: (2, B, 4) bool zeros, out_pair: (2, N_ROWS, B, 4) zeros: the contacts of the
+            iterate and of the trial point (the two swap when a trial point is accepted); the
+            pair ``slot`` returned holds the active contacts and the contact buffer as
+            ``contacts_kernel`` gives them at the returned state.
+        summary: (SUMMARY_SIZE,) out and states: (len(STATE_ROWS), 4 B) out, :func:`summarise`
+            of the returned state.
 
     Returns:
-        (iterations, worst scaled residual [-], status (STATUS_*), Jacobian evaluations,
-        active (B, 4) and contact buffer (N_ROWS, B, 4) as ``contacts_kernel`` gives them at the
-        returned state, and :func:`summarise` of it: summary and per-contact states).
+        (iterations, worst scaled residual [-], status (STATUS_*), Jacobian evaluations, slot).
     """
     count = z.shape[0]
     free = 2 if scene[_I_SCREW_SPEED] == 0.0 else 6  # rates frozen at zero speed
@@ -714,10 +733,11 @@ def newton_kernel(
     trial_e = np.empty(2)
     # Contacts of the iterate and of the trial point; those of the iterate are "recorded" when
     # its residual came from residuals() (linearise records nothing).
-    active = np.zeros((count, 4), dtype=np.bool_)
-    out = np.zeros((N_ROWS, count, 4))
-    trial_active = np.zeros((count, 4), dtype=np.bool_)
-    trial_out = np.zeros((N_ROWS, count, 4))
+    active = active_pair[0]
+    out = out_pair[0]
+    trial_active = active_pair[1]
+    trial_out = out_pair[1]
+    slot = 0  # the pair of active and out
     if reuse:
         for r in range(7):
             ratio = (
@@ -847,12 +867,13 @@ def newton_kernel(
         if trial_recorded:
             active, trial_active = trial_active, active
             out, trial_out = trial_out, out
+            slot = 1 - slot
         recorded = trial_recorded
     if not recorded:  # the last residual came from linearise: record the contacts here
         residuals(z, e_nut, *args, trial_res, active, out)
     finish_contacts(z, e_nut, nut, gravity, scene, active, out)
-    summary, states = summarise(z, nut, weight, gravity, scene, active, out)
-    return iterations, worst, status, linearisations, active, out, summary, states
+    summarise(z, nut, weight, gravity, scene, active, out, summary, states)
+    return iterations, worst, status, linearisations, slot
 
 
 # ----------------------------------------------------------------------------- Python side
@@ -924,25 +945,42 @@ def solve_compiled(
     max_iterations: int,
 ) -> KernelSolution:
     """Run :func:`newton_kernel` (``z`` (B, 6), ``nut_offset`` (2,) and ``jacobian``
-    (B, 7, 7) updated in place; arguments as there)."""
+    (B, 7, 7) updated in place; arguments as there) on arrays allocated here."""
     if not _checked_cache:
         ensure_fresh_cache()
+    count = z.shape[0]
+    active = np.zeros((2, count, 4), dtype=np.bool_)
+    buffer = np.zeros((2, N_ROWS, count, 4))
+    summary = np.empty(SUMMARY_SIZE)
+    states = np.empty((len(STATE_ROWS), 4 * count))
+    iterations, residual, status, linearisations, slot = newton_kernel(
+        z,
+        nut_offset,
+        jacobian,
+        reuse,
+        jacobian_scales,
+        polished,
+        nut,
+        weight,
+        gravity,
+        loads,
+        scales,
+        inertial_terms,
+        tolerance,
+        scene,
+        max_iterations,
+        active,
+        buffer,
+        summary,
+        states,
+    )
     return KernelSolution(
-        *newton_kernel(
-            z,
-            nut_offset,
-            jacobian,
-            reuse,
-            jacobian_scales,
-            polished,
-            nut,
-            weight,
-            gravity,
-            loads,
-            scales,
-            inertial_terms,
-            tolerance,
-            scene,
-            max_iterations,
-        )
+        iterations,
+        residual,
+        status,
+        linearisations,
+        active[slot],
+        buffer[slot],
+        summary,
+        states,
     )

@@ -42,7 +42,15 @@ from ..params import TwinConfig
 from ..physics import geometry, hertz
 from ..physics.contact_types import ContactEvaluation, ContactScene
 from ..units import RPM
-from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
+from .base import (
+    MECHANISMS,
+    ContactStates,
+    OperatingPoint,
+    TorqueBreakdown,
+    TwinOutput,
+    contact_states_from_rows,
+    filled,
+)
 from .contact_forces import evaluate_contacts, make_scene
 
 if TYPE_CHECKING:
@@ -220,6 +228,8 @@ class SteadyStateModel:
         self._moving_scenes: dict[tuple[float, float], ContactScene] = {}
         self._ball_sets: dict[str, BallSet] = {}
         self._parameters: dict[tuple[float, float], FloatArray] = {}
+        # nut_axial_loads per (preload [N], axial load [N]) for the solves (never written to).
+        self._loads: dict[tuple[float, float], FloatArray] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
 
     def scene(self, temperature: float, screw_speed: float) -> ContactScene:
@@ -466,14 +476,14 @@ class SteadyStateModel:
         )
         self._jacobian = (jacobian, scales) if solved.linearisations or reuse else None
         iterations, worst, status = solved.iterations, solved.residual, solved.status
-        if status == solver.STATUS_SINGULAR:
-            raise SolverError("steady state: singular sphere Jacobian")
-        if status == solver.STATUS_NOT_FINITE:
-            raise SolverError(
-                "steady state: every line-search step gave a non-finite residual "
-                f"(iteration {iterations + 1}, scaled residual {worst:.3g})"
-            )
         if status != solver.STATUS_CONVERGED:
+            if status == solver.STATUS_SINGULAR:
+                raise SolverError("steady state: singular sphere Jacobian")
+            if status == solver.STATUS_NOT_FINITE:
+                raise SolverError(
+                    "steady state: every line-search step gave a non-finite residual "
+                    f"(iteration {iterations + 1}, scaled residual {worst:.3g})"
+                )
             raise SolverError(
                 f"steady state did not converge in {max_iterations} iterations "
                 f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
@@ -637,12 +647,17 @@ class SteadyStateModel:
         """Solve ``op`` with the spheres of ``mode``, warm-started when the shapes match."""
         scene = self.scene(op.temperature, op.screw_speed)
         balls = self.ball_set(mode)
-        loads = self.nut_axial_loads(op)
+        loads = self._loads.get((op.preload, op.axial_load))
+        if loads is None:
+            if len(self._loads) >= SCENE_CACHE_SIZE:
+                self._loads.pop(next(iter(self._loads)))
+            loads = self._loads[(op.preload, op.axial_load)] = self.nut_axial_loads(op)
         previous = warm_start if warm_start is not None else self._warm
-        if previous is not None and previous.ball_nb.shape[0] == len(balls.nut):
-            predicted = self._predicted(op, len(balls.nut)) if warm_start is None else None
+        count = len(balls.nut)
+        if previous is not None and previous.ball_nb.shape[0] == count:
+            predicted = self._predicted(op, count) if warm_start is None else None
             # A point among the last two solved starts from its own solution (polished or not).
-            own = any(predicted is solved for _, solved in self._history)
+            own = predicted is not None and any([predicted is s for _, s in self._history])
             start = previous
             if predicted is not None:
                 start = predicted
@@ -1113,27 +1128,32 @@ class SteadyStateModel:
         solver = self._solver
         summary = solved.summary.tolist()
         speed = op.screw_speed
-        if speed == 0.0:
-            breakdown = TorqueBreakdown()
-            nut_torque = (0.0, 0.0)
-            total = 0.0
-        else:
-            parts = [p / speed for p in summary[: len(MECHANISMS)]]
-            breakdown = TorqueBreakdown(**dict(zip(MECHANISMS, parts, strict=True)))
-            first = solver.SUMMARY_NUT_POWER
-            nut_torque = (summary[first] / speed, summary[first + 1] / speed)
-            total = float(sum(parts))  # TorqueBreakdown.total, the same sum
+        # The kernel divided the powers by the speed (zero at standstill), as _assemble does,
+        # and summed the mechanisms in their order, as TorqueBreakdown.total does.
+        torque = solver.SUMMARY_TORQUE
+        breakdown = filled(
+            TorqueBreakdown,
+            lubricant_shear=summary[torque],
+            dry_contact=summary[torque + 1],
+            rolling_resistance=summary[torque + 2],
+            hysteresis=summary[torque + 3],
+            curvature=summary[torque + 4],
+            spin=summary[torque + 5],
+        )
+        nut = solver.SUMMARY_NUT_TORQUE
         lift_power = -(summary[solver.SUMMARY_BALLS_POWER] + self._nut_gravity_power(scene))
-        output = TwinOutput(
-            drag_torque=total,
-            nut_torque=nut_torque,
+        output = filled(
+            TwinOutput,
+            drag_torque=summary[solver.SUMMARY_DRAG],
+            nut_torque=(summary[nut], summary[nut + 1]),
             breakdown=breakdown,
             fidelity=f"{self.name}-{mode}",
             operating_point=op,
             contacts=self._kernel_contact_states(mode, balls, solved),
             notes=self._fixed_notes(mode, scene, len(balls.nut)),
         )
-        return SteadySolution(
+        return filled(
+            SteadySolution,
             output=output,
             state=state,
             balls=balls,
@@ -1160,14 +1180,10 @@ class SteadyStateModel:
             for array in index:
                 array.flags.writeable = False
             self._contact_index[mode] = index
-        rows = dict(zip(self._solver.STATE_ROWS, solved.states, strict=True))
-        return ContactStates(
-            sphere=index[0],
-            nut=index[1],
-            half_groove=index[2],
-            in_contact=solved.active.reshape(-1),
-            **rows,
-        )
+        sphere, nut, half_groove = index
+        in_contact = solved.active.reshape(-1)
+        rows = self._solver.STATE_ROWS
+        return contact_states_from_rows(sphere, nut, half_groove, in_contact, solved.states, rows)
 
     def _fixed_notes(self, mode: str, scene: ContactScene, count: int) -> tuple[str, ...]:
         """The notes of :meth:`_assemble` (they depend on the mode, the temperature and
