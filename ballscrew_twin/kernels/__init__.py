@@ -6,7 +6,7 @@ Each kernel mirrors a readable numpy reference elsewhere in the package and is t
   :func:`ballscrew_twin.models.contact_forces.evaluate_contacts`.
 - :mod:`ballscrew_twin.kernels.steady_solver`: the steady state's Newton solve, structured per
   sphere with exact Jacobian blocks by forward mode (:mod:`ballscrew_twin.kernels.dual`), the
-  compiled twin of ``SteadyStateModel._newton_readable``.
+  compiled twin of ``models.steady_reference.ReadableNewton``.
 - :mod:`ballscrew_twin.kernels.dynamic_step`: one time step of the dynamic model, the compiled
   twin of ``DynamicModel._step``.
 - :mod:`ballscrew_twin.kernels.map_sample`: the real-time map's interpolation, the compiled twin

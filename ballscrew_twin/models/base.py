@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields
-from typing import Protocol
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from ..errors import OperatingPointError
 
 FloatArray = NDArray[np.float64]
+_Frozen = TypeVar("_Frozen")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -32,10 +33,17 @@ class OperatingPoint:
 
     def validate(self) -> None:
         """Raise :class:`OperatingPointError` naming the first invalid quantity."""
-        for name in ("screw_speed", "temperature", "preload", "axial_load"):
-            value = getattr(self, name)
-            if not math.isfinite(value):
-                raise OperatingPointError(f"{name} = {value!r} is not a finite number")
+        isfinite = math.isfinite
+        if not (
+            isfinite(self.screw_speed)
+            and isfinite(self.temperature)
+            and isfinite(self.preload)
+            and isfinite(self.axial_load)
+        ):
+            for name in ("screw_speed", "temperature", "preload", "axial_load"):
+                value = getattr(self, name)
+                if not isfinite(value):
+                    raise OperatingPointError(f"{name} = {value!r} is not a finite number")
         if self.temperature <= 138.0:
             raise OperatingPointError(
                 f"temperature = {self.temperature} K is at or below 138 K, where the Roelands "
@@ -94,6 +102,60 @@ class ContactStates:
     slip_speed: FloatArray  # m/s, |v_t| at the contact centre (Eq. 12)
 
 
+class _RowContactStates(ContactStates):
+    """:class:`ContactStates` whose float fields are the rows of one (fields, contacts) array,
+    made views of their rows when one of them is first read (built by
+    :func:`contact_states_from_rows`).
+
+    Everything else is the dataclass's: ``fields``, ``replace`` (which builds it with every
+    field set), ``repr`` and pickling read the fields through ``getattr`` like any caller.
+    """
+
+    def __getattr__(self, name: str) -> Any:
+        # Called only for an attribute not set: before the first read of a float field. Setting
+        # the views is idempotent, so two threads reading at once both get them.
+        values = vars(self)
+        names = values.get("_row_names")
+        if names is None or name not in names:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        values.update(zip(names, values["_rows"], strict=True))
+        return values[name]
+
+
+def contact_states_from_rows(
+    sphere: NDArray[np.int64],
+    nut: NDArray[np.int64],
+    half_groove: NDArray[np.int64],
+    in_contact: NDArray[np.bool_],
+    rows: FloatArray,
+    row_names: tuple[str, ...],
+) -> ContactStates:
+    """:class:`ContactStates` of a model that lays the float fields out as one array.
+
+    Args:
+        sphere, nut, half_groove, in_contact: the fields of the same names (C,).
+        rows: (F, C) array, row k the field ``row_names[k]`` in its unit (see
+            :class:`ContactStates`); not copied.
+        row_names: every float field of :class:`ContactStates`, in the order of ``rows``.
+
+    Returns:
+        The states, the float fields views of their rows made when the first of them is read
+        (a caller that reads none, e.g. a tick that publishes no contact states, makes none).
+    """
+    states = object.__new__(_RowContactStates)
+    # A frozen dataclass refuses attribute assignment; its instance dictionary is the
+    # documented storage of the fields (what the generated __init__ fills).
+    vars(states).update(
+        sphere=sphere,
+        nut=nut,
+        half_groove=half_groove,
+        in_contact=in_contact,
+        _rows=rows,
+        _row_names=row_names,
+    )
+    return states
+
+
 @dataclass(frozen=True, kw_only=True)
 class TwinOutput:
     """What a model returns for one operating point.
@@ -115,6 +177,19 @@ class TwinOutput:
     operating_point: OperatingPoint
     contacts: ContactStates | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+def filled(cls: type[_Frozen], **values: Any) -> _Frozen:
+    """An instance of the frozen dataclass ``cls`` with ``values``, which must name every field
+    (defaults are not applied), equal to ``cls(**values)``.
+
+    The generated ``__init__`` of a frozen dataclass sets each field by ``object.__setattr__``
+    (~0.1 us a field); this fills the instance dictionary, where those calls store the fields,
+    at once. For the outputs of a model called at 1 kHz, whose values are its own.
+    """
+    instance = object.__new__(cls)
+    vars(instance).update(values)
+    return instance
 
 
 #: The mechanisms of the drag-torque breakdown (the fields of :class:`TorqueBreakdown`).

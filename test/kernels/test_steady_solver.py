@@ -22,19 +22,20 @@ import pytest
 from ballscrew_twin.errors import SolverError
 from ballscrew_twin.kernels import solver_settings, steady_solver
 from ballscrew_twin.kernels.contacts import N_ROWS, contacts_kernel, scene_arrays
+from ballscrew_twin.kernels.steady_linear import lu_factor, lu_solve
 from ballscrew_twin.kernels.steady_solver import (
     DEPENDENCY_STAMP,
     compiled_stamp,
     ensure_fresh_cache,
     frozen_constants,
-    linearise,
-    lu_factor,
-    lu_solve,
-    residuals,
 )
+from ballscrew_twin.kernels.steady_sphere import linearise, residuals
 from ballscrew_twin.models import steady
 from ballscrew_twin.models.base import MECHANISMS, ContactStates, OperatingPoint
 from ballscrew_twin.models.steady import SteadySolution, SteadyState, SteadyStateModel
+from ballscrew_twin.models.steady_compiled import predicted_start
+from ballscrew_twin.models.steady_output import assemble
+from ballscrew_twin.models.steady_problem import initial_state, residual_scales
 from ballscrew_twin.params import TwinConfig, load_config
 from ballscrew_twin.physics.contact_types import ContactEvaluation
 
@@ -121,7 +122,7 @@ def _problem(config: TwinConfig, mode: str, point: OperatingPoint):  # type: ign
     scene = model.scene(point.temperature, point.screw_speed)
     balls = solution.balls
     loads = model.nut_axial_loads(point)
-    force, moment = model._scales(scene, loads)
+    force, moment = residual_scales(config, scene, loads)
     scales = (force, moment, force * config.screw.balls_per_nut)
     rng = np.random.default_rng(3)
     state = solution.state
@@ -150,7 +151,9 @@ def test_residuals_are_those_of_the_reference_model(config: TwinConfig, mode: st
     nut_res = residuals(z, e, *args, res, *_records(len(z)))
     state = SteadyState(z[:, :2].copy(), z[:, 2:].copy(), e, scene.screw_speed)
     reference = SteadyStateModel(config, mode=mode, backend="reference")  # type: ignore[arg-type]
-    ref_res, _, ref_nut, _ = reference._residual(scene, balls, state, model.nut_axial_loads(point))
+    ref_res, _, ref_nut, _ = reference._reference.residual(
+        scene, balls, state, model.nut_axial_loads(point)
+    )
     np.testing.assert_allclose(res, ref_res, rtol=1e-9, atol=1e-12 * np.abs(ref_res).max())
     np.testing.assert_allclose(nut_res, ref_nut, rtol=1e-9, atol=1e-12)
 
@@ -294,8 +297,8 @@ def test_outputs_summed_in_the_kernel_equal_those_summed_in_python(
     model = SteadyStateModel(config, mode=mode)  # type: ignore[arg-type]
     got = model.solve(point)
     scene = model.scene(point.temperature, point.screw_speed)
-    want = model._assemble(
-        point, model.resolved_mode(), scene, got.balls, got.state, got.contacts, 0, 0.0
+    want = assemble(
+        model, point, model.resolved_mode(), scene, got.balls, got.state, got.contacts, 0, 0.0
     )
     scale = max(abs(want.output.drag_torque), 1e-300)
     assert got.output.drag_torque == pytest.approx(want.output.drag_torque, rel=1e-13, abs=0)
@@ -325,11 +328,11 @@ def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> N
     model = SteadyStateModel(config, mode="symmetric")
     a = model.solve(first).state
     b = model.solve(second).state
-    back = model._predicted(first, 2)
+    back = predicted_start(model, first, 2)
     assert back is not None
     np.testing.assert_allclose(back.ball_nb, a.ball_nb, rtol=1e-12, atol=1e-20)
     np.testing.assert_allclose(back.kinematics, a.kinematics, rtol=1e-12)
-    beyond = model._predicted(operating_point(230.0, 23.0, 1150.0), 2)
+    beyond = predicted_start(model, operating_point(230.0, 23.0, 1150.0), 2)
     assert beyond is not None
     np.testing.assert_allclose(
         beyond.nut_offset, b.nut_offset + 0.5 * (b.nut_offset - a.nut_offset), rtol=1e-12
@@ -337,7 +340,7 @@ def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> N
     per_speed = b.kinematics / second.screw_speed
     expected = per_speed + 0.5 * (per_speed - a.kinematics / first.screw_speed)
     np.testing.assert_allclose(beyond.kinematics, expected * 230.0 * RPM, rtol=1e-12)
-    assert model._predicted(operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
+    assert predicted_start(model, operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
 
 
 def test_the_compiled_extrapolation_is_the_readable_line(config: TwinConfig) -> None:
@@ -415,7 +418,7 @@ def test_absurd_start_gives_up_with_a_solver_error(config: TwinConfig) -> None:
     balls = model.ball_set("symmetric")
     loads = model.nut_axial_loads(point)
     scene = model.scene(point.temperature, point.screw_speed)
-    start = model._initial_state(scene, balls, loads)
+    start = initial_state(config, scene, balls, loads)
     absurd = SteadyState(
         np.full_like(start.ball_nb, 1e-3), start.kinematics, 3.0 * start.nut_offset, 1.0
     )

@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.errors import SolverError
-from ballscrew_twin.kernels import steady_solver
+from ballscrew_twin.kernels import steady_results, steady_solver
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.scenario import load_scenario
 from ballscrew_twin.models.simulation import build_config, simulate
 from ballscrew_twin.models.steady import SteadyStateModel
+from ballscrew_twin.models.steady_continuation import speed_continuation
 from ballscrew_twin.params import default_config_path, load_config
 
 RPM = 2 * math.pi / 60
@@ -43,14 +44,14 @@ def test_cold_solve_converges_where_the_speed_continuation_fails(
     balls = model.ball_set("symmetric")
     loads = model.nut_axial_loads(point)
     with pytest.raises(SolverError):
-        model._speed_continuation(point, balls, loads)
+        speed_continuation(model, point, balls, loads)
     model.forget_warm_start()
     solution = model.solve(point)
     # The balance at the returned state, evaluated by the numpy contact laws of the readable
     # reference (not the compiled kernel that solved it).
     reference = SteadyStateModel(config, mode="symmetric", backend="reference")
     scene = reference.scene(point.temperature, point.screw_speed)
-    sphere_rows, _, nut_rows, _ = reference._residual(scene, balls, solution.state, loads)
+    sphere_rows, _, nut_rows, _ = reference._reference.residual(scene, balls, solution.state, loads)
     assert np.max(np.abs(sphere_rows)) < 1e-8
     assert np.max(np.abs(nut_rows)) < 1e-8
     assert solution.output.drag_torque > 0.0
@@ -126,9 +127,9 @@ def test_the_cold_solution_is_the_dynamic_models_after_a_slow_start() -> None:
     model = SteadyStateModel(build_config(scenario), mode="symmetric")
     steady = model.solve(point).output.nut_torque
     balls = model.ball_set("symmetric")
-    _, direct, _, _ = model._speed_continuation(point, balls, model.nut_axial_loads(point))
+    _, direct, _, _ = speed_continuation(model, point, balls, model.nut_axial_loads(point))
     assert isinstance(direct, steady_solver.KernelSolution)
-    direct_master = direct.summary[steady_solver.SUMMARY_NUT_POWER] / point.screw_speed
+    direct_master = direct.summary[steady_results.SUMMARY_NUT_POWER] / point.screw_speed
     assert abs(direct_master / steady[0] - 1.0) > 0.1  # two solutions: the test can tell them
     dynamic = simulate(scenario).summary["nut_torque_Nm"]
     assert dynamic["master"] == pytest.approx(steady[0], rel=0.01)

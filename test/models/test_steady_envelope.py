@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from ballscrew_twin.errors import SolverError
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import MECHANISMS, SteadySolution, SteadyStateModel
+from ballscrew_twin.models.steady_problem import residual_scales
 from ballscrew_twin.params import load_config
 from ballscrew_twin.physics import geometry
 
@@ -39,7 +40,7 @@ def residual_torque_bound(model: SteadyStateModel, sol: SteadySolution) -> float
     speed = op.screw_speed
     scene = model.scene(op.temperature, speed)
     loads = model.nut_axial_loads(op)
-    force_scale, moment_scale = model._scales(scene, loads)
+    force_scale, moment_scale = residual_scales(model.config, scene, loads)
     geom = scene.geometry
     lead_rate = geom.lead / (2.0 * math.pi)  # m of axial travel per rad
     zhat = geometry.axis_direction(geom.helix_angle)

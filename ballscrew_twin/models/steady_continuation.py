@@ -1,0 +1,329 @@
+"""Cold solves of the steady model: the fixed paths that pick its one branch.
+
+A solve with no usable warm start follows a path fixed by the operating point alone
+(docs/model.md, "One branch"): the start-up path (:func:`startup_continuation`, the speed
+raised from :data:`STARTUP_SPEED` in steps that stay on one state), where it fails the static
+equilibrium and then the speed (:func:`speed_continuation`), where that fails too the preload
+lowered from a heavier point (:func:`preload_continuation`). With the compiled solver and more
+than one sphere per nut, the averaged two-sphere problem is solved first and spread over the
+spheres (:func:`solve_from_averaged`). Each function takes the model whose Newton iteration,
+scenes and warm-start rescaling it uses. Units: SI (rad/s, N).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import SolverError
+from ..kernels.solver_settings import NEWTON_MAX_ITER
+from ..units import RPM
+from .base import OperatingPoint
+from .steady_problem import initial_state
+from .steady_types import (
+    BRANCH_JUMP,
+    BallSet,
+    ContactSource,
+    SteadyState,
+    rate_change,
+    secant_start,
+)
+
+if TYPE_CHECKING:
+    from .steady import SteadyStateModel
+
+FloatArray = NDArray[np.float64]
+#: A converged solve: (state, its contacts, Newton iterations, worst scaled residual [-]).
+Solve = tuple[SteadyState, ContactSource, int, float]
+
+#: speed fractions of a cold start: straight to the speed, then ever finer continuation
+CONTINUATION_SCHEDULES = (
+    (1.0,),
+    (0.05, 0.2, 0.5, 1.0),
+    (0.02, 0.05, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0),
+)
+#: Start-up path of a cold solve (docs/model.md, "One branch"): the steady state is the one
+#: reached by raising the speed quasi-statically from this speed [rad/s] (1 rpm), where the
+#: direct cold solve is the start-up branch (measured on 80 lines, -40..100 C, 0..2000 N).
+STARTUP_SPEED = 1.0 * RPM
+#: Largest and smallest speed ratio of one step of the start-up path [-]; the ratio grows by
+#: STARTUP_GROWTH after an accepted step and is halved (its excess over 1) after a rejected one.
+STARTUP_MAX_RATIO = 2.0
+STARTUP_MIN_RATIO = 1.001
+STARTUP_GROWTH = 1.5
+#: A step of the start-up path that needs more Newton iterations is retried shorter [-].
+STARTUP_MAX_ITER = 20
+#: A cold solve whose speed continuation fails at the preload continues along the preload:
+#: from a point this much heavier [N], solved cold, down to the preload in
+#: PRELOAD_CONTINUATION_STEPS steps uniform in sqrt(preload) (docs/model.md, "One branch").
+PRELOAD_CONTINUATION_LIFT = 300.0
+PRELOAD_CONTINUATION_STEPS = 40
+
+
+def cold_solve(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """Solve from no warm start: :func:`cold_solve_direct`, or, with the compiled solver
+    and more than one sphere per nut, from the averaged problem first
+    (:func:`solve_from_averaged`) and directly when that fails."""
+    if model.backend == "compiled" and len(balls.nut) > 2:
+        try:
+            return solve_from_averaged(model, op, balls, loads)
+        except SolverError:
+            pass  # the averaged solution is no start for this problem: solve it directly
+    return cold_solve_direct(model, op, balls, loads)
+
+
+def solve_from_averaged(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """Cold solve of the averaged problem (``model._averaged_balls``, two spheres), then every
+    sphere warm-started from its nut's sphere, with that sphere's Jacobian block (its nut
+    row scaled to the one sphere it now stands for): the cost of a cold solve of two spheres
+    and a warm solve of all (compiled solver only)."""
+    averaged = model._averaged_balls(balls)
+    state, _, iterations, _ = cold_solve_direct(model, op, averaged, loads)
+    assert model._jacobian is not None  # a cold solve computes the blocks
+    blocks, scales = model._jacobian
+    spread = blocks[balls.nut]  # a copy
+    spread[:, 6, :] *= (balls.weight / averaged.weight[balls.nut])[:, None]
+    model._jacobian = (spread, scales)
+    start = SteadyState(
+        state.ball_nb[balls.nut],
+        state.kinematics[balls.nut],
+        state.nut_offset.copy(),
+        state.screw_speed,
+    )
+    scene = model.scene(op.temperature, op.screw_speed)
+    solved, ev, more, residual = model._newton(scene, balls, start, loads, warm=True)
+    return solved, ev, iterations + more, residual
+
+
+def cold_solve_direct(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """The start-up path (:func:`startup_continuation`); where it fails, the static
+    equilibrium and then the speed (:func:`speed_continuation`); where that fails too,
+    along the preload from a heavier point (:func:`preload_continuation`). All are fixed
+    paths: the result depends on the operating point alone."""
+    try:
+        return startup_continuation(model, op, balls, loads)
+    except SolverError:
+        pass
+    try:
+        return speed_continuation(model, op, balls, loads)
+    except SolverError as err:
+        if op.screw_speed == 0.0:
+            raise
+        try:
+            return preload_continuation(model, op, balls, loads)
+        except SolverError:
+            raise err from None
+
+
+def startup_continuation(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """The steady state reached by quasi-static start-up: solved cold at
+    :data:`STARTUP_SPEED` (of ``op``'s sign), then the speed raised in steps to ``op``'s,
+    each warm-started from the last with the rates scaled by the speed. A step whose rates
+    over the speed move by more than :data:`BRANCH_JUMP` (:func:`rate_change`) or that does
+    not converge is retried shorter (:func:`startup_step`). Where none down to
+    :data:`STARTUP_MIN_RATIO` does, longer steps are tried (ratio excess times 4 each) and
+    the first that converges is taken (the last at :data:`STARTUP_MAX_RATIO` itself): to
+    where the branch ends (a real screw jumps there too).
+    A longer step that would end past the target speed, where the state the path was on
+    ends just below it, solves past it and follows the state reached back down to the
+    target (:func:`startup_return`; the target itself lies in the basin of the ended
+    state and does not converge). Raises SolverError when no step up to
+    :data:`STARTUP_MAX_RATIO` converges. At or below the start-up speed:
+    :func:`speed_continuation`."""
+    target = abs(op.screw_speed)
+    if target <= STARTUP_SPEED:
+        return speed_continuation(model, op, balls, loads)
+    sign = math.copysign(1.0, op.screw_speed)
+    state, ev, total, residual = speed_continuation(
+        model, replace(op, screw_speed=sign * STARTUP_SPEED), balls, loads
+    )
+    speed = STARTUP_SPEED
+    ratio = STARTUP_MAX_RATIO
+    previous: SteadyState | None = None
+    while speed < target:
+        step = startup_step(model, op, balls, loads, (previous, state), speed, ratio)
+        if step is None:  # no step converges on the branch: the longest converged one
+            ratio = STARTUP_MIN_RATIO
+            while step is None:
+                if ratio >= STARTUP_MAX_RATIO:
+                    raise SolverError(
+                        f"steady state: start-up path stopped at {sign * speed:.6g} rad/s"
+                    )
+                ratio = min(1.0 + 4.0 * (ratio - 1.0), STARTUP_MAX_RATIO)
+                step = startup_step(
+                    model, op, balls, loads, (previous, state), speed, ratio, jump=True
+                )
+        solved, ev, iterations, residual = step[0]
+        total += iterations
+        previous, state, speed, ratio = state, solved, step[1], step[2]
+        ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
+    return state, ev, total, residual
+
+
+def startup_step(
+    model: SteadyStateModel,
+    op: OperatingPoint,
+    balls: BallSet,
+    loads: FloatArray,
+    path: tuple[SteadyState | None, SteadyState],
+    speed: float,
+    ratio: float,
+    jump: bool = False,
+) -> tuple[Solve, float, float] | None:
+    """One step of :func:`startup_continuation` from the last state of ``path`` (the one
+    before it, or None, and the last) at |speed| [rad/s]: the longest speed ratio from
+    ``ratio`` down (its excess halved each time) to :data:`STARTUP_MIN_RATIO` whose solve,
+    started from :func:`secant_start`, converges with a :func:`rate_change` within
+    :data:`BRANCH_JUMP` (``jump``: ``ratio`` alone, any rate change, and past the target
+    when the step to the target does not converge). Returns (solve, |speed| reached,
+    ratio) or None."""
+    target = abs(op.screw_speed)
+    while True:
+        step_speed = min(speed * ratio, target)
+        solve = startup_solve(model, op, balls, loads, path, step_speed, jump)
+        if solve is not None and (jump or rate_change(path[1], solve[0]) <= BRANCH_JUMP):
+            return solve, step_speed, ratio
+        if jump and solve is None and speed * ratio > target:
+            # The jump ends past the target: the state it reaches, followed back down.
+            solve = startup_solve(model, op, balls, loads, path, speed * ratio, jump)
+            if solve is not None:
+                solve = startup_return(model, op, balls, loads, solve, speed * ratio)
+            return None if solve is None else (solve, target, ratio)
+        if jump or ratio <= STARTUP_MIN_RATIO:
+            return None
+        ratio = max(1.0 + 0.5 * (ratio - 1.0), STARTUP_MIN_RATIO)
+
+
+def startup_solve(
+    model: SteadyStateModel,
+    op: OperatingPoint,
+    balls: BallSet,
+    loads: FloatArray,
+    path: tuple[SteadyState | None, SteadyState],
+    speed: float,
+    jump: bool = False,
+) -> Solve | None:
+    """Newton solve at |speed| [rad/s] (``op``'s sign, temperature and ``loads``) started
+    from the last state of ``path`` (on the secant through both when the first is not
+    None) with at most :data:`STARTUP_MAX_ITER` iterations (``jump``, a step to another
+    state: :data:`NEWTON_MAX_ITER`); None when it does not converge."""
+    signed = math.copysign(speed, op.screw_speed)
+    scene = model.scene(op.temperature, signed)
+    previous, state = path
+    if previous is None:
+        start = model._rescaled(state, scene, balls, signed)
+    else:
+        start = secant_start(previous, state, signed)
+    try:
+        return model._newton(
+            scene,
+            balls,
+            start,
+            loads,
+            warm=True,
+            max_iterations=NEWTON_MAX_ITER if jump else STARTUP_MAX_ITER,
+        )
+    except SolverError:
+        return None
+
+
+def startup_return(
+    model: SteadyStateModel,
+    op: OperatingPoint,
+    balls: BallSet,
+    loads: FloatArray,
+    solve: Solve,
+    speed: float,
+) -> Solve | None:
+    """From ``solve``, solved at |speed| [rad/s] above ``op``'s, down to ``op``'s speed
+    along its state: steps in speed ratio as on the way up (the whole way first, the
+    excess halved after a step that does not converge or moves a rate by more than
+    :data:`BRANCH_JUMP`, grown by :data:`STARTUP_GROWTH` after one that does). Returns the
+    solve at ``op``'s speed (iterations summed over the steps), or None where no step
+    down to :data:`STARTUP_MIN_RATIO` stays on the state."""
+    target = abs(op.screw_speed)
+    previous: SteadyState | None = None
+    total = solve[2]
+    ratio = speed / target
+    while speed > target:
+        step_speed = max(speed / ratio, target)
+        step = startup_solve(model, op, balls, loads, (previous, solve[0]), step_speed)
+        if step is not None and rate_change(solve[0], step[0]) <= BRANCH_JUMP:
+            previous, solve, speed = solve[0], step, step_speed
+            total += step[2]
+            ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
+        elif ratio <= STARTUP_MIN_RATIO:
+            return None
+        else:
+            ratio = max(1.0 + 0.5 * (ratio - 1.0), STARTUP_MIN_RATIO)
+    return solve[0], solve[1], total, solve[3]
+
+
+def preload_continuation(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """Cold solve at ``op`` with :data:`PRELOAD_CONTINUATION_LIFT` more preload [N]
+    (:func:`speed_continuation`), then down to ``op``'s preload in
+    :data:`PRELOAD_CONTINUATION_STEPS` steps uniform in sqrt(preload), each warm-started
+    from the previous one (same speed and temperature) and, where that fails, solved by
+    :func:`speed_continuation`; ``loads`` are ``op``'s."""
+    heavy = replace(op, preload=op.preload + PRELOAD_CONTINUATION_LIFT)
+    state, ev, total, residual = speed_continuation(
+        model, heavy, balls, model.nut_axial_loads(heavy)
+    )
+    scene = model.scene(op.temperature, op.screw_speed)
+    roots = np.linspace(
+        math.sqrt(heavy.preload), math.sqrt(op.preload), PRELOAD_CONTINUATION_STEPS + 1
+    )
+    for k, root in enumerate(roots[1:].tolist()):
+        last = k == PRELOAD_CONTINUATION_STEPS - 1
+        step_op = op if last else replace(op, preload=root * root)
+        step_loads = loads if last else model.nut_axial_loads(step_op)
+        try:
+            state, ev, iterations, residual = model._newton(scene, balls, state, step_loads)
+        except SolverError:
+            state, ev, iterations, residual = speed_continuation(model, step_op, balls, step_loads)
+        total += iterations
+    return state, ev, total, residual
+
+
+def speed_continuation(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> Solve:
+    """Static equilibrium first (robust: smooth Hertz only), then the speed.
+
+    If the direct step to full speed fails, the speed is raised in stages (continuation,
+    :data:`CONTINUATION_SCHEDULES`), each stage warm-started from the previous one.
+    """
+    static_scene = model.scene(op.temperature, 0.0)
+    state = initial_state(model.config, static_scene, balls, loads)
+    state, ev, total, residual = model._newton(static_scene, balls, state, loads)
+    if op.screw_speed == 0.0:
+        return state, ev, total, residual
+    last_error: SolverError | None = None
+    for attempt in CONTINUATION_SCHEDULES:
+        current = state
+        try:
+            for fraction in attempt:
+                speed = op.screw_speed * fraction
+                scene = model.scene(op.temperature, speed)
+                current = model._rescaled(current, scene, balls, speed)
+                current, ev, iterations, residual = model._newton(scene, balls, current, loads)
+                total += iterations
+            return current, ev, total, residual
+        except SolverError as err:
+            last_error = err
+    assert last_error is not None
+    raise last_error
