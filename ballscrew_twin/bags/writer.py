@@ -1,7 +1,7 @@
 """Writing rosbag2 bags: the one writer of every bag the project writes, and its type store.
 
 ``simulate`` (:func:`ballscrew_twin.results.write_bag`), the bench-data generator
-(:func:`ballscrew_twin.health.bench_data.write_bench_bag`) and ``record``
+(:func:`ballscrew_twin.bags.bench_writer.write_bench_bag`) and ``record``
 (:class:`ballscrew_twin.ros.record.BagRecorder`) all write with :class:`BagWriter`: the
 ``rosbags`` library's writer, except that the bag says it was recorded under the project's ROS 2
 distribution (:data:`ROS_DISTRO`, see package.xml) where the library would write its own name

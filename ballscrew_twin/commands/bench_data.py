@@ -19,19 +19,25 @@ How a bag is made: :mod:`ballscrew_twin.health.bench_data`.
 from __future__ import annotations
 
 import argparse
+import shutil
+import sys
+from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from ..bags.bench import read_bench_bag
+from ..bags.bench_writer import write_bench_bag
 from ..bags.recording import truth_path
 from ..errors import ConfigError
 from ..health.bench_data import (
     SAMPLE_DIR,
+    SAMPLE_NAMES,
+    SCENE_DIR,
+    START_NS,
     BenchData,
-    generate_bag,
+    generate,
     generate_unit_data,
-    regenerate_samples,
-    write_bench_bag,
 )
 from ..health.bench_scene import load_bench_scene
 from ..health.bench_units import draw_unit
@@ -146,8 +152,44 @@ def _unit_bag(args: argparse.Namespace) -> BenchData:
         seed=args.seed,
         name=f"unit {args.unit}",
     )
-    write_bench_bag(data, args.out, storage=args.storage)
+    write_bench_bag(data, args.out, START_NS, storage=args.storage)
     return data
+
+
+def generate_bag(
+    scene_file: str | Path,
+    out: str | Path,
+    seed: int | None = None,
+    storage: str = "mcap",
+    progress: bool = False,
+) -> BenchData:
+    """Load a scene, generate it (a progress bar on stderr with ``progress``) and write the
+    bag ``out`` (+ side file); returns the data."""
+    scene = load_bench_scene(scene_file)
+    with tqdm(desc=f"twin {scene.name}", unit="pt", file=sys.stderr, disable=not progress) as bar:
+
+        def advance(done: int, total: int) -> None:
+            bar.total = total
+            bar.update(done - bar.n)
+
+        data = generate(scene, seed=seed, on_progress=advance)
+    write_bench_bag(data, out, START_NS, storage=storage)
+    return data
+
+
+def regenerate_samples(out: str | Path = SAMPLE_DIR, progress: bool = False) -> list[Path]:
+    """Write every sample bag ``<out>/<name>`` (+ side file) from its scene, replacing old ones."""
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name in SAMPLE_NAMES:
+        bag = folder / name
+        if bag.exists():
+            shutil.rmtree(bag)
+        truth_path(bag).unlink(missing_ok=True)
+        generate_bag(SCENE_DIR / f"{name}.yaml", bag, progress=progress)
+        written.append(bag)
+    return written
 
 
 def _run(args: argparse.Namespace) -> int:

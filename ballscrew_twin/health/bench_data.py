@@ -14,9 +14,6 @@ fixed order, and the bag starts at the fixed time :data:`START_NS`, so a seed re
 
 from __future__ import annotations
 
-import json
-import shutil
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,12 +22,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..bags.recording import TRUTH_KEY, BenchTopics, truth_path
-from ..errors import BagError, ConfigError
+from ..errors import ConfigError
 from ..models.base import OperatingPoint
 from ..params import TwinConfig, load_config
-from ..units import CELSIUS_ZERO, ns_to_stamp
-from .bench_scene import BenchScene, load_bench_scene
+from .bench_scene import BenchScene
 from .bench_units import BenchUnit, UnitTorqueTable, presliding_reference
 from .duty_cycles import Trajectory
 from .fault_profiles import (
@@ -164,29 +159,26 @@ def _check_nyquist(scene: BenchScene, config: TwinConfig) -> None:
             )
 
 
+#: Progress of a generation: (instants of the twin evaluated, of all) [-].
+Progress = Callable[[int, int], None]
+
+
 def _model_torque(
-    scene: BenchScene, config: TwinConfig, grid: FloatArray, progress: bool
+    scene: BenchScene, config: TwinConfig, grid: FloatArray, on_progress: Progress | None
 ) -> FloatArray:
     """Drag torque of the faulted twin at the instants of ``grid`` [N m]."""
-    from tqdm import tqdm
-
     twin = FaultedTwin(config)
     speed, temperature, preload = scene.profile_at(grid)
     out = np.empty_like(grid)
-    items = tqdm(
-        range(len(grid)),
-        desc=f"twin {scene.name}",
-        unit="pt",
-        file=sys.stderr,
-        disable=not progress,
-    )
-    for i in items:
+    for i in range(len(grid)):
         op = OperatingPoint(
             screw_speed=float(speed[i]),
             temperature=float(temperature[i]),
             preload=float(preload[i]),
         )
         out[i] = twin.drag_torque(op, fault_state(scene.faults, float(grid[i])))
+        if on_progress is not None:
+            on_progress(i + 1, len(grid))
     return out
 
 
@@ -253,8 +245,11 @@ def _slow_readings(
     }
 
 
-def generate(scene: BenchScene, seed: int | None = None, progress: bool = False) -> BenchData:
-    """A recording of ``scene`` (see the module docstring); ``seed`` None: the scene's."""
+def generate(
+    scene: BenchScene, seed: int | None = None, on_progress: Progress | None = None
+) -> BenchData:
+    """A recording of ``scene`` (see the module docstring); ``seed`` None: the scene's;
+    ``on_progress`` is told how far the twin's evaluations are."""
     config = load_config(scene.config_path())
     _check_nyquist(scene, config)
     seed = scene.seed if seed is None else seed
@@ -263,7 +258,7 @@ def generate(scene: BenchScene, seed: int | None = None, progress: bool = False)
     rng = np.random.default_rng(seed)
     sensors = scene.sensors
     grid = model_grid(scene)
-    grid_torque = _model_torque(scene, config, grid, progress)
+    grid_torque = _model_torque(scene, config, grid, on_progress)
 
     times = _sample_times(sensors, scene.duration)
     # The drive's true speed and angle on the union of the torque and encoder instants.
@@ -490,129 +485,3 @@ def generate_unit_data(
         **slow,
         truth=truth,
     )
-
-
-# ---------------------------------------------------------------------------------------------
-# Writing
-
-
-def _nanoseconds(seconds: FloatArray) -> NDArray[np.int64]:
-    """Bag time [ns] of instants [s] since the start."""
-    return START_NS + np.round(np.asarray(seconds) * 1e9).astype(np.int64)
-
-
-def write_bench_bag(
-    data: BenchData, path: str | Path, storage: str = "mcap", topics: BenchTopics | None = None
-) -> Path:
-    """Write ``data`` as a rosbag2 bag (zstd-compressed mcap, or sqlite3) plus the side file
-    ``<bag>.truth.json``; the truth is also in ``metadata.yaml`` ``custom_data``.
-
-    Raises:
-        BagError: the bag folder exists already or cannot be written; unknown storage.
-    """
-    from rosbags.typesys import Stores, get_typestore
-
-    from ..bags.writer import BagWriter, storage_plugin
-
-    plugin = storage_plugin(storage, BagError)
-    folder = Path(path)
-    if folder.exists():
-        raise BagError(f"{folder}: bag folder exists already")
-    topics = topics or BenchTopics()
-    store = get_typestore(Stores.ROS2_JAZZY)
-    t = store.types
-    header_cls, time_cls = t["std_msgs/msg/Header"], t["builtin_interfaces/msg/Time"]
-    vector, wrench_cls = t["geometry_msgs/msg/Vector3"], t["geometry_msgs/msg/Wrench"]
-    stamped = "geometry_msgs/msg/WrenchStamped"
-    joint = "sensor_msgs/msg/JointState"
-    temperature = "sensor_msgs/msg/Temperature"
-    zero = vector(x=0.0, y=0.0, z=0.0)
-    no_effort = np.zeros(0, dtype=np.float64)
-
-    def header(ns: int) -> Any:
-        sec, nanosec = ns_to_stamp(ns)
-        return header_cls(stamp=time_cls(sec=sec, nanosec=nanosec), frame_id=FRAME_ID)
-
-    def torque_msg(ns: int, v: float) -> Any:
-        z = vector(x=0.0, y=0.0, z=v)
-        return t[stamped](header=header(ns), wrench=wrench_cls(force=zero, torque=z))
-
-    def preload_msg(ns: int, v: float) -> Any:
-        z = vector(x=0.0, y=0.0, z=v)
-        return t[stamped](header=header(ns), wrench=wrench_cls(force=z, torque=zero))
-
-    def joint_msg(ns: int, w: float, a: float) -> Any:
-        return t[joint](
-            header=header(ns),
-            name=[topics.joint_name],
-            position=np.array([a]),
-            velocity=np.array([w]),
-            effort=no_effort,
-        )
-
-    def temperature_msg(ns: int, kelvin: float, var: float) -> Any:
-        return t[temperature](header=header(ns), temperature=kelvin - CELSIUS_ZERO, variance=var)
-
-    streams: list[tuple[str, str, FloatArray, Callable[..., Any], tuple[FloatArray, ...]]] = [
-        (topics.torque, stamped, data.torque_time, torque_msg, (data.torque,)),
-        (topics.speed, joint, data.speed_time, joint_msg, (data.speed, data.angle)),
-        (
-            topics.temperature,
-            temperature,
-            data.temperature_time,
-            temperature_msg,
-            (data.temperature, data.temperature_variance),
-        ),
-        (topics.preload, stamped, data.preload_time, preload_msg, (data.preload,)),
-    ]
-    truth_json = json.dumps(data.truth, sort_keys=True)
-    try:
-        writer = BagWriter(folder, plugin, compressed=True)
-        writer.set_custom_data(TRUTH_KEY, truth_json)
-        with writer:
-            records: list[tuple[int, int, bytes]] = []
-            connections = []
-            for k, (topic, msgtype, times, make, columns) in enumerate(streams):
-                connections.append(writer.add_connection(topic, msgtype, typestore=store))
-                rows = zip(
-                    _nanoseconds(times).tolist(), *(c.tolist() for c in columns), strict=True
-                )
-                for ns, *values in rows:
-                    payload = store.serialize_cdr(make(ns, *values), msgtype)
-                    records.append((ns, k, bytes(payload)))
-            records.sort(key=lambda r: (r[0], r[1]))
-            for ns, k, raw in records:
-                writer.write(connections[k], ns, raw)
-    except OSError as err:
-        raise BagError(f"{folder}: cannot write bag ({err.strerror})") from err
-    side = truth_path(folder)
-    side.write_text(json.dumps(data.truth, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    return folder
-
-
-def generate_bag(
-    scene_file: str | Path,
-    out: str | Path,
-    seed: int | None = None,
-    storage: str = "mcap",
-    progress: bool = False,
-) -> BenchData:
-    """Load a scene, generate it and write the bag ``out`` (+ side file); returns the data."""
-    data = generate(load_bench_scene(scene_file), seed=seed, progress=progress)
-    write_bench_bag(data, out, storage=storage)
-    return data
-
-
-def regenerate_samples(out: str | Path = SAMPLE_DIR, progress: bool = False) -> list[Path]:
-    """Write every sample bag ``<out>/<name>`` (+ side file) from its scene, replacing old ones."""
-    folder = Path(out)
-    folder.mkdir(parents=True, exist_ok=True)
-    written = []
-    for name in SAMPLE_NAMES:
-        bag = folder / name
-        if bag.exists():
-            shutil.rmtree(bag)
-        truth_path(bag).unlink(missing_ok=True)
-        generate_bag(SCENE_DIR / f"{name}.yaml", bag, progress=progress)
-        written.append(bag)
-    return written

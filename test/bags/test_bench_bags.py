@@ -16,10 +16,11 @@ from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin, W
 from rosbags.typesys import Stores, get_typestore
 
 from ballscrew_twin.bags.bench import read_bench_bag
+from ballscrew_twin.bags.bench_writer import write_bench_bag
 from ballscrew_twin.bags.reader import open_raw_bag
 from ballscrew_twin.bags.recording import TRUTH_KEY, BenchTopics, truth_path
 from ballscrew_twin.errors import BagError
-from ballscrew_twin.health.bench_data import generate, write_bench_bag
+from ballscrew_twin.health.bench_data import START_NS, generate
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
@@ -115,7 +116,7 @@ def small_data() -> Any:
 def test_generated_bag_reads_back_in_si_units(
     small_data: Any, tmp_path: Path, storage: str
 ) -> None:
-    bag = write_bench_bag(small_data, tmp_path / "bag", storage=storage)
+    bag = write_bench_bag(small_data, tmp_path / "bag", START_NS, storage=storage)
     rec = read_bench_bag(bag)
     assert rec.storage == storage
     assert rec.issues == ()
@@ -134,7 +135,7 @@ def test_generated_bag_reads_back_in_si_units(
 
 
 def test_truth_comes_from_bag_metadata_without_side_file(small_data: Any, tmp_path: Path) -> None:
-    bag = write_bench_bag(small_data, tmp_path / "bag")
+    bag = write_bench_bag(small_data, tmp_path / "bag", START_NS)
     truth_path(bag).unlink()
     rec = read_bench_bag(bag)
     assert rec.truth == small_data.truth
@@ -455,7 +456,7 @@ def test_messages_of_a_corrupt_chunk_are_counted(tmp_path: Path, compress: bool)
 
 def test_intact_bags_report_no_loss(small_data: Any, tmp_path: Path) -> None:
     for storage in ("mcap", "sqlite3"):
-        bag = write_bench_bag(small_data, tmp_path / storage, storage=storage)
+        bag = write_bench_bag(small_data, tmp_path / storage, START_NS, storage=storage)
         with open_raw_bag(bag) as raw:
             assert sum(1 for _ in raw.messages()) == sum(t.count for t in raw.topics.values())
             assert raw.issues == []

@@ -13,8 +13,9 @@ from rosbags.rosbag2 import Reader, StoragePlugin
 from rosbags.typesys import Stores, get_typestore
 
 from ballscrew_twin.bags.writer import ROS_DISTRO, BagWriter, relabel_distro
+from ballscrew_twin.commands.bench_data import generate_bag
 from ballscrew_twin.errors import BallscrewTwinError
-from ballscrew_twin.health.bench_data import SCENE_DIR, generate_bag
+from ballscrew_twin.health.bench_data import SCENE_DIR
 
 PLUGINS = {"mcap": StoragePlugin.MCAP, "sqlite3": StoragePlugin.SQLITE3}
 

@@ -14,13 +14,13 @@ import pytest
 from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.bags.recording import truth_path
 from ballscrew_twin.cli import main as cli_main
+from ballscrew_twin.commands.bench_data import generate_bag
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.bench_data import (
     SAMPLE_DIR,
     SAMPLE_NAMES,
     SCENE_DIR,
     generate,
-    generate_bag,
 )
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping, load_bench_scene
 from ballscrew_twin.health.fault_profiles import FAULT_CLASSES, defect_frequencies

@@ -17,8 +17,9 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_sensor_data
 
 from ballscrew_twin.bags.bench import read_bench_bag
+from ballscrew_twin.bags.bench_writer import write_bench_bag
 from ballscrew_twin.bags.reader import open_raw_bag
-from ballscrew_twin.health.bench_data import generate, write_bench_bag
+from ballscrew_twin.health.bench_data import START_NS, generate
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.offline import CHANNELS, recording_channels, run_monitor, summary
@@ -55,7 +56,7 @@ SCENE = {
 def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A short bench bag: 100 rpm, 20 % preload loss at 7 s."""
     data = generate(bench_scene_from_mapping(SCENE, "test scene"))
-    return write_bench_bag(data, tmp_path_factory.mktemp("bags") / "preload_step")
+    return write_bench_bag(data, tmp_path_factory.mktemp("bags") / "preload_step", START_NS)
 
 
 class Listener(Node):
