@@ -20,11 +20,9 @@ from __future__ import annotations
 
 import argparse
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from ..bags.bench import read_bench_bag
 from ..bags.bench_writer import write_bench_bag
@@ -47,6 +45,7 @@ from ..models.base import OperatingPoint
 from ..models.validity import ValidityEnvelope, refuse_outside
 from ..params import load_config
 from ..plots.bench_data import plot_bench_data
+from .progress import progress_bar
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -166,12 +165,7 @@ def generate_bag(
     """Load a scene, generate it (a progress bar on stderr with ``progress``) and write the
     bag ``out`` (+ side file); returns the data."""
     scene = load_bench_scene(scene_file)
-    with tqdm(desc=f"twin {scene.name}", unit="pt", file=sys.stderr, disable=not progress) as bar:
-
-        def advance(done: int, total: int) -> None:
-            bar.total = total
-            bar.update(done - bar.n)
-
+    with progress_bar(f"twin {scene.name}", "pt", enabled=progress) as advance:
         data = generate(scene, seed=seed, on_progress=advance)
     write_bench_bag(data, out, START_NS, storage=storage)
     return data

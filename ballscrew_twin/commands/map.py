@@ -15,11 +15,10 @@ import sys
 import time
 from pathlib import Path
 
-from tqdm import tqdm
-
 from ..errors import MapError
 from ..models import map_build, map_grid, map_store
 from ..params import load_config
+from .progress import progress_bar
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -68,19 +67,17 @@ def run(args: argparse.Namespace) -> int:
         print(f"{out}: already built for {config.source} (--force builds it again)")
         return 0
     start = time.monotonic()
-    bar = tqdm(desc="steady map", unit="line", disable=args.no_progress)
-
-    def show(done: int, total: int, _elapsed: float) -> None:
-        bar.total = total
-        bar.update(done - bar.n)
-
     try:
-        table = map_build.build_map(config, grid, workers=args.workers, on_progress=show)
+        with progress_bar("steady map", "line", enabled=not args.no_progress) as advance:
+            table = map_build.build_map(
+                config,
+                grid,
+                workers=args.workers,
+                on_progress=lambda done, total, _elapsed: advance(done, total),
+            )
     except KeyboardInterrupt:
         print(f"interrupted: nothing written to {out}", file=sys.stderr)
         return 130
-    finally:
-        bar.close()
     map_store.save_atomic(table, out)
     filled = int(table.filled.sum())
     print(
