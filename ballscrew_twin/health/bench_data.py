@@ -52,8 +52,6 @@ FloatArray = NDArray[np.float64]
 
 #: Log time of the first sample of every generated bag [ns] (2023-11-14 22:13:20 UTC).
 START_NS = 1_700_000_000 * 10**9
-#: frame_id of the header of every generated message.
-FRAME_ID = "screw"
 #: A step fault is also evaluated this long before its onset [s], so that interpolation keeps
 #: the step sharp.
 STEP_EDGE = 1e-6

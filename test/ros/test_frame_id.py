@@ -7,7 +7,7 @@ from pathlib import Path
 import yaml
 
 from ballscrew_twin import results
-from ballscrew_twin.health import bench_data
+from ballscrew_twin.bags import bench_writer
 from ballscrew_twin.ros.twin_parameters import SCREW_FRAME_ID
 
 CONFIG = Path(__file__).resolve().parents[2] / "config"
@@ -20,6 +20,6 @@ def _node_parameters(name: str) -> dict[str, object]:
 
 
 def test_every_writer_names_the_screw_frame_alike() -> None:
-    assert SCREW_FRAME_ID == results.FRAME_ID == bench_data.FRAME_ID
+    assert SCREW_FRAME_ID == results.FRAME_ID == bench_writer.FRAME_ID
     assert _node_parameters("twin_node.yaml")["frame_id"] == SCREW_FRAME_ID
     assert _node_parameters("health_node.yaml")["frame_id"] == SCREW_FRAME_ID
