@@ -114,6 +114,9 @@ class _Record:
     #: residual less the bin's healthy residual [N m] and that difference's variance
     #: [N^2 m^2]; None where the bin was no reference.
     local: tuple[float, float] | None = None
+    #: The block's mean commissioned correction of the twin's drag, shape x surface [-]: a
+    #: fault's change of the twin's drag is this unit's change times it.
+    correction: float = 1.0
 
 
 class _SteadyTwin:
@@ -496,6 +499,7 @@ class HealthMonitor:
                 prior_state,
                 prior_cov,
                 local_change,
+                float(np.mean(factor)),
             )
         )
         # per sample for the order test, which takes the inertia torque off when the next
@@ -683,13 +687,17 @@ class HealthMonitor:
 
         def response(name: str) -> Response:
             # the changed twin at every evaluated severity (the response bends between them),
-            # at the unit's own operating point, as its drag
+            # at the unit's own operating point, scaled as the unit's drag is (its commissioned
+            # shape and surface correct the twin's drag; a change of it in the same measure)
             _, severities = FAULT_CHANGES[name]
             for r in records:
                 if (name, r.time) not in self._fault_changes:
                     op = self.baseline.unit_point(r.operating_point)
                     self._fault_changes[(name, r.time)] = np.array(
-                        [gain * self.predictor.fault_change(name, op, a) for a in severities]
+                        [
+                            gain * r.correction * self.predictor.fault_change(name, op, a)
+                            for a in severities
+                        ]
                     )
             changes = [self._fault_changes[(name, r.time)] for r in records]
             return Response(np.array(severities), np.array(changes).T)
