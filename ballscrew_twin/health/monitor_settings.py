@@ -73,7 +73,7 @@ class MonitorSettings:
     chi_square_window: int = 20
     spectral_window: float = 4.0
     spectral_period: float = 1.0
-    min_revolutions: float = 4.0
+    min_revolutions: float = 1.0
     spectral_noise_time: float = 0.05
     classification_window: float = 8.0
     classification_patience: float = 30.0

@@ -59,6 +59,42 @@ def test_a_small_ripple_is_found_through_reversals(kind: str) -> None:
     assert healthy.alarm is None
 
 
+def _short_strokes(ripple: float, kind: str, duration: float = 40.0):
+    """The unit of :func:`_reversing` on a sinusoidal position command at 0.7 Hz, peak speed
+    22 rad/s: strokes of 1.6 turns back and forth over the same turns (an EMA's small
+    oscillation), with a ``kind`` ripple of peak ``ripple`` from ONSET on."""
+    config = load_config(None)
+    twin = UnitTwin(config)
+    t = np.arange(0.0, duration, 1e-3)
+    w = 22.0 * np.sin(2.0 * np.pi * 0.7 * t)
+    drag = twin.drag(w, 293.15, 1500.0)
+    size = np.where(t >= ONSET, ripple, 0.0)
+    zero = np.zeros_like(t)
+    raceway, sphere = (size, zero) if kind == "raceway_defect" else (zero, size)
+    torque = drag + ripple_torque(config, t, w, drag, raceway, sphere)
+    torque = torque + config.screw.screw_inertia * np.gradient(w, t)
+    torque = torque + np.random.default_rng(12).normal(0.0, 2e-4, len(t))
+    return config, twin, bench_channels(t, torque, w)
+
+
+@pytest.mark.parametrize("kind", ["raceway_defect", "sphere_defect"])
+def test_a_small_ripple_is_found_on_strokes_shorter_than_four_turns(kind: str) -> None:
+    # Dev unit 16012 (round 17 of issue 13): a 4 % sphere spot on a 0.7 Hz sine of 1.5 turns'
+    # stroke was never tested, since a window had to span 4 turns; the strokes pass the same
+    # turns again and again, and the line stands out at once (ratio 70-130 against 25).
+    settings = MonitorSettings(detectors=("spectral",))
+    config, twin, channels = _short_strokes(0.02, kind)
+    monitor = HealthMonitor(config, settings, twin=twin)
+    feed(monitor, channels)
+    assert monitor.alarm is not None
+    assert ONSET < monitor.alarm.time <= ONSET + 5.0
+    assert monitor.alarm.classification.fault_class == kind
+    config, twin, channels = _short_strokes(0.0, kind)
+    healthy = HealthMonitor(config, settings, twin=twin)
+    feed(healthy, channels)
+    assert healthy.alarm is None
+
+
 def test_a_ripple_found_by_the_mean_shift_test_is_named_by_its_order() -> None:
     # a raised-cosine ripple of peak 30 % raises the mean friction by 15 % in both directions
     # (5 sigmas of the nominal twin's error): the CUSUM, oriented by the direction of the
