@@ -148,16 +148,17 @@ def startup_continuation(
         return speed_continuation(model, op, balls, loads)
     sign = math.copysign(1.0, op.screw_speed)
     path = startup_path(model, op, balls, loads)
-    if path.starts:
-        (previous, state, ev, total, residual, speed, ratio), tried = path.resume(model, target)
+    if path.starts:  # at least one step follows a kept start: it returns that step's solve
+        (previous, state, total, speed, ratio), tried = path.resume(model, target)
     else:
-        state, ev, total, residual = speed_continuation(
+        state, _, total, _ = speed_continuation(
             model, replace(op, screw_speed=sign * STARTUP_SPEED), balls, loads
         )
         speed, ratio, tried, previous = STARTUP_SPEED, STARTUP_MAX_RATIO, 0.0, None
+    solve: Solve | None = None
     while speed < target:
         if tried < target:  # no step so far reached the target: a start of higher targets too
-            path.record(model, (previous, state, ev, total, residual, speed, ratio), tried)
+            path.record(model, (previous, state, total, speed, ratio), tried)
         tried = max(tried, speed * ratio)
         step = startup_step(model, op, balls, loads, (previous, state), speed, ratio)
         if step is None:  # no step converges on the branch: the longest converged one
@@ -172,16 +173,17 @@ def startup_continuation(
                 step = startup_step(
                     model, op, balls, loads, (previous, state), speed, ratio, jump=True
                 )
-        solved, ev, iterations, residual = step[0]
-        total += iterations
-        previous, state, speed, ratio = state, solved, step[1], step[2]
+        solve = step[0]
+        total += solve[2]
+        previous, state, speed, ratio = state, solve[0], step[1], step[2]
         ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
-    return state, ev, total, residual
+    assert solve is not None  # speed < target at the start (1 rpm or a kept start)
+    return state, solve[1], total, solve[3]
 
 
-#: The start of a step of the start-up path: (state before the last, last state, its contacts,
-#: Newton iterations so far, its worst scaled residual [-], |speed| [rad/s], speed ratio [-]).
-PathStart = tuple[SteadyState | None, SteadyState, ContactSource, int, float, float, float]
+#: The start of a step of the start-up path: (state before the last, last state, Newton
+#: iterations so far, |speed| [rad/s], speed ratio [-]).
+PathStart = tuple[SteadyState | None, SteadyState, int, float, float]
 
 
 @dataclass
