@@ -239,6 +239,12 @@ class StartupPath:
 _PATHS: weakref.WeakKeyDictionary[SteadyStateModel, StartupPath] = weakref.WeakKeyDictionary()
 
 
+def forget_startup_path(model: SteadyStateModel) -> None:
+    """Drop ``model``'s kept start-up path: its next cold solve climbs from
+    :data:`STARTUP_SPEED` (the same result; ``bench steady`` times a cold solve so)."""
+    _PATHS.pop(model, None)
+
+
 def startup_path(
     model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
 ) -> StartupPath:

@@ -11,7 +11,11 @@ import pytest
 
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.models.steady_continuation import STARTUP_MAX_RATIO, STARTUP_SPEED
+from ballscrew_twin.models.steady_continuation import (
+    STARTUP_MAX_RATIO,
+    STARTUP_SPEED,
+    forget_startup_path,
+)
 from ballscrew_twin.params import load_config
 
 RPM = 2 * math.pi / 60
@@ -74,3 +78,17 @@ def test_a_resumed_start_up_path_is_the_path_from_the_start_up_speed(config) -> 
     # paths (steps from below half their speed are shared), so they solve less.
     assert abs(POINTS[1][0]) * RPM > 4 * STARTUP_MAX_RATIO * STARTUP_SPEED
     assert saved > 0
+
+
+def test_a_forgotten_start_up_path_is_climbed_again(config) -> None:  # type: ignore[no-untyped-def]
+    point = op(*POINTS[1])
+    fresh = SteadyStateModel(config, mode="symmetric")
+    fresh_calls = counted(fresh)
+    expected = fresh.solve(point).output.drag_torque
+    used = SteadyStateModel(config, mode="symmetric")
+    used.solve(op(*POINTS[0]))
+    used_calls = counted(used)
+    used.forget_warm_start()
+    forget_startup_path(used)
+    assert used.solve(point).output.drag_torque == expected
+    assert used_calls[0] == fresh_calls[0]  # the whole path from the start-up speed
