@@ -148,6 +148,8 @@ def startup_continuation(
         return speed_continuation(model, op, balls, loads)
     sign = math.copysign(1.0, op.screw_speed)
     path = startup_path(model, op, balls, loads)
+    if path.stop is not None and path.stop[0] < target:  # it stops below the target
+        raise SolverError(f"steady state: start-up path stopped at {sign * path.stop[1]:.6g} rad/s")
     if path.starts:  # at least one step follows a kept start: it returns that step's solve
         (previous, state, total, speed, ratio), tried = path.resume(model, target)
     else:
@@ -165,6 +167,8 @@ def startup_continuation(
             ratio = STARTUP_MIN_RATIO
             while step is None:
                 if ratio >= STARTUP_MAX_RATIO:
+                    if tried < target:  # a stop on the path to every target above ``tried``
+                        path.stop = (tried, speed)
                     raise SolverError(
                         f"steady state: start-up path stopped at {sign * speed:.6g} rad/s"
                     )
@@ -199,13 +203,17 @@ class StartupPath:
     Jacobian blocks kept between the path's solves, saved with each start): a path resumed
     there is the one followed from :data:`STARTUP_SPEED`, to the last bit. The table build's
     lines solve their nodes at ascending speeds: a node solved cold resumes at the start of
-    the last step of the node below instead of climbing from 1 rpm again.
+    the last step of the node below instead of climbing from 1 rpm again. Likewise a path
+    that stops (no step converges) after trying only speeds below the target stops there for
+    every higher target: such a cold solve goes to its fallbacks at once.
 
     Attributes:
         key: (temperature [K], speed sign, axial loads [N] as bytes) of the path.
         balls: the spheres solved.
         starts: (start, the highest |speed| tried before it [rad/s], Jacobian blocks and their
             residual scales or None), in the path's order.
+        stop: where the path stops (no step converges) for every target above the highest
+            |speed| tried until then: (that speed, the |speed| it stops at) [rad/s], or None.
     """
 
     key: tuple[float, float, bytes]
@@ -213,6 +221,7 @@ class StartupPath:
     starts: list[tuple[PathStart, float, tuple[FloatArray, tuple[float, float, float]] | None]] = (
         field(default_factory=list)
     )
+    stop: tuple[float, float] | None = None
 
     def record(self, model: SteadyStateModel, start: PathStart, tried: float) -> None:
         """Keep ``start`` (reached after speeds up to ``tried`` [rad/s]) with a copy of

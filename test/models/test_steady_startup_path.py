@@ -5,18 +5,21 @@ start-up speed by a fresh model, to the last bit, and it takes fewer Newton solv
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
+from ballscrew_twin.errors import SolverError
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.steady_continuation import (
     STARTUP_MAX_RATIO,
     STARTUP_SPEED,
     forget_startup_path,
+    startup_continuation,
 )
-from ballscrew_twin.params import load_config
+from ballscrew_twin.params import default_config_path, load_config
 
 RPM = 2 * math.pi / 60
 
@@ -92,3 +95,27 @@ def test_a_forgotten_start_up_path_is_climbed_again(config) -> None:  # type: ig
     forget_startup_path(used)
     assert used.solve(point).output.drag_torque == expected
     assert used_calls[0] == fresh_calls[0]  # the whole path from the start-up speed
+
+
+def test_a_start_up_path_that_stops_is_not_climbed_again() -> None:
+    """The 32 x 10 screw at 20 C and 3.9 N: the path to 12.74 rad/s (backwards) stops where no
+    step up to the ratio 2 converges (measured: at 6.31 rad/s, every speed tried below 12.74);
+    the path to 50 rad/s is the same up there and stops there too: raised without a solve."""
+    config = load_config(default_config_path().parent / "screw_32x10.yaml")
+    point = OperatingPoint(screw_speed=-50.0, temperature=293.15, preload=3.90625)
+    used = SteadyStateModel(config, mode="symmetric")
+    balls = used.ball_set("symmetric")
+    for speed in (-9.984, -12.74):
+        below = replace(point, screw_speed=speed)
+        with pytest.raises(SolverError, match="start-up path stopped"):
+            startup_continuation(used, below, balls, used.nut_axial_loads(below))
+    fresh = SteadyStateModel(config, mode="symmetric")
+    fresh_calls = counted(fresh)
+    loads = fresh.nut_axial_loads(point)
+    with pytest.raises(SolverError, match="start-up path stopped") as expected:
+        startup_continuation(fresh, point, fresh.ball_set("symmetric"), loads)
+    used_calls = counted(used)
+    with pytest.raises(SolverError) as raised:
+        startup_continuation(used, point, balls, loads)
+    assert str(raised.value) == str(expected.value)
+    assert used_calls[0] == 0 < fresh_calls[0]
