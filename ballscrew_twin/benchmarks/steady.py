@@ -7,7 +7,8 @@ solver (``backend="compiled"``, the package's) beside the previous one (``backen
 the readable Newton over the compiled contact laws):
 
 - cold: ``solve`` with no warm start (the start-up path from 1 rpm, docs/model.md "One
-  branch");
+  branch"; the model's kept start-up path dropped too, which a repeated cold solve of the
+  same point would otherwise resume at its last step);
 - warm: ``solve`` at 20 C / 100 rpm / 1500 N and 21 C / 110 rpm / 1550 N alternately, each
   warm-started from the other, with all outputs (torques, per-contact states); per solve. The
   structured solver extrapolates its warm start from its last two solutions, which here are
@@ -59,6 +60,7 @@ from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
 from ..models.contact_forces import evaluate_contacts, make_scene
 from ..models.steady import SteadyStateModel
+from ..models.steady_continuation import forget_startup_path
 from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
 from ..units import CELSIUS_ZERO, RPM
@@ -137,6 +139,7 @@ def _tasks(
 
     def cold() -> None:
         model.forget_warm_start()
+        forget_startup_path(model)  # else the path of the last cold solve is resumed
         model.solve(point)
 
     def warm() -> None:

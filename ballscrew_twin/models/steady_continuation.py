@@ -13,7 +13,8 @@ scenes and warm-start rescaling it uses. Units: SI (rad/s, N).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+import weakref
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -146,30 +147,123 @@ def startup_continuation(
     if target <= STARTUP_SPEED:
         return speed_continuation(model, op, balls, loads)
     sign = math.copysign(1.0, op.screw_speed)
-    state, ev, total, residual = speed_continuation(
-        model, replace(op, screw_speed=sign * STARTUP_SPEED), balls, loads
-    )
-    speed = STARTUP_SPEED
-    ratio = STARTUP_MAX_RATIO
-    previous: SteadyState | None = None
+    path = startup_path(model, op, balls, loads)
+    if path.stop is not None and path.stop[0] < target:  # it stops below the target
+        raise SolverError(f"steady state: start-up path stopped at {sign * path.stop[1]:.6g} rad/s")
+    if path.starts:  # at least one step follows a kept start: it returns that step's solve
+        (previous, state, total, speed, ratio), tried = path.resume(model, target)
+    else:
+        state, _, total, _ = speed_continuation(
+            model, replace(op, screw_speed=sign * STARTUP_SPEED), balls, loads
+        )
+        speed, ratio, tried, previous = STARTUP_SPEED, STARTUP_MAX_RATIO, 0.0, None
+    solve: Solve | None = None
     while speed < target:
+        if tried < target:  # no step so far reached the target: a start of higher targets too
+            path.record(model, (previous, state, total, speed, ratio), tried)
+        tried = max(tried, speed * ratio)
         step = startup_step(model, op, balls, loads, (previous, state), speed, ratio)
         if step is None:  # no step converges on the branch: the longest converged one
             ratio = STARTUP_MIN_RATIO
             while step is None:
                 if ratio >= STARTUP_MAX_RATIO:
+                    if tried < target:  # a stop on the path to every target above ``tried``
+                        path.stop = (tried, speed)
                     raise SolverError(
                         f"steady state: start-up path stopped at {sign * speed:.6g} rad/s"
                     )
                 ratio = min(1.0 + 4.0 * (ratio - 1.0), STARTUP_MAX_RATIO)
+                tried = max(tried, speed * ratio)
                 step = startup_step(
                     model, op, balls, loads, (previous, state), speed, ratio, jump=True
                 )
-        solved, ev, iterations, residual = step[0]
-        total += iterations
-        previous, state, speed, ratio = state, solved, step[1], step[2]
+        solve = step[0]
+        total += solve[2]
+        previous, state, speed, ratio = state, solve[0], step[1], step[2]
         ratio = min(1.0 + STARTUP_GROWTH * (ratio - 1.0), STARTUP_MAX_RATIO)
-    return state, ev, total, residual
+    assert solve is not None  # speed < target at the start (1 rpm or a kept start)
+    return state, solve[1], total, solve[3]
+
+
+#: The start of a step of the start-up path: (state before the last, last state, Newton
+#: iterations so far, |speed| [rad/s], speed ratio [-]).
+PathStart = tuple[SteadyState | None, SteadyState, int, float, float]
+
+
+@dataclass
+class StartupPath:
+    """The starts of the steps of the last start-up path a model followed
+    (:func:`startup_continuation`), so that the next path of the same temperature, speed sign,
+    loads and spheres begins at the last start both share instead of at :data:`STARTUP_SPEED`.
+
+    A step from |speed| tries speeds ``speed * ratio`` (ratio <= :data:`STARTUP_MAX_RATIO`);
+    the target enters a step only where one of them reaches it (the step is shortened to the
+    target, or jumps past it). The path to any target above every speed tried before a start
+    therefore passes through that start, with the same Newton solver state (the sphere
+    Jacobian blocks kept between the path's solves, saved with each start): a path resumed
+    there is the one followed from :data:`STARTUP_SPEED`, to the last bit. The table build's
+    lines solve their nodes at ascending speeds: a node solved cold resumes at the start of
+    the last step of the node below instead of climbing from 1 rpm again. Likewise a path
+    that stops (no step converges) after trying only speeds below the target stops there for
+    every higher target: such a cold solve goes to its fallbacks at once.
+
+    Attributes:
+        key: (temperature [K], speed sign, axial loads [N] as bytes) of the path.
+        balls: the spheres solved.
+        starts: (start, the highest |speed| tried before it [rad/s], Jacobian blocks and their
+            residual scales or None), in the path's order.
+        stop: where the path stops (no step converges) for every target above the highest
+            |speed| tried until then: (that speed, the |speed| it stops at) [rad/s], or None.
+    """
+
+    key: tuple[float, float, bytes]
+    balls: BallSet
+    starts: list[tuple[PathStart, float, tuple[FloatArray, tuple[float, float, float]] | None]] = (
+        field(default_factory=list)
+    )
+    stop: tuple[float, float] | None = None
+
+    def record(self, model: SteadyStateModel, start: PathStart, tried: float) -> None:
+        """Keep ``start`` (reached after speeds up to ``tried`` [rad/s]) with a copy of
+        ``model``'s Jacobian blocks."""
+        kept = model._jacobian
+        blocks = None if kept is None else (kept[0].copy(), kept[1])
+        self.starts.append((start, tried, blocks))
+
+    def resume(self, model: SteadyStateModel, target: float) -> tuple[PathStart, float]:
+        """The last kept start on the path to |``target``| [rad/s] (every speed tried before it
+        below the target) and the highest speed tried before it [rad/s]; ``model``'s Jacobian
+        blocks are set to those saved with it and the starts after it are dropped."""
+        count = 1  # the first start, at STARTUP_SPEED, is on every path
+        for k, (_, tried, _) in enumerate(self.starts):
+            if tried < target:
+                count = k + 1
+        del self.starts[count:]
+        start, tried, blocks = self.starts.pop()  # recorded again as the path passes it
+        model._jacobian = None if blocks is None else (blocks[0].copy(), blocks[1])
+        return start, tried
+
+
+#: The last start-up path of each model (:class:`StartupPath`).
+_PATHS: weakref.WeakKeyDictionary[SteadyStateModel, StartupPath] = weakref.WeakKeyDictionary()
+
+
+def forget_startup_path(model: SteadyStateModel) -> None:
+    """Drop ``model``'s kept start-up path: its next cold solve climbs from
+    :data:`STARTUP_SPEED` (the same result; ``bench steady`` times a cold solve so)."""
+    _PATHS.pop(model, None)
+
+
+def startup_path(
+    model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
+) -> StartupPath:
+    """``model``'s kept start-up path when it is one of ``op``'s temperature, speed sign,
+    ``loads`` [N] and ``balls``; otherwise a new empty one, kept in its place."""
+    key = (op.temperature, math.copysign(1.0, op.screw_speed), np.asarray(loads).tobytes())
+    path = _PATHS.get(model)
+    if path is None or path.key != key or path.balls is not balls:
+        path = _PATHS[model] = StartupPath(key, balls)
+    return path
 
 
 def startup_step(
