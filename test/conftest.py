@@ -98,6 +98,43 @@ def compile_one_at_a_time(compile_: Callable[..., Any]) -> Callable[..., Any]:
 if "PYTEST_XDIST_WORKER" in os.environ:
     Dispatcher.compile = compile_one_at_a_time(Dispatcher.compile)  # type: ignore[method-assign]
 
+#: Test modules that take longest under ``make test`` in a fresh clone (numba compiling in both
+#: workers, 2026-11-27), slowest first; the first two compile different kernels (the steady
+#: solver, the dynamic model), so the two workers start without compiling the same code.
+SLOWEST_FIRST = (
+    "test/models/test_paper_claims.py",
+    "test/models/test_simulation.py",
+    "test/test_envelope_commands.py",
+    "test/health/test_memory.py",
+    "test/kernels/test_steady_solver.py",
+    "test/health/test_commission.py",
+    "test/ros/test_health_node_replay.py",
+    "test/models/test_steady_branch.py",
+    "test/benchmarks/test_detection.py",
+    "test/health/test_order_test.py",
+    "test/ros/test_health_node_live.py",
+    "test/test_report.py",
+    "test/ros/test_tables.py",
+    "test/models/test_dynamic.py",
+    "test/ros/test_cdr.py",
+    "test/health/test_detect.py",
+    "test/benchmarks/test_node_bench.py",
+    "test/health/test_classification_window.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Under pytest-xdist, run the modules of :data:`SLOWEST_FIRST` first, in its order (the
+    others after them, in collection order; the tests of a module keep theirs). ``make test``
+    runs ``--dist loadscope --no-loadscope-reorder``, which hands the modules to the workers
+    in this order: the longest start first and the short ones fill the end, so that neither
+    worker is left with a long module while the other has finished."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return
+    rank = {path: index for index, path in enumerate(SLOWEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank)))
+
+
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI", "").lower() == "true" else "default")
 
