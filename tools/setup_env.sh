@@ -129,9 +129,7 @@ install_requirements() {
     fi
     log "requirements: installing requirements.txt (ROS 2 Jazzy wheels, numerics, tools; ~1 min)"
     rm -f "$stamp"
-    # --no-compile: pip would byte-compile every module of every wheel (~6700 files, most never
-    # imported); Python compiles the ones imported, once, on first import.
-    pip_quiet install --no-compile --requirement "$ROOT/requirements.txt" \
+    pip_quiet install --requirement "$ROOT/requirements.txt" \
         || die "pip could not install requirements.txt (see pip's message above)."
     printf '%s' "$want" >"$stamp"
 }
