@@ -35,8 +35,10 @@ setup:
 # pytest runs in TEST_WORKERS processes (pytest-xdist; a test module stays on one worker, and
 # each worker has a ROS domain of its own, test/conftest.py); mypy (one core, ~30 s from a cold
 # cache) runs beside it. Its report is printed after pytest's, and either failing fails the target.
+# --no-loadscope-reorder: the modules go to the workers in collection order, which
+# test/conftest.py puts slowest first (xdist's default order is by number of tests).
 TEST_WORKERS ?= 2
-PYTEST := $(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadscope
+PYTEST := $(BIN)/pytest -q -n $(TEST_WORKERS) --dist loadscope --no-loadscope-reorder
 # The import contract of pyproject.toml ([tool.importlinter]: layers, forbidden imports, no
 # circles; docs/architecture.md). It reads the package in this directory; under a second its
 # graph is rebuilt each run, so no cache directory is kept.

@@ -15,16 +15,28 @@ is loaded: examples derived from each test's name (derandomize) and no example d
 CI run is the same every time and never replays examples a previous run saved in
 ``.hypothesis/``. Local runs keep the default profile: fresh random examples each run, and the
 failures found are saved and replayed first until fixed.
+
+numba: under pytest-xdist the workers share the package's numba cache, and in a fresh clone each
+compiles the kernels it meets first. Two workers meeting the same kernel at once would both
+compile it (a minute or more of CPU each for the steady solver), so a worker compiles a cached
+kernel only under an exclusive lock of that kernel (:func:`compile_one_at_a_time`): the second
+waits for the first and then loads its machine code from the cache.
 """
 
 from __future__ import annotations
 
+import fcntl
 import os
+import threading
+from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import pytest
 from hypothesis import settings
 from matplotlib.figure import Figure
+from numba.core.caching import NullCache
+from numba.core.dispatcher import Dispatcher
 
 
 def worker_domain(run_domain: int, worker: str, workers: int) -> int:
@@ -47,6 +59,81 @@ if "PYTEST_XDIST_WORKER" in os.environ:
             int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")),
         )
     )
+
+
+def compile_one_at_a_time(compile_: Callable[..., Any]) -> Callable[..., Any]:
+    """``Dispatcher.compile`` that holds an exclusive file lock of the kernel (next to its
+    numba cache files) while it loads or compiles, so that two processes never compile the
+    same kernel at once: the later one waits and then finds the machine code in the cache.
+
+    A kernel compiled within the compilation of another (a callee) takes its own lock; the
+    callees of a kernel never call it back, so two processes never wait for each other. Locks
+    this process holds already (another thread, or a recursion) are not taken again."""
+    held: set[str] = set()
+    guard = threading.Lock()
+
+    def compile_locked(self: Dispatcher, sig: Any) -> Any:
+        cache = self._cache
+        if isinstance(cache, NullCache) or cache.cache_path is None:
+            return compile_(self, sig)
+        func = self.py_func
+        path = str(Path(cache.cache_path) / f"{func.__module__}.{func.__qualname__}.lock")
+        with guard:
+            mine = path not in held
+            if mine:
+                held.add(path)
+        if not mine:
+            return compile_(self, sig)
+        try:
+            with open(path, "a") as lock:
+                fcntl.flock(lock, fcntl.LOCK_EX)
+                return compile_(self, sig)  # the lock goes with the file's closing
+        finally:
+            with guard:
+                held.discard(path)
+
+    return compile_locked
+
+
+if "PYTEST_XDIST_WORKER" in os.environ:
+    Dispatcher.compile = compile_one_at_a_time(Dispatcher.compile)  # type: ignore[method-assign]
+
+#: Test modules that take longest under ``make test`` in a fresh clone (numba compiling in both
+#: workers, 2026-11-27), slowest first; the first two compile different kernels (the steady
+#: solver, the dynamic model), so the two workers start without compiling the same code.
+SLOWEST_FIRST = (
+    "test/models/test_paper_claims.py",
+    "test/models/test_simulation.py",
+    "test/test_envelope_commands.py",
+    "test/health/test_memory.py",
+    "test/kernels/test_steady_solver.py",
+    "test/health/test_commission.py",
+    "test/ros/test_health_node_replay.py",
+    "test/models/test_steady_branch.py",
+    "test/benchmarks/test_detection.py",
+    "test/health/test_order_test.py",
+    "test/ros/test_health_node_live.py",
+    "test/test_report.py",
+    "test/ros/test_tables.py",
+    "test/models/test_dynamic.py",
+    "test/ros/test_cdr.py",
+    "test/health/test_detect.py",
+    "test/benchmarks/test_node_bench.py",
+    "test/health/test_classification_window.py",
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Under pytest-xdist, run the modules of :data:`SLOWEST_FIRST` first, in its order (the
+    others after them, in collection order; the tests of a module keep theirs). ``make test``
+    runs ``--dist loadscope --no-loadscope-reorder``, which hands the modules to the workers
+    in this order: the longest start first and the short ones fill the end, so that neither
+    worker is left with a long module while the other has finished."""
+    if "PYTEST_XDIST_WORKER" not in os.environ:
+        return
+    rank = {path: index for index, path in enumerate(SLOWEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank)))
+
 
 settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
 settings.load_profile("ci" if os.environ.get("CI", "").lower() == "true" else "default")
