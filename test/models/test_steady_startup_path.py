@@ -4,7 +4,6 @@ start-up speed by a fresh model, to the last bit, and it takes fewer Newton solv
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -20,8 +19,7 @@ from ballscrew_twin.models.steady_continuation import (
     startup_continuation,
 )
 from ballscrew_twin.params import default_config_path, load_config
-
-RPM = 2 * math.pi / 60
+from ballscrew_twin.units import CELSIUS_ZERO, RPM
 
 #: Cold solves in this order on one model: rising speeds of one line (as the table build
 #: solves them), a lower speed of it, another temperature, then the line again and the other
@@ -44,7 +42,9 @@ def config():  # type: ignore[no-untyped-def]
 
 
 def op(rpm: float, celsius: float, preload: float) -> OperatingPoint:
-    return OperatingPoint(screw_speed=rpm * RPM, temperature=celsius + 273.15, preload=preload)
+    return OperatingPoint(
+        screw_speed=rpm * RPM, temperature=celsius + CELSIUS_ZERO, preload=preload
+    )
 
 
 def counted(model: SteadyStateModel) -> list[int]:
