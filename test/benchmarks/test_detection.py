@@ -12,13 +12,22 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
 
 import pytest
 
 from ballscrew_twin.benchmarks import detection
+from ballscrew_twin.benchmarks.detection import Run
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.bench_data import BenchData, generate_unit_data
+from ballscrew_twin.health.bench_units import draw_unit
+from ballscrew_twin.health.classify import FAULT_CLASSES
+from ballscrew_twin.health.duty_cycles import draw_trajectory
+from ballscrew_twin.health.fault_profiles import FaultSpec
+from ballscrew_twin.health.sensors import sensors_from_mapping
+from ballscrew_twin.params import TwinConfig, load_config
 
 #: Two units, each: commissioning, healthy and one fault recording [s] (see the module doc).
 PLAN = ["--units", "0:2", "--commission", "25", "--healthy", "20", "--faults", "1"]
@@ -40,6 +49,10 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     runs = json.loads((tmp_path / "runs.json").read_text())
     assert runs, "no run recorded"
     assert (tmp_path / "roc.png").stat().st_size > 0
+    assert (tmp_path / "effects.png").stat().st_size > 0
+    faulty = [r for r in runs if r["true_class"]]
+    assert faulty and all(r["effect"] is not None and r["effect"] >= 0.0 for r in faulty)
+    assert "by the fault's effect on the torque" in first
 
 
 def _arguments(*argv: str) -> argparse.Namespace:
@@ -74,3 +87,87 @@ def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
 def test_a_plan_that_cannot_run_is_refused_with_its_reason(argv: tuple[str, ...]) -> None:
     with pytest.raises(ConfigError):
         detection.requested_plan(_arguments(*argv))
+
+
+@pytest.fixture(scope="module")
+def paper() -> TwinConfig:
+    return load_config(None)
+
+
+@pytest.mark.parametrize("fault_class", FAULT_CLASSES)
+def test_a_faults_effect_is_the_change_of_the_same_recording(
+    paper: TwinConfig, fault_class: str
+) -> None:
+    """The clean counterpart of a fault recording draws the same noise, so the two agree
+    before the onset and the difference after it is the fault's alone: zero for a fault too
+    small to matter, and growing with the severity."""
+    unit = draw_unit(3)
+    trajectory = draw_trajectory(11, 12.0, kinds=("steps",))
+    sensors = sensors_from_mapping(detection.SENSORS, "test sensors")
+
+    def recording(severity: float | None) -> BenchData:
+        faults = (
+            ()
+            if severity is None
+            else (FaultSpec(fault_class=fault_class, onset=4.0, severity=severity, growth="step"),)
+        )
+        return generate_unit_data(paper, unit, trajectory, faults=faults, sensors=sensors, seed=5)
+
+    clean = recording(None)
+    small, large = (
+        detection.fault_effect(recording(severity), clean)
+        for severity in detection.SEVERITIES[fault_class]
+    )
+    assert 0.0 < small < large
+    assert detection.fault_effect(recording(1e-9), clean) < 1e-6
+
+
+def test_a_fault_effect_refuses_recordings_that_differ_before_the_onset(
+    paper: TwinConfig,
+) -> None:
+    unit = draw_unit(3)
+    trajectory = draw_trajectory(11, 12.0, kinds=("steps",))
+    fault = FaultSpec(fault_class="preload_loss", onset=4.0, severity=0.1, growth="step")
+    data = generate_unit_data(paper, unit, trajectory, faults=(fault,), seed=5)
+    with pytest.raises(ConfigError, match="differ before the onset"):
+        detection.fault_effect(data, generate_unit_data(paper, unit, trajectory, seed=6))
+    with pytest.raises(ConfigError, match="needs a fault recording"):
+        detection.fault_effect(data.__class__(**{**data.__dict__, "truth": {"faults": []}}), data)
+
+
+def _run(true_class: str, effect: float, delay: float, window_gated: float = 0.0) -> Run:
+    return Run(
+        unit=0,
+        seed=0,
+        true_class=true_class,
+        severity=0.1,
+        growth="step",
+        onset=20.0,
+        duration=60.0,
+        alarm=20.0 + delay,
+        detector="cusum",
+        fault_class=true_class,
+        confidence=1.0,
+        reason="",
+        gated=0.0,
+        compared=60.0,
+        scores=(1.0,),
+        effect=effect,
+        window_gated=window_gated,
+    )
+
+
+def test_the_effect_table_counts_each_run_in_its_band() -> None:
+    assert [detection.effect_band(e) for e in (0.0, 0.0029, 0.003, 0.02, 0.5)] == [0, 0, 1, 2, 3]
+    runs = [
+        _run("preload_loss", 0.001, math.nan),  # invisible, missed
+        _run("preload_loss", 0.02, 1.0),  # within the goal
+        _run("preload_loss", 0.02, 7.0),  # late
+        _run("preload_loss", 0.05, 0.5, window_gated=0.95),  # blind in the window
+        _run("jam_onset", 0.05, 0.2),
+    ]
+    table = detection._effect_table(runs)
+    rows = {line.split(" | ")[0].strip("| "): line for line in table if line.startswith("| ")}
+    assert rows["preload_loss"] == "| preload_loss | 0/1 | - | 1/2 | - | 1/1 |"
+    assert rows["jam_onset"] == "| jam_onset | - | - | - | 1/1 | - |"
+    assert rows["all"] == "| all | 0/1 | - | 1/2 | 1/1 | 1/1 |"
