@@ -21,7 +21,7 @@ Keys::
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -29,9 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
-from ..params import path_beside, read_yaml
+from ..params import check_number, path_beside, quantity, read_yaml, validate_fields
 from .fault_profiles import FaultSpec, faults_from_list
-from .sensors import SensorSet, check_number, from_mapping, quantity, sensors_from_mapping
+from .sensors import SensorSet, from_mapping, sensors_from_mapping
 
 FloatArray = NDArray[np.float64]
 
@@ -65,10 +65,9 @@ class BenchScene:
         where = self.source or "<bench scene>"
         if not isinstance(self.name, str) or not self.name.strip():
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
-        check_number(self.duration, "s", 0.0, 36000.0, f"{where}: duration")
+        validate_fields(self, where, ": ")
         if self.duration <= 0.0:
             raise ConfigError(f"{where}: duration = {self.duration} s must be > 0")
-        check_number(self.model_step, "s", 1e-3, 10.0, f"{where}: model_step")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"{where}: seed must be a whole number >= 0, got {self.seed!r}")
         if not self.profile:
@@ -117,6 +116,9 @@ class BenchScene:
         return path_beside(self.config, self.source)
 
 
+#: The unit and range of each numeric field of :class:`BenchScene` (its field metadata).
+_LIMITS = {f.name: f.metadata for f in fields(BenchScene) if "min" in f.metadata}
+
 SCENE_KEYS = (
     "name",
     "description",
@@ -154,7 +156,7 @@ def bench_scene_from_mapping(data: Any, source: str = "<mapping>") -> BenchScene
         "name": data["name"],
         "description": str(data.get("description") or ""),
         "config": config,
-        "duration": check_number(data["duration"], "s", 0.0, 36000.0, f"{source}: duration"),
+        "duration": check_number(data["duration"], _LIMITS["duration"], f"{source}: duration"),
         "profile": points,
         "sensors": sensors_from_mapping(data.get("sensors"), f"{source}: sensors"),
         "faults": faults_from_list(data.get("faults"), f"{source}: faults"),
@@ -164,7 +166,7 @@ def bench_scene_from_mapping(data: Any, source: str = "<mapping>") -> BenchScene
         values["seed"] = data["seed"]
     if "model_step" in data:
         values["model_step"] = check_number(
-            data["model_step"], "s", 1e-3, 10.0, f"{source}: model_step"
+            data["model_step"], _LIMITS["model_step"], f"{source}: model_step"
         )
     return BenchScene(**values)
 

@@ -13,8 +13,9 @@ Each sensor samples at its own rate and adds what real instruments add (all SI):
 - load cell: the preload force of the preload device, bias, white noise, quantisation.
 
 Random numbers come from a ``numpy.random.Generator`` passed in, so a seed reproduces a bag.
-:func:`validate_fields` checks the numeric fields of any frozen dataclass against the unit and
-range in their metadata (used by the fault and scene dataclasses too).
+Numeric fields are :func:`~ballscrew_twin.params.quantity` fields, checked against their unit
+and range by the package's one check (:func:`~ballscrew_twin.params.validate_fields`, used by
+the fault and scene dataclasses too); :func:`from_mapping` builds any of them from YAML.
 """
 
 from __future__ import annotations
@@ -27,58 +28,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
+from ..params import check_number, quantity, validate_fields
 
 FloatArray = NDArray[np.float64]
-
-
-def quantity(unit: str, lo: float, hi: float, doc: str, *, default: float | None = None) -> Any:
-    """A float dataclass field with unit, closed range [lo, hi] and description as metadata."""
-    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc}
-    if default is None:
-        return field(metadata=meta)
-    return field(default=default, metadata=meta)
-
-
-def check_number(value: Any, unit: str, lo: float, hi: float, where: str) -> float:
-    """``value`` as a float within [lo, hi]; ConfigError naming ``where`` and the unit otherwise.
-
-    Numbers written as strings (PyYAML reads ``1e-3`` as a string) are accepted.
-    """
-    if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}")
-    try:
-        number = float(value)
-    except ValueError:
-        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ConfigError(f"{where}: {value!r} is not a finite number")
-    if not lo <= number <= hi:
-        hint = (
-            " (times are in s, speeds in rad/s, temperatures in K)"
-            if unit
-            in (
-                "s",
-                "rad/s",
-                "K",
-            )
-            else ""
-        )
-        raise ConfigError(f"{where} = {value!r} is outside [{lo:g}, {hi:g}] {unit}{hint}")
-    return number
-
-
-def validate_fields(obj: Any, where: str) -> None:
-    """Check every field of dataclass ``obj`` that has range metadata; ConfigError otherwise."""
-    for fld in fields(obj):
-        meta = fld.metadata
-        if "min" in meta:
-            check_number(
-                getattr(obj, fld.name),
-                meta["unit"],
-                meta["min"],
-                meta["max"],
-                f"{where}.{fld.name}",
-            )
 
 
 def from_mapping(cls: type[Any], data: Any, where: str, **extra: Any) -> Any:
@@ -96,11 +48,7 @@ def from_mapping(cls: type[Any], data: Any, where: str, **extra: Any) -> Any:
             continue
         raw = data[name]
         meta = fld.metadata
-        values[name] = (
-            check_number(raw, meta["unit"], meta["min"], meta["max"], f"{where}.{name}")
-            if "min" in meta
-            else raw
-        )
+        values[name] = check_number(raw, meta, f"{where}.{name}") if "min" in meta else raw
     try:
         return cls(**values)
     except TypeError as err:  # a required field is missing
