@@ -15,7 +15,7 @@ looks like rpm or degrees Celsius).
 A command profile is a constant number, or a mapping with ``points`` (piecewise-linear
 breakpoints ``[[t0, v0], [t1, v1], ...]``, held constant before the first and after the last)
 and/or ``steps`` (smooth cubic steps ``{time, duration, change}`` added on top, see
-:func:`ballscrew_twin.models.scenario.smooth_step`). Example: ``config/scenes/*.yaml``.
+:func:`ballscrew_twin.models.profile.smooth_step`). Example: ``config/scenes/*.yaml``.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from .errors import ConfigError
 from .models.base import OperatingPoint
 from .models.faults import Faults, faults_from_mapping
-from .models.scenario import smooth_step
+from .models.profile import Profile, SmoothStep
 from .params import Orientation, check_number, limits, path_beside, range_hint, read_yaml
 
 FloatArray = NDArray[np.float64]
@@ -47,7 +47,6 @@ LIMITS: dict[str, tuple[str, float, float]] = {
     "axial_load": ("N", -1e5, 1e5),
 }
 MAX_DURATION = 3600.0  # s
-STEP_SAMPLES = 64  # points inside a smooth step where range checks evaluate a profile [-]
 MAX_OUTPUT_RATE = 1e6  # Hz
 RATE_LIMITS = limits(
     "Hz", 0.0, MAX_OUTPUT_RATE, lo_open=True, hint="output_rate is in samples per second"
@@ -61,51 +60,6 @@ TOLERANCES: dict[str, str] = {
     "drag_torque": "relative error of the drag torque (and of each nut's torque)",
     "contact_force": "error of the contact normal forces relative to the largest one",
 }
-
-
-@dataclass(frozen=True)
-class SmoothStep:
-    """A smooth (cubic) step of ``change`` from ``time`` to ``time + duration`` [s]."""
-
-    time: float  # s
-    duration: float  # s, 0 = hard step
-    change: float  # unit of the profile
-
-
-@dataclass(frozen=True)
-class Profile:
-    """A command over time: piecewise-linear breakpoints plus smooth steps (SI units).
-
-    Attributes:
-        times: breakpoint times [s], strictly increasing (empty: base value 0).
-        values: values at the breakpoints (unit of the quantity).
-        steps: smooth steps added on top.
-    """
-
-    times: tuple[float, ...]
-    values: tuple[float, ...]
-    steps: tuple[SmoothStep, ...] = ()
-
-    def __call__(self, t: float) -> float:
-        """Value at time ``t`` [s]."""
-        base = float(np.interp(t, self.times, self.values)) if self.times else 0.0
-        return base + sum(
-            s.change * smooth_step(t, s.time, s.time + s.duration) for s in self.steps
-        )
-
-    def knots(self) -> list[float]:
-        """Times at which the extremes of the profile are sought [s]: its breakpoints and the
-        ends of its steps (exact for linear pieces and non-overlapping monotone steps), plus
-        STEP_SAMPLES points inside each step (overlapping steps of opposite signs can have an
-        extreme between their ends)."""
-        out = list(self.times)
-        for s in self.steps:
-            out += list(np.linspace(s.time, s.time + s.duration, STEP_SAMPLES + 1))
-        return out
-
-    def is_constant(self) -> bool:
-        """No breakpoint change and no step: the same value at every time."""
-        return len(set(self.values)) <= 1 and all(s.change == 0.0 for s in self.steps)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -247,7 +201,9 @@ def _profile(raw: Any, quantity: str, where: str, duration: float) -> Profile:
             item.get("duration", 0.0), limits("s", 0.0, duration), f"{here}.duration"
         )
         change = check_number(item["change"], limits(unit, lo - hi, hi - lo), f"{here}.change")
-        steps.append(SmoothStep(start, length, change))
+        steps.append(SmoothStep(start, start + length, change))
+    if not times:  # steps alone: on top of 0 from t = 0 on
+        times, values = [0.0], [0.0]
     profile = Profile(tuple(times), tuple(values), tuple(steps))
     # The sum of pieces and steps must itself stay in range at every time.
     check = sorted({0.0, duration, *(t for t in profile.knots() if 0.0 <= t <= duration)})

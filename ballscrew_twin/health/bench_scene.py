@@ -22,6 +22,7 @@ Keys::
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
+from ..models.profile import Profile
 from ..params import check_number, path_beside, quantity, read_yaml, validate_fields
 from .fault_profiles import FaultSpec, faults_from_list
 from .sensors import SensorSet, from_mapping, sensors_from_mapping
@@ -38,7 +40,8 @@ FloatArray = NDArray[np.float64]
 
 @dataclass(frozen=True, kw_only=True)
 class ProfilePoint:
-    """One corner of the piecewise-linear operating profile."""
+    """One corner of the piecewise-linear operating profile (a row of the scene file; the
+    commands are :class:`~ballscrew_twin.models.profile.Profile` objects, ``profiles``)."""
 
     time: float = quantity("s", 0.0, 1e6, "time since the start")
     speed: float = quantity("rad/s", -2000.0, 2000.0, "screw speed (sign = direction)")
@@ -88,16 +91,24 @@ class BenchScene:
                     f"recording (duration {self.duration} s)"
                 )
 
+    @cached_property
+    def profiles(self) -> dict[str, Profile]:
+        """The speed [rad/s], temperature [K] and preload [N] commands: linear between the
+        points of ``profile``."""
+        times = tuple(p.time for p in self.profile)
+        return {
+            name: Profile(times, tuple(getattr(p, name) for p in self.profile))
+            for name in ("speed", "temperature", "preload")
+        }
+
     def profile_at(self, time: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Speed [rad/s], temperature [K] and preload [N] of the profile at ``time`` [s]."""
-        t = np.asarray(time, dtype=np.float64)
-        knots = np.array([p.time for p in self.profile])
-
-        def column(name: str) -> FloatArray:
-            values = np.array([getattr(p, name) for p in self.profile])
-            return np.interp(t, knots, values)
-
-        return column("speed"), column("temperature"), column("preload")
+        profiles = self.profiles
+        return (
+            profiles["speed"].at(time),
+            profiles["temperature"].at(time),
+            profiles["preload"].at(time),
+        )
 
     def breakpoints(self) -> FloatArray:
         """Times [s] where the inputs of the twin change slope or jump: profile corners and

@@ -15,6 +15,7 @@ averaged over the last 0.2 s.
 from __future__ import annotations
 
 from dataclasses import MISSING, dataclass, field, fields
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal, get_args
 
@@ -22,6 +23,7 @@ from ..errors import ConfigError
 from ..params import check_number, path_beside, quantity, read_yaml, validate_fields
 from .dynamic_state import Commands, SpeedController
 from .faults import faults_from_mapping
+from .profile import Profile, SmoothStep
 
 Backend = Literal["compiled", "reference"]
 
@@ -29,20 +31,6 @@ Backend = Literal["compiled", "reference"]
 STEP_MULTIPLE_TOLERANCE = 1e-6
 
 _DEFAULT_CONTROLLER = SpeedController()
-
-
-def smooth_step(t: float, t0: float, t1: float) -> float:
-    """Cubic smooth step: 0 for t <= t0, 1 for t >= t1, 3 s^2 - 2 s^3 with s = (t-t0)/(t1-t0).
-
-    Continuous with a continuous first derivative (zero at both ends). ``t1 == t0`` is a hard
-    step at t0 (value 1 from t0 on). Times in any consistent unit (s here).
-    """
-    if t >= t1:
-        return 1.0
-    if t <= t0:
-        return 0.0
-    s = (t - t0) / (t1 - t0)
-    return s * s * (3.0 - 2.0 * s)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -274,12 +262,21 @@ class Scenario:
             return None
         return path_beside(self.config, self.source)
 
+    @cached_property
+    def speed_profile(self) -> Profile:
+        """The speed command [rad/s]: 0, then a smooth step to ``speed`` from
+        ``speed_ramp_start`` to ``speed_ramp_end``."""
+        return Profile(steps=(SmoothStep(self.speed_ramp_start, self.speed_ramp_end, self.speed),))
+
+    @cached_property
+    def preload_profile(self) -> Profile:
+        """The preload command [N]: a smooth step from 0 at t = 0 to ``preload`` at
+        ``preload_ramp_end``."""
+        return Profile(steps=(SmoothStep(0.0, self.preload_ramp_end, self.preload),))
+
     def commands_at(self, t: float) -> Commands:
         """Commanded screw speed [rad/s] and preload [N] at time ``t`` [s]."""
-        return Commands(
-            screw_speed=self.speed * smooth_step(t, self.speed_ramp_start, self.speed_ramp_end),
-            preload=self.preload * smooth_step(t, 0.0, self.preload_ramp_end),
-        )
+        return Commands(screw_speed=self.speed_profile(t), preload=self.preload_profile(t))
 
     def to_dict(self) -> dict[str, Any]:
         """The scenario as a JSON/YAML-ready mapping (SI units; ``source`` included)."""

@@ -471,10 +471,8 @@ class _Run:
             parts, step = plan.parts(model, k)
             times = _step_times(k, n, dt, parts, step)
             commands = np.empty((len(times), 2))
-            commands[:, 0] = scenario.speed * _smooth_steps(
-                times, scenario.speed_ramp_start, scenario.speed_ramp_end
-            )
-            commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
+            commands[:, 0] = scenario.speed_profile.at(times)
+            commands[:, 1] = scenario.preload_profile.at(times)
             motor = float(acc[kr.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
@@ -564,15 +562,6 @@ class _Run:
         self.window_nuts = acc[kr.A_W_NUTS : kr.A_W_NUTS + 2].copy()
         self.abs_input_energy = float(acc[kr.A_ABS_INPUT])
         self.fallbacks = int(acc[kr.A_FALLBACKS])
-
-
-def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
-    """:func:`~ballscrew_twin.models.scenario.smooth_step` at every time of ``t`` (same
-    arithmetic, so the same values)."""
-    if t1 <= t0:
-        return np.where(t >= t1, 1.0, 0.0)
-    s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
-    return np.where(t >= t1, 1.0, np.where(t <= t0, 0.0, s * s * (3.0 - 2.0 * s)))
 
 
 def _step_times(k: int, n: int, dt: float, parts: int, step: float) -> FloatArray:
