@@ -386,19 +386,27 @@ def config_fingerprint(config: TwinConfig, *, any_orientation: bool = False) -> 
 # Loading
 
 
-def _build(cls: type[_T], data: Any, where: str) -> _T:
-    """Build dataclass ``cls`` from a mapping, validating every field against its metadata."""
+def from_mapping(cls: type[_T], data: Any, where: str, **extra: Any) -> _T:
+    """The dataclass ``cls`` built from a YAML mapping, every field checked against its
+    metadata (a number: :func:`check_number`; a Literal type of this module: one of its
+    values); ``extra``: values of fields the mapping does not hold.
+
+    Raises:
+        ConfigError: not a mapping, an unknown key, a missing required field or an invalid
+            value (naming ``where`` and the field), or a check of ``cls`` across its fields
+            (prefixed with ``where``).
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
-    known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+    known = {f.name: f for f in fields(cls) if f.init and f.name not in extra}  # type: ignore[arg-type]
     unknown = sorted(str(key) for key in set(data) - set(known))
     if unknown:
         raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
-    values: dict[str, Any] = {}
+    values: dict[str, Any] = dict(extra)
     for name, fld in known.items():
         path = f"{where}.{name}"
         if name not in data:
-            if fld.default is MISSING:
+            if fld.default is MISSING and fld.default_factory is MISSING:
                 raise ConfigError(f"{path}: missing")
             continue
         raw = data[name]
@@ -412,7 +420,10 @@ def _build(cls: type[_T], data: Any, where: str) -> _T:
             values[name] = raw
         else:
             values[name] = raw
-    return cls(**values)
+    try:
+        return cls(**values)
+    except ConfigError as err:  # a check of the dataclass across its fields
+        raise ConfigError(f"{where}: {err}") from None
 
 
 _LITERALS: dict[str, Any] = {"ViscosityLaw": ViscosityLaw, "Orientation": Orientation}
@@ -429,26 +440,26 @@ def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
     unknown = sorted(str(key) for key in set(data) - required - {"description"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}")
-    screw = _build(ScrewGeometry, data["screw"], f"{source}: screw")
+    screw = from_mapping(ScrewGeometry, data["screw"], f"{source}: screw")
     screw.validate(f"{source}: screw")
     mats = data["materials"]
     if not isinstance(mats, dict):
         raise ConfigError(f"{source}: materials must be a mapping of ball/screw/nut")
     materials = Materials(
         **{
-            body: _build(Material, mats.get(body), f"{source}: materials.{body}")
+            body: from_mapping(Material, mats.get(body), f"{source}: materials.{body}")
             for body in ("ball", "screw", "nut")
         }
     )
-    lubricant = _build(Lubricant, data["lubricant"], f"{source}: lubricant")
+    lubricant = from_mapping(Lubricant, data["lubricant"], f"{source}: lubricant")
     lubricant.validate(f"{source}: lubricant")
     return TwinConfig(
         name=str(data["name"]),
         screw=screw,
         materials=materials,
         lubricant=lubricant,
-        contact=_build(ContactLaw, data["contact"], f"{source}: contact"),
-        environment=_build(Environment, data["environment"], f"{source}: environment"),
+        contact=from_mapping(ContactLaw, data["contact"], f"{source}: contact"),
+        environment=from_mapping(Environment, data["environment"], f"{source}: environment"),
         source=source,
     )
 

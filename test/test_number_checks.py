@@ -1,6 +1,7 @@
-"""The package's one check of a number against its field metadata (params.check_number): every
-error names the field, the unit and the allowed range, and each loader (parameter sets,
-scenarios, scenes, sensors, bench scenes) answers through it."""
+"""The package's one check of a number against its field metadata (params.check_number) and of a
+mapping against a dataclass (params.from_mapping): every error names the field, the unit and the
+allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes)
+answers through them."""
 
 from __future__ import annotations
 
@@ -14,7 +15,14 @@ from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
 from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
-from ballscrew_twin.params import check_number, limits, quantity, validate_fields
+from ballscrew_twin.params import (
+    Orientation,
+    check_number,
+    from_mapping,
+    limits,
+    quantity,
+    validate_fields,
+)
 from ballscrew_twin.scene import scene_from_mapping
 
 SPEED = limits("rad/s", -100.0, 100.0)
@@ -112,3 +120,32 @@ def test_every_loader_answers_through_the_one_check() -> None:
         sensors_from_mapping({"torque": {"noise": -1}}, "sensors")
     with pytest.raises(ConfigError, match=re.escape("sensors.torque.rate = 0.5 is outside")):
         TorqueMeter(rate=0.5)
+
+
+def test_from_mapping_builds_a_dataclass_naming_every_refusal() -> None:
+    @dataclass(frozen=True, kw_only=True)
+    class Part:
+        kind: str
+        length: float = quantity("m", 0.0, 1.0, "a length")
+        orientation: Orientation = "vertical"
+        count: int = quantity("-", 1, 9, "a count", default=1, integer=True)
+
+        def __post_init__(self) -> None:
+            if self.kind == "bad":
+                raise ConfigError("kind bad")
+
+    part = from_mapping(Part, {"length": "0.5", "orientation": "horizontal"}, "p", kind="k")
+    assert part == Part(kind="k", length=0.5, orientation="horizontal")
+    refusals = [
+        ([1.0], {}, "p: expected a mapping, got list"),
+        ({"length": 0.5, "size": 1}, {}, "p: unknown key(s) ['size']; allowed: ['count', "),
+        ({}, {}, "p.length: missing"),
+        ({"length": 2.0}, {}, "p.length = 2.0 is outside the allowed range [0, 1] m"),
+        ({"length": 0.5, "orientation": "up"}, {}, "p.orientation: 'up' is not one of"),
+        ({"length": 0.5, "count": 1.5}, {}, "p.count: expected a whole number"),
+        ({"length": 0.5}, {"kind": "bad"}, "p: kind bad"),
+    ]
+    for data, extra, message in refusals:
+        with pytest.raises(ConfigError) as err:
+            from_mapping(Part, data, "p", **{"kind": "k", **extra})
+        assert message in str(err.value)

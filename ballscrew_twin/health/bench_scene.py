@@ -31,9 +31,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
 from ..models.profile import Profile
-from ..params import check_number, path_beside, quantity, read_yaml, validate_fields
+from ..params import (
+    check_number,
+    from_mapping,
+    path_beside,
+    quantity,
+    read_yaml,
+    validate_fields,
+)
 from .fault_profiles import FaultSpec, faults_from_list
-from .sensors import SensorSet, from_mapping, sensors_from_mapping
+from .sensors import SensorSet, sensors_from_mapping
 
 FloatArray = NDArray[np.float64]
 

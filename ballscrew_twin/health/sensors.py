@@ -15,7 +15,8 @@ Each sensor samples at its own rate and adds what real instruments add (all SI):
 Random numbers come from a ``numpy.random.Generator`` passed in, so a seed reproduces a bag.
 Numeric fields are :func:`~ballscrew_twin.params.quantity` fields, checked against their unit
 and range by the package's one check (:func:`~ballscrew_twin.params.validate_fields`, used by
-the fault and scene dataclasses too); :func:`from_mapping` builds any of them from YAML.
+the fault and scene dataclasses too) and built from YAML by
+:func:`~ballscrew_twin.params.from_mapping`.
 """
 
 from __future__ import annotations
@@ -28,33 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
-from ..params import check_number, quantity, validate_fields
+from ..params import from_mapping, quantity, validate_fields
 
 FloatArray = NDArray[np.float64]
-
-
-def from_mapping(cls: type[Any], data: Any, where: str, **extra: Any) -> Any:
-    """Build frozen dataclass ``cls`` from a YAML mapping: unknown keys and missing required
-    fields are errors naming ``where``; numbers given as strings are converted."""
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
-    known = {f.name: f for f in fields(cls) if f.init and f.name not in extra}
-    unknown = sorted(set(map(str, data)) - set(known))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
-    values: dict[str, Any] = dict(extra)
-    for name, fld in known.items():
-        if name not in data:
-            continue
-        raw = data[name]
-        meta = fld.metadata
-        values[name] = check_number(raw, meta, f"{where}.{name}") if "min" in meta else raw
-    try:
-        return cls(**values)
-    except TypeError as err:  # a required field is missing
-        raise ConfigError(f"{where}: {err}") from None
-    except ConfigError as err:  # a cross-field check of the dataclass
-        raise ConfigError(f"{where}: {err}") from None
 
 
 @dataclass(frozen=True, kw_only=True)
