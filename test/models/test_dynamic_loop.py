@@ -7,11 +7,14 @@ start-phase schedule written out, and standstill (no speed, no drag).
 from __future__ import annotations
 
 import dataclasses
+import math
+import re
+from typing import Any
 
 import numpy as np
 import pytest
 
-from ballscrew_twin.errors import OperatingPointError
+from ballscrew_twin.errors import OperatingPointError, SolverError
 from ballscrew_twin.models import registry
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.dynamic import DynamicModel
@@ -123,3 +126,19 @@ def test_the_loop_runs_the_start_phase_in_substeps_and_the_last_step_for_its_rep
     assert done == [1, 2, 3]
     assert loop.state.time == pytest.approx(3e-6, abs=1e-18)  # the last step left no trace
     assert model.time_step == TIME_STEP  # switched at the end of the start phase
+
+
+def test_a_diverging_step_is_reported_not_returned(monkeypatch: pytest.MonkeyPatch) -> None:
+    original = DynamicModel.step
+
+    def poisoned(self: DynamicModel, state: DynamicState, commands: Commands) -> Any:
+        new, report = original(self, state, commands)
+        if state.time > 2.5e-6:
+            new.screw_speed = math.nan
+        return new, report
+
+    monkeypatch.setattr(DynamicModel, "step", poisoned)
+    adapter = stepping()
+    adapter.reset(OP)
+    with pytest.raises(SolverError, match=re.escape("diverged at t = 4e-06 s: screw speed is nan")):
+        adapter.step(OP, 5 * TIME_STEP)
