@@ -15,6 +15,7 @@ import hashlib
 import math
 import reprlib
 import sys
+from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Literal, TypeVar, get_args
@@ -22,6 +23,7 @@ from typing import Any, Literal, TypeVar, get_args
 import yaml
 
 from .errors import ConfigError
+from .units import CELSIUS_ZERO, RPM
 
 _T = TypeVar("_T")
 
@@ -46,43 +48,140 @@ ViscosityLaw = Literal["roelands", "exponential", "walther"]
 Orientation = Literal["vertical", "horizontal"]
 
 
-def _num(
-    unit: str, lo: float, hi: float, doc: str, *, default: float | None = None, hint: str = ""
+def limits(
+    unit: str, lo: float, hi: float, *, lo_open: bool = False, integer: bool = False, hint: str = ""
+) -> dict[str, Any]:
+    """What :func:`check_number` checks a value against (the metadata of a :func:`quantity`):
+    its SI ``unit``, the range [lo, hi] ((lo, hi] when ``lo_open``), whole numbers only when
+    ``integer``; ``hint`` replaces the unit-slip hints of an out-of-range value
+    (:func:`range_hint`)."""
+    return {
+        "unit": unit,
+        "min": lo,
+        "max": hi,
+        "min_open": lo_open,
+        "integer": integer,
+        "hint": hint,
+    }
+
+
+def quantity(
+    unit: str,
+    lo: float,
+    hi: float,
+    doc: str,
+    *,
+    default: Any = MISSING,
+    lo_open: bool = False,
+    integer: bool = False,
+    hint: str = "",
 ) -> Any:
-    """A float field with unit, closed range [lo, hi] and description kept as metadata;
-    ``hint`` replaces the unit-scale hints of an out-of-range value (see _range_hint)."""
-    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc, "hint": hint}
-    if default is None:
-        return field(metadata=meta)
+    """A numeric dataclass field whose metadata is its :func:`limits` and its description
+    ``doc``; required unless ``default`` is given (None: an optional field, unset)."""
+    meta = {**limits(unit, lo, hi, lo_open=lo_open, integer=integer, hint=hint), "doc": doc}
     return field(default=default, metadata=meta)
 
 
-def _int(lo: int, hi: int, doc: str) -> Any:
-    """An integer field with closed range [lo, hi]."""
-    return field(metadata={"unit": "-", "min": lo, "max": hi, "doc": doc})
+def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = True) -> float | int:
+    """``raw`` as a number within the :func:`limits` ``meta`` (an int when they want whole
+    numbers), else a ConfigError naming ``path``, the unit and the allowed range.
+
+    With ``text``, strings that read as numbers are accepted: PyYAML (YAML 1.1) parses
+    ``210.0e9`` without an exponent sign as a string, and users write exponents that way.
+    """
+    unit, lo, hi = meta["unit"], meta["min"], meta["max"]
+    lo_open = meta.get("min_open", False)
+    span = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    if (
+        isinstance(raw, bool)
+        or not isinstance(raw, int | float | str)
+        or (isinstance(raw, str) and not text)
+    ):
+        raise ConfigError(
+            f"{path}: expected a number in {unit} within {span}, got {_SHOWN.repr(raw)}"
+        )
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ConfigError(
+            f"{path}: expected a number in {unit} within {span}, got {_SHOWN.repr(raw)}"
+        ) from None
+    if not math.isfinite(value):
+        raise ConfigError(
+            f"{path}: {_SHOWN.repr(raw)} is not a finite number (allowed range {span} {unit})"
+        )
+    integer = meta.get("integer", False)
+    if integer and value != int(value):
+        raise ConfigError(
+            f"{path}: expected a whole number, got {raw!r} (allowed range {span} {unit})"
+        )
+    if (value <= lo if lo_open else value < lo) or value > hi:
+        raise ConfigError(
+            f"{path} = {raw!r} is outside the allowed range {span} {unit}" + range_hint(value, meta)
+        )
+    return int(value) if integer else value
+
+
+def range_hint(value: float, meta: Mapping[str, Any]) -> str:
+    """Why the out-of-range ``value`` may have been given (the metadata's own hint, else a
+    likely unit slip: degrees Celsius for K, degrees for rad, rpm for rad/s, milli-units or GPa
+    for dimensioned SI values; a negative value where none is allowed); "" if none fits."""
+    lo, hi, unit = meta["min"], meta["max"], meta["unit"]
+    if meta.get("hint"):
+        return f" ({meta['hint']})"
+    if unit == "K" and value < lo and lo <= value + CELSIUS_ZERO <= hi:
+        return " (temperatures are in kelvin, not degrees Celsius)"
+    if unit == "rad" and lo <= math.radians(value) <= hi:
+        return " (given in degrees? angles are in rad)"
+    if unit == "rad/s" and abs(value) > hi and abs(value * RPM) <= hi:
+        return " (speeds are in rad/s, not rpm)"
+    if value < 0.0 <= lo:
+        return " (must not be negative)"
+    if unit == "-" or not (value > hi > 0):
+        return ""
+    if lo <= value * 1e-3 <= hi:
+        return " (given in milli-units? values are SI)"
+    if lo <= value * 1e-9 <= hi:
+        return " (given in GPa? values are SI, Pa)"
+    return ""
+
+
+def validate_fields(obj: Any, where: str, separator: str = ".") -> None:
+    """Check every field of the dataclass ``obj`` that has :func:`limits` (an optional field
+    left unset, None, is skipped; a string is no number here: the loaders convert them); the
+    ConfigError names ``where``, ``separator`` and the field."""
+    for fld in fields(obj):
+        if "min" not in fld.metadata:
+            continue
+        value = getattr(obj, fld.name)
+        if value is None and fld.default is None:
+            continue
+        check_number(value, fld.metadata, f"{where}{separator}{fld.name}", text=False)
 
 
 @dataclass(frozen=True, kw_only=True)
 class ScrewGeometry:
     """Ball-screw geometry (paper Table A.1), all lengths in metres."""
 
-    pitch_radius: float = _num("m", 1e-3, 0.5, "r_m, ball-centre helix radius")
-    lead: float = _num("m", 1e-4, 0.2, "p, axial advance per screw revolution")
-    ball_radius: float = _num("m", 1e-4, 0.05, "r_b, sphere radius")
-    centre_offset: float = _num("m", 0.0, 5e-3, "H, gothic-arch centre radius offset")
-    ogival_offset: float = _num("m", 0.0, 5e-3, "L, gothic-arch ogival (axial) offset")
-    conformity: float = _num("-", 0.5, 0.7, "f = r_s / (2 r_b), groove conformity")
-    balls_per_nut: int = _int(1, 500, "Z_eff, loaded spheres per nut")
-    balls_total_per_nut: int = _int(1, 500, "Z_tot, spheres per nut incl. recirculation")
-    loaded_turns: float = _num("-", 0.1, 20.0, "n_t, loaded turns per nut")
-    nut_mass: float = _num("kg", 1e-3, 100.0, "M_n, mass of one nut")
-    screw_inertia: float = _num("kg m^2", 1e-9, 10.0, "I_s, screw moment of inertia about z")
-    ball_roughness: float = _num("m", 0.0, 5e-6, "sigma_b, RMS roughness of the spheres")
-    groove_roughness: float = _num("m", 0.0, 5e-6, "sigma_g, RMS roughness of the grooves")
-    inner_containment_angle: float = _num("rad", 0.0, 1.5, "DCA_i, inner design containment")
-    outer_containment_angle: float = _num("rad", 0.1, 1.57, "DCA_o, outer design containment")
-    critical_speed: float = _num("rad/s", 1.0, 1e5, "critical screw angular speed")
-    nominal_contact_angle: float = _num(
+    pitch_radius: float = quantity("m", 1e-3, 0.5, "r_m, ball-centre helix radius")
+    lead: float = quantity("m", 1e-4, 0.2, "p, axial advance per screw revolution")
+    ball_radius: float = quantity("m", 1e-4, 0.05, "r_b, sphere radius")
+    centre_offset: float = quantity("m", 0.0, 5e-3, "H, gothic-arch centre radius offset")
+    ogival_offset: float = quantity("m", 0.0, 5e-3, "L, gothic-arch ogival (axial) offset")
+    conformity: float = quantity("-", 0.5, 0.7, "f = r_s / (2 r_b), groove conformity")
+    balls_per_nut: int = quantity("-", 1, 500, "Z_eff, loaded spheres per nut", integer=True)
+    balls_total_per_nut: int = quantity(
+        "-", 1, 500, "Z_tot, spheres per nut incl. recirculation", integer=True
+    )
+    loaded_turns: float = quantity("-", 0.1, 20.0, "n_t, loaded turns per nut")
+    nut_mass: float = quantity("kg", 1e-3, 100.0, "M_n, mass of one nut")
+    screw_inertia: float = quantity("kg m^2", 1e-9, 10.0, "I_s, screw moment of inertia about z")
+    ball_roughness: float = quantity("m", 0.0, 5e-6, "sigma_b, RMS roughness of the spheres")
+    groove_roughness: float = quantity("m", 0.0, 5e-6, "sigma_g, RMS roughness of the grooves")
+    inner_containment_angle: float = quantity("rad", 0.0, 1.5, "DCA_i, inner design containment")
+    outer_containment_angle: float = quantity("rad", 0.1, 1.57, "DCA_o, outer design containment")
+    critical_speed: float = quantity("rad/s", 1.0, 1e5, "critical screw angular speed")
+    nominal_contact_angle: float = quantity(
         "rad", 0.1, 1.5, "alpha_0, nominal contact angle used by the catalogue formulas (Eq. 52)"
     )
     orientation: Orientation = field(
@@ -169,8 +268,8 @@ class ScrewGeometry:
 class Material:
     """Isotropic elastic solid."""
 
-    young_modulus: float = _num("Pa", 1e9, 1e12, "E, Young's modulus")
-    poisson_ratio: float = _num(
+    young_modulus: float = quantity("Pa", 1e9, 1e12, "E, Young's modulus")
+    poisson_ratio: float = quantity(
         "-",
         0.0,
         0.5,
@@ -178,8 +277,8 @@ class Material:
         hint="the Poisson's ratio of an isotropic solid is physically between 0 and 0.5 "
         "(steel about 0.3)",
     )
-    density: float = _num("kg/m^3", 500.0, 25000.0, "rho, mass density")
-    thermal_expansion: float = _num("1/K", 0.0, 1e-4, "linear thermal expansion coefficient")
+    density: float = quantity("kg/m^3", 500.0, 25000.0, "rho, mass density")
+    thermal_expansion: float = quantity("1/K", 0.0, 1e-4, "linear thermal expansion coefficient")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -195,25 +294,27 @@ class Materials:
 class Lubricant:
     """Base (or bled) oil of the grease that forms the film (paper Table A.2)."""
 
-    reference_temperature: float = _num("K", 200.0, 500.0, "T_0 of eta_0 and rho_0")
-    viscosity_reference: float = _num("Pa s", 1e-5, 1e3, "eta_0, dynamic viscosity at T_0")
-    second_temperature: float = _num("K", 200.0, 500.0, "T_1 of the second viscosity point")
-    viscosity_second: float = _num("Pa s", 1e-5, 1e3, "eta_1, dynamic viscosity at T_1")
-    density_reference: float = _num("kg/m^3", 500.0, 2000.0, "rho_0, density at T_0")
-    pressure_viscosity_coefficient: float = _num("1/Pa", 1e-9, 1e-7, "alpha_pv")
-    viscosity_temperature_coefficient: float = _num("1/K", 1e-3, 0.2, "beta (Eq. 24, 32)")
+    reference_temperature: float = quantity("K", 200.0, 500.0, "T_0 of eta_0 and rho_0")
+    viscosity_reference: float = quantity("Pa s", 1e-5, 1e3, "eta_0, dynamic viscosity at T_0")
+    second_temperature: float = quantity("K", 200.0, 500.0, "T_1 of the second viscosity point")
+    viscosity_second: float = quantity("Pa s", 1e-5, 1e3, "eta_1, dynamic viscosity at T_1")
+    density_reference: float = quantity("kg/m^3", 500.0, 2000.0, "rho_0, density at T_0")
+    pressure_viscosity_coefficient: float = quantity("1/Pa", 1e-9, 1e-7, "alpha_pv")
+    viscosity_temperature_coefficient: float = quantity("1/K", 1e-3, 0.2, "beta (Eq. 24, 32)")
     viscosity_law: ViscosityLaw = field(
         default="roelands",
         metadata={"doc": "viscosity-temperature law: roelands|exponential|walther"},
     )
-    density_temperature_coefficient: float = _num(
+    density_temperature_coefficient: float = quantity(
         "kg/(m^3 K)", 0.0, 5.0, "alpha_rho, additive thermal term of Eq. 25"
     )
-    thermal_conductivity: float = _num("W/(m K)", 0.01, 1.0, "k_h (Eq. 32)")
-    eyring_stress: float = _num("Pa", 1e3, 1e8, "tau_e, Eyring stress (Eq. 35)")
-    limiting_shear_stress: float = _num("Pa", 0.0, 1e9, "tau_L at zero pressure")
-    limiting_shear_pressure_coefficient: float = _num("-", 0.0, 0.5, "xi: tau_lim = tau_L + xi p")
-    residual_layer: float = _num("m", 0.0, 1e-6, "h_R, residual thickener layer (Eq. 33)")
+    thermal_conductivity: float = quantity("W/(m K)", 0.01, 1.0, "k_h (Eq. 32)")
+    eyring_stress: float = quantity("Pa", 1e3, 1e8, "tau_e, Eyring stress (Eq. 35)")
+    limiting_shear_stress: float = quantity("Pa", 0.0, 1e9, "tau_L at zero pressure")
+    limiting_shear_pressure_coefficient: float = quantity(
+        "-", 0.0, 0.5, "xi: tau_lim = tau_L + xi p"
+    )
+    residual_layer: float = quantity("m", 0.0, 1e-6, "h_R, residual thickener layer (Eq. 33)")
 
     def validate(self, where: str) -> None:
         """Cross-field checks; raise ConfigError naming ``where``."""
@@ -230,11 +331,11 @@ class Lubricant:
 class ContactLaw:
     """Contact parameters the paper does not give (see docs/model.md for their sources)."""
 
-    dry_friction_coefficient: float = _num("-", 0.0, 1.0, "mu_dry, boundary friction (Eq. 36)")
-    dry_friction_regularisation_speed: float = _num(
+    dry_friction_coefficient: float = quantity("-", 0.0, 1.0, "mu_dry, boundary friction (Eq. 36)")
+    dry_friction_regularisation_speed: float = quantity(
         "m/s", 1e-9, 1e-1, "v_r: dry friction grows as tanh(v / v_r) from zero slip"
     )
-    damping_coefficient: float = _num(
+    damping_coefficient: float = quantity(
         "N s m^-1 (N m^-1.5)^-0.5", 0.0, 1e3, "b_h of Eq. 19, C_H = b_h sqrt(K_H)"
     )
 
@@ -243,7 +344,7 @@ class ContactLaw:
 class Environment:
     """Surroundings."""
 
-    gravity: float = _num("m/s^2", 0.0, 100.0, "gravitational acceleration")
+    gravity: float = quantity("m/s^2", 0.0, 100.0, "gravitational acceleration")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -285,25 +386,33 @@ def config_fingerprint(config: TwinConfig, *, any_orientation: bool = False) -> 
 # Loading
 
 
-def _build(cls: type[_T], data: Any, where: str) -> _T:
-    """Build dataclass ``cls`` from a mapping, validating every field against its metadata."""
+def from_mapping(cls: type[_T], data: Any, where: str, **extra: Any) -> _T:
+    """The dataclass ``cls`` built from a YAML mapping, every field checked against its
+    metadata (a number: :func:`check_number`; a Literal type of this module: one of its
+    values); ``extra``: values of fields the mapping does not hold.
+
+    Raises:
+        ConfigError: not a mapping, an unknown key, a missing required field or an invalid
+            value (naming ``where`` and the field), or a check of ``cls`` across its fields
+            (prefixed with ``where``).
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
-    known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+    known = {f.name: f for f in fields(cls) if f.init and f.name not in extra}  # type: ignore[arg-type]
     unknown = sorted(str(key) for key in set(data) - set(known))
     if unknown:
         raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
-    values: dict[str, Any] = {}
+    values: dict[str, Any] = dict(extra)
     for name, fld in known.items():
         path = f"{where}.{name}"
         if name not in data:
-            if fld.default is MISSING:
+            if fld.default is MISSING and fld.default_factory is MISSING:
                 raise ConfigError(f"{path}: missing")
             continue
         raw = data[name]
         meta = fld.metadata
         if "min" in meta:
-            values[name] = _check_number(raw, meta, fld.type, path)
+            values[name] = check_number(raw, meta, path)
         elif isinstance(fld.type, str) and fld.type in _LITERALS:
             allowed = get_args(_LITERALS[fld.type])
             if raw not in allowed:
@@ -311,56 +420,13 @@ def _build(cls: type[_T], data: Any, where: str) -> _T:
             values[name] = raw
         else:
             values[name] = raw
-    return cls(**values)
+    try:
+        return cls(**values)
+    except ConfigError as err:  # a check of the dataclass across its fields
+        raise ConfigError(f"{where}: {err}") from None
 
 
 _LITERALS: dict[str, Any] = {"ViscosityLaw": ViscosityLaw, "Orientation": Orientation}
-
-
-def _check_number(raw: Any, meta: Any, ftype: Any, path: str) -> float | int:
-    """Check type, finiteness and range of one numeric value.
-
-    Strings that read as numbers are accepted: PyYAML (YAML 1.1) parses ``210.0e9`` without an
-    exponent sign as a string, and users write exponents that way.
-    """
-    if isinstance(raw, bool) or not isinstance(raw, int | float | str):
-        raise ConfigError(f"{path}: expected a number in {meta['unit']}, got {_SHOWN.repr(raw)}")
-    try:
-        value = float(raw)
-    except ValueError:
-        raise ConfigError(
-            f"{path}: expected a number in {meta['unit']}, got {_SHOWN.repr(raw)}"
-        ) from None
-    if not math.isfinite(value):
-        raise ConfigError(f"{path}: {_SHOWN.repr(raw)} is not a finite number")
-    lo, hi = meta["min"], meta["max"]
-    if not lo <= value <= hi:
-        raise ConfigError(
-            f"{path} = {raw!r} is outside the allowed range [{lo:g}, {hi:g}] {meta['unit']}"
-            + _range_hint(value, meta)
-        )
-    if ftype in ("int", int):
-        if value != int(value):
-            raise ConfigError(f"{path}: expected a whole number, got {raw!r}")
-        return int(value)
-    return value
-
-
-def _range_hint(value: float, meta: Any) -> str:
-    """Why an out-of-range value may have been given: the field's own hint, else a likely unit
-    slip (degrees for rad, milli-units or GPa for dimensioned SI values); "" if none fits."""
-    lo, hi, unit = meta["min"], meta["max"], meta["unit"]
-    if meta.get("hint"):
-        return f" ({meta['hint']})"
-    if unit == "rad" and lo <= math.radians(value) <= hi:
-        return " (given in degrees? angles are in rad)"
-    if unit == "-" or not (value > hi > 0):
-        return ""
-    if lo <= value * 1e-3 <= hi:
-        return " (given in milli-units? values are SI)"
-    if lo <= value * 1e-9 <= hi:
-        return " (given in GPa? values are SI, Pa)"
-    return ""
 
 
 def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
@@ -374,26 +440,26 @@ def config_from_mapping(data: Any, source: str = "<mapping>") -> TwinConfig:
     unknown = sorted(str(key) for key in set(data) - required - {"description"})
     if unknown:
         raise ConfigError(f"{source}: unknown section(s) {unknown}")
-    screw = _build(ScrewGeometry, data["screw"], f"{source}: screw")
+    screw = from_mapping(ScrewGeometry, data["screw"], f"{source}: screw")
     screw.validate(f"{source}: screw")
     mats = data["materials"]
     if not isinstance(mats, dict):
         raise ConfigError(f"{source}: materials must be a mapping of ball/screw/nut")
     materials = Materials(
         **{
-            body: _build(Material, mats.get(body), f"{source}: materials.{body}")
+            body: from_mapping(Material, mats.get(body), f"{source}: materials.{body}")
             for body in ("ball", "screw", "nut")
         }
     )
-    lubricant = _build(Lubricant, data["lubricant"], f"{source}: lubricant")
+    lubricant = from_mapping(Lubricant, data["lubricant"], f"{source}: lubricant")
     lubricant.validate(f"{source}: lubricant")
     return TwinConfig(
         name=str(data["name"]),
         screw=screw,
         materials=materials,
         lubricant=lubricant,
-        contact=_build(ContactLaw, data["contact"], f"{source}: contact"),
-        environment=_build(Environment, data["environment"], f"{source}: environment"),
+        contact=from_mapping(ContactLaw, data["contact"], f"{source}: contact"),
+        environment=from_mapping(Environment, data["environment"], f"{source}: environment"),
         source=source,
     )
 

@@ -32,11 +32,10 @@ import numpy as np
 from .errors import BallscrewTwinError, ResultsError
 from .models.base import MECHANISMS as BREAKDOWN_FIELDS
 from .models.simulation_result import MECHANISMS, SimulationResult
-from .units import CELSIUS_ZERO, ns_to_stamp
+from .units import CELSIUS_ZERO, SCREW_FRAME_ID, ns_to_stamp
 
 DRAG_TOPIC = "/drag_torque"
 CONTACT_TOPIC = "/contact_states"
-FRAME_ID = "screw"
 FIDELITY = "dynamic"
 
 
@@ -182,7 +181,7 @@ def write_bag(
             for i, t in enumerate(result.time):
                 t_ns = start_ns + _nanoseconds(float(t))
                 msg = drag_cls(
-                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
+                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=SCREW_FRAME_ID),
                     total=float(drag[i]),
                     nut_master=float(nut_torque[i, 0]),
                     nut_slave=float(nut_torque[i, 1]),
@@ -199,7 +198,7 @@ def write_bag(
                 t_ns = start_ns + _nanoseconds(float(t))
                 states = _contact_states(result, j, state_cls)
                 msg = array_cls(
-                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=FRAME_ID),
+                    header=header_cls(stamp=_stamp(store, t_ns), frame_id=SCREW_FRAME_ID),
                     fidelity=FIDELITY,
                     contacts=states,
                 )

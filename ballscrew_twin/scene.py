@@ -15,7 +15,7 @@ looks like rpm or degrees Celsius).
 A command profile is a constant number, or a mapping with ``points`` (piecewise-linear
 breakpoints ``[[t0, v0], [t1, v1], ...]``, held constant before the first and after the last)
 and/or ``steps`` (smooth cubic steps ``{time, duration, change}`` added on top, see
-:func:`ballscrew_twin.models.scenario.smooth_step`). Example: ``config/scenes/*.yaml``.
+:func:`ballscrew_twin.models.profile.smooth_step`). Example: ``config/scenes/*.yaml``.
 """
 
 from __future__ import annotations
@@ -31,9 +31,8 @@ from numpy.typing import NDArray
 from .errors import ConfigError
 from .models.base import OperatingPoint
 from .models.faults import Faults, faults_from_mapping
-from .models.scenario import smooth_step
-from .params import Orientation, path_beside, read_yaml
-from .units import CELSIUS_ZERO, RPM
+from .models.profile import Profile, SmoothStep
+from .params import Orientation, check_number, limits, path_beside, range_hint, read_yaml
 
 FloatArray = NDArray[np.float64]
 Output = Literal["drag", "per_nut", "per_sphere"]
@@ -48,58 +47,19 @@ LIMITS: dict[str, tuple[str, float, float]] = {
     "axial_load": ("N", -1e5, 1e5),
 }
 MAX_DURATION = 3600.0  # s
-STEP_SAMPLES = 64  # points inside a smooth step where range checks evaluate a profile [-]
 MAX_OUTPUT_RATE = 1e6  # Hz
+RATE_LIMITS = limits(
+    "Hz", 0.0, MAX_OUTPUT_RATE, lo_open=True, hint="output_rate is in samples per second"
+)
+#: an accepted error, relative [-]
+TOLERANCE_LIMITS = limits(
+    "- (relative)", 0.0, 10.0, lo_open=True, hint="a relative error: 1 % is 0.01"
+)
 #: accepted-error keys -> what they bound
 TOLERANCES: dict[str, str] = {
     "drag_torque": "relative error of the drag torque (and of each nut's torque)",
     "contact_force": "error of the contact normal forces relative to the largest one",
 }
-
-
-@dataclass(frozen=True)
-class SmoothStep:
-    """A smooth (cubic) step of ``change`` from ``time`` to ``time + duration`` [s]."""
-
-    time: float  # s
-    duration: float  # s, 0 = hard step
-    change: float  # unit of the profile
-
-
-@dataclass(frozen=True)
-class Profile:
-    """A command over time: piecewise-linear breakpoints plus smooth steps (SI units).
-
-    Attributes:
-        times: breakpoint times [s], strictly increasing (empty: base value 0).
-        values: values at the breakpoints (unit of the quantity).
-        steps: smooth steps added on top.
-    """
-
-    times: tuple[float, ...]
-    values: tuple[float, ...]
-    steps: tuple[SmoothStep, ...] = ()
-
-    def __call__(self, t: float) -> float:
-        """Value at time ``t`` [s]."""
-        base = float(np.interp(t, self.times, self.values)) if self.times else 0.0
-        return base + sum(
-            s.change * smooth_step(t, s.time, s.time + s.duration) for s in self.steps
-        )
-
-    def knots(self) -> list[float]:
-        """Times at which the extremes of the profile are sought [s]: its breakpoints and the
-        ends of its steps (exact for linear pieces and non-overlapping monotone steps), plus
-        STEP_SAMPLES points inside each step (overlapping steps of opposite signs can have an
-        extreme between their ends)."""
-        out = list(self.times)
-        for s in self.steps:
-            out += list(np.linspace(s.time, s.time + s.duration, STEP_SAMPLES + 1))
-        return out
-
-    def is_constant(self) -> bool:
-        """No breakpoint change and no step: the same value at every time."""
-        return len(set(self.values)) <= 1 and all(s.change == 0.0 for s in self.steps)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -193,47 +153,12 @@ _TOP_KEYS = {
 _REQUIRED = ("name", "duration", "output_rate", "commands", "tolerance")
 
 
-def _number(
-    raw: Any, path: str, unit: str, lo: float, hi: float, *, lo_open: bool = False
-) -> float:
-    """A finite number within the range, else ConfigError naming ``path`` and ``unit``."""
-    if isinstance(raw, str):
-        try:
-            raw = float(raw)
-        except ValueError:
-            raise ConfigError(f"{path}: expected a number in {unit}, got {raw!r}") from None
-    if isinstance(raw, bool) or not isinstance(raw, int | float):
-        raise ConfigError(f"{path}: expected a number in {unit}, got {raw!r}")
-    value = float(raw)
-    if not math.isfinite(value):
-        raise ConfigError(f"{path}: {raw!r} is not a finite number ({unit})")
-    below = value <= lo if lo_open else value < lo
-    if below or value > hi:
-        left = "(" if lo_open else "["
-        raise ConfigError(
-            f"{path} = {raw!r} is outside the allowed range {left}{lo:g}, {hi:g}] {unit}"
-            f"{_hint(unit, value, lo, hi)}"
-        )
-    return value
-
-
-def _hint(unit: str, value: float, lo: float, hi: float) -> str:
-    """Why a value may be out of range: the usual non-SI units."""
-    if unit == "K" and value < lo and lo <= value + CELSIUS_ZERO <= hi:
-        return " (temperatures are in kelvin, not degrees Celsius; the file is SI)"
-    if unit == "rad/s" and abs(value) > hi and abs(value * RPM) <= hi:
-        return " (speeds are in rad/s, not rpm; the file is SI)"
-    if unit == "Hz" and value > hi:
-        return " (output_rate is in samples per second)"
-    return ""
-
-
 def _profile(raw: Any, quantity: str, where: str, duration: float) -> Profile:
     """Validate one command profile (a number or {points, steps})."""
     unit, lo, hi = LIMITS[quantity]
     path = f"{where}: commands.{quantity}"
     if not isinstance(raw, dict):
-        value = _number(raw, path, unit, lo, hi)
+        value = check_number(raw, limits(unit, lo, hi), path)
         return Profile((0.0,), (value,))
     unknown = sorted(set(map(str, raw)) - {"points", "steps"})
     if unknown:
@@ -249,14 +174,14 @@ def _profile(raw: Any, quantity: str, where: str, duration: float) -> Profile:
         here = f"{path}.points[{k}]"
         if not isinstance(pair, list | tuple) or len(pair) != 2:
             raise ConfigError(f"{here}: expected [time s, value {unit}], got {pair!r}")
-        t = _number(pair[0], f"{here}[0] (time)", "s", 0.0, duration)
+        t = check_number(pair[0], limits("s", 0.0, duration), f"{here}[0] (time)")
         if times and t <= times[-1]:
             raise ConfigError(
                 f"{here}[0] (time) = {t} s must be later than the previous breakpoint "
                 f"({times[-1]} s)"
             )
         times.append(t)
-        values.append(_number(pair[1], f"{here}[1] (value)", unit, lo, hi))
+        values.append(check_number(pair[1], limits(unit, lo, hi), f"{here}[1] (value)"))
     steps: list[SmoothStep] = []
     raw_steps = raw.get("steps") or []
     if not isinstance(raw_steps, list):
@@ -271,10 +196,14 @@ def _profile(raw: Any, quantity: str, where: str, duration: float) -> Profile:
         for key in ("time", "change"):
             if key not in item:
                 raise ConfigError(f"{here}.{key}: missing")
-        start = _number(item["time"], f"{here}.time", "s", 0.0, duration)
-        length = _number(item.get("duration", 0.0), f"{here}.duration", "s", 0.0, duration)
-        change = _number(item["change"], f"{here}.change", unit, lo - hi, hi - lo)
-        steps.append(SmoothStep(start, length, change))
+        start = check_number(item["time"], limits("s", 0.0, duration), f"{here}.time")
+        length = check_number(
+            item.get("duration", 0.0), limits("s", 0.0, duration), f"{here}.duration"
+        )
+        change = check_number(item["change"], limits(unit, lo - hi, hi - lo), f"{here}.change")
+        steps.append(SmoothStep(start, start + length, change))
+    if not times:  # steps alone: on top of 0 from t = 0 on
+        times, values = [0.0], [0.0]
     profile = Profile(tuple(times), tuple(values), tuple(steps))
     # The sum of pieces and steps must itself stay in range at every time.
     check = sorted({0.0, duration, *(t for t in profile.knots() if 0.0 <= t <= duration)})
@@ -283,7 +212,7 @@ def _profile(raw: Any, quantity: str, where: str, duration: float) -> Profile:
         if not lo <= value <= hi:
             raise ConfigError(
                 f"{path}: the profile reaches {value:.6g} {unit} at t = {t:.6g} s, outside "
-                f"[{lo:g}, {hi:g}] {unit}{_hint(unit, value, lo, hi)}"
+                f"[{lo:g}, {hi:g}] {unit}{range_hint(value, limits(unit, lo, hi))}"
             )
     return profile
 
@@ -312,10 +241,10 @@ def scene_from_mapping(data: Any, source: str = "<mapping>") -> Scene:
         raise ConfigError(
             f"{where}: orientation = {orientation!r} is not one of {list(get_args(Orientation))}"
         )
-    duration = _number(data["duration"], f"{where}: duration", "s", 0.0, MAX_DURATION, lo_open=True)
-    rate = _number(
-        data["output_rate"], f"{where}: output_rate", "Hz", 0.0, MAX_OUTPUT_RATE, lo_open=True
+    duration = check_number(
+        data["duration"], limits("s", 0.0, MAX_DURATION, lo_open=True), f"{where}: duration"
     )
+    rate = check_number(data["output_rate"], RATE_LIMITS, f"{where}: output_rate")
     if duration * rate < 1.0:
         raise ConfigError(
             f"{where}: output_rate = {rate} Hz gives no sample after t = 0 in duration = "
@@ -378,7 +307,7 @@ def _tolerance(raw: Any, where: str, outputs: tuple[str, ...]) -> dict[str, floa
     out: dict[str, float] = {}
     for key, value in raw.items():
         path = f"{where}: tolerance.{key}"
-        number = _number(value, path, "- (relative)", 0.0, 10.0, lo_open=True)
+        number = check_number(value, TOLERANCE_LIMITS, path)
         if number > 1.0 and isinstance(value, int | float) and value == int(value):
             raise ConfigError(f"{path} = {value!r}: relative error, not per cent (1 % is 0.01)")
         out[str(key)] = number

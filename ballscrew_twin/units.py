@@ -1,6 +1,6 @@
 """Units at the edges: the rpm and degrees Celsius of command lines, catalogues and ROS
-messages, converted to the SI the code uses inside (rad/s, K), and the nanoseconds of ROS
-times.
+messages, converted to the SI the code uses inside (rad/s, K), the nanoseconds of ROS
+times, and the frame their headers name.
 
 One definition of each, imported wherever a conversion is made.
 """
@@ -17,6 +17,9 @@ RPM = 2.0 * math.pi / 60.0
 CELSIUS_ZERO = 273.15
 #: Nanoseconds per second: ROS times and stamps are integer nanoseconds.
 NS_PER_S = 1_000_000_000
+#: ``header.frame_id`` of every message and bag the project writes (the simulation writer,
+#: the bench-data generator, the twin and health nodes): the screw's frame, z along its axis.
+SCREW_FRAME_ID = "screw"
 
 
 def stamp_to_ns(stamp: Any) -> int:

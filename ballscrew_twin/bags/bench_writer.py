@@ -18,14 +18,11 @@ from numpy.typing import NDArray
 from rosbags.typesys import Stores, get_typestore
 
 from ..errors import BagError
-from ..units import CELSIUS_ZERO, ns_to_stamp
+from ..units import CELSIUS_ZERO, SCREW_FRAME_ID, ns_to_stamp
 from .recording import TRUTH_KEY, BenchTopics, truth_path
 from .writer import BagWriter, storage_plugin
 
 FloatArray = NDArray[np.float64]
-
-#: frame_id of the header of every message written.
-FRAME_ID = "screw"
 
 
 class BenchChannels(Protocol):
@@ -123,7 +120,7 @@ def write_bench_bag(
 
     def header(ns: int) -> Any:
         sec, nanosec = ns_to_stamp(ns)
-        return header_cls(stamp=time_cls(sec=sec, nanosec=nanosec), frame_id=FRAME_ID)
+        return header_cls(stamp=time_cls(sec=sec, nanosec=nanosec), frame_id=SCREW_FRAME_ID)
 
     def torque_msg(ns: int, v: float) -> Any:
         z = vector(x=0.0, y=0.0, z=v)

@@ -204,9 +204,12 @@ def run_time_stepping(
 def run_dynamic(
     scene: Scene, config: TwinConfig, bounds: Bounds, progress: Any, result: SceneResult
 ) -> dict[str, Any]:
-    """Step the dynamic model from rest and sample it at the output times."""
+    """Step the dynamic model from rest (the one time loop, :class:`TimeLoop`) and sample it at
+    the output times: the state at a sample step's start and that step's report
+    (:func:`~ballscrew_twin.models.dynamic_loop.dynamic_output`)."""
     from ..models.dynamic import DynamicModel
-    from ..models.dynamic_state import Commands
+    from ..models.dynamic_loop import StepPlan, TimeLoop, dynamic_output
+    from ..models.dynamic_state import Commands, DynamicState, StepReport
 
     time_step = bounds.dynamic.get("time_step_s", 1e-6)
     options = registry.ModelOptions(
@@ -218,21 +221,31 @@ def run_dynamic(
     )
     model = registry.build(registry.ModelName.DYNAMIC, config, options)
     assert isinstance(model, DynamicModel)
-    state = model.initial_state(scene.preload(0.0))
     steps = round(scene.duration / time_step)
     sample_steps = {round(float(t) / time_step): i for i, t in enumerate(result.time)}
     per_sphere = scene.wants("per_sphere")
-    members = [model.ball_nut == k for k in (0, 1)]
-    for k in range(steps + 1):
-        t = k * time_step
-        commands = Commands(screw_speed=scene.speed(t), preload=scene.preload(t))
-        new_state, report = model.step(state, commands)
+
+    def commands_at(t: float) -> Commands:
+        return Commands(screw_speed=scene.speed(t), preload=scene.preload(t))
+
+    def sample(
+        k: int,
+        j: int,
+        length: float,
+        commands: Commands,
+        state: DynamicState,
+        motor: float,
+        report: StepReport,
+    ) -> None:
         i = sample_steps.get(k)
         if i is not None:
             result.screw_speed[i] = state.screw_speed
-            _store_dynamic(result, i, state.screw_speed, report.contacts, members, per_sphere)
+            op = scene.operating_point(k * time_step)
+            _store(result, i, dynamic_output(model, state, report, op), per_sphere)
             progress(1)
-        state = new_state
+
+    state = model.initial_state(scene.preload(0.0))
+    TimeLoop(model, state, StepPlan(time_step), commands_at, sample).run(steps, final_report=True)
     stats: dict[str, Any] = {"steps": steps + 1, "time_step_s": time_step}
     if scene.speed(0.0) != 0.0:
         stats["note"] = (
@@ -240,40 +253,6 @@ def run_dynamic(
             f"({scene.speed(0.0):.6g} rad/s) is reached through its speed controller"
         )
     return stats
-
-
-def _store_dynamic(
-    result: SceneResult,
-    i: int,
-    speed: float,
-    ev: Any,
-    members: list[NDArray[np.bool_]],
-    per_sphere: bool,
-) -> None:
-    """Drag torque (dissipation / speed, 0 at standstill), nut torques, breakdown, contacts."""
-    power = np.array([float(np.sum(ev.dissipation[m])) for m in MECHANISMS])
-    per_ball = np.sum([ev.dissipation[m] for m in MECHANISMS], axis=(0, 2))
-    moving = abs(speed) > 1e-9
-    scale = 1.0 / speed if moving else 0.0
-    result.breakdown[i] = power * scale
-    result.drag_torque[i] = float(power.sum()) * scale
-    result.nut_torque[i] = [float(per_ball[m].sum()) * scale for m in members]
-    if per_sphere:
-        c = result.contacts
-        balls = ev.active.shape[0]
-        if not c:
-            n = len(result.time)
-            c["contact_sphere"] = np.repeat(np.arange(balls), 4)
-            c["contact_nut"] = np.repeat(np.where(members[0], 0, 1), 4)
-            c["contact_half_groove"] = np.tile(np.arange(4), balls)
-            for name in ("normal_force", "contact_angle", "tallian"):
-                c[name] = np.zeros((n, balls * 4))
-            c["in_contact"] = np.zeros((n, balls * 4), dtype=bool)
-        force = np.where(ev.active, ev.hertz.stiffness * np.maximum(ev.approach, 0.0) ** 1.5, 0.0)
-        c["normal_force"][i] = force.reshape(-1)
-        c["contact_angle"][i] = ev.contact_angle.reshape(-1)
-        c["tallian"][i] = ev.tallian.reshape(-1)
-        c["in_contact"][i] = ev.active.reshape(-1)
 
 
 def run_selection(

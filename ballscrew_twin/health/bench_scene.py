@@ -21,7 +21,8 @@ Keys::
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -29,16 +30,25 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
-from ..params import path_beside, read_yaml
+from ..models.profile import Profile
+from ..params import (
+    check_number,
+    from_mapping,
+    path_beside,
+    quantity,
+    read_yaml,
+    validate_fields,
+)
 from .fault_profiles import FaultSpec, faults_from_list
-from .sensors import SensorSet, check_number, from_mapping, quantity, sensors_from_mapping
+from .sensors import SensorSet, sensors_from_mapping
 
 FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True, kw_only=True)
 class ProfilePoint:
-    """One corner of the piecewise-linear operating profile."""
+    """One corner of the piecewise-linear operating profile (a row of the scene file; the
+    commands are :class:`~ballscrew_twin.models.profile.Profile` objects, ``profiles``)."""
 
     time: float = quantity("s", 0.0, 1e6, "time since the start")
     speed: float = quantity("rad/s", -2000.0, 2000.0, "screw speed (sign = direction)")
@@ -65,10 +75,9 @@ class BenchScene:
         where = self.source or "<bench scene>"
         if not isinstance(self.name, str) or not self.name.strip():
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
-        check_number(self.duration, "s", 0.0, 36000.0, f"{where}: duration")
+        validate_fields(self, where, ": ")
         if self.duration <= 0.0:
             raise ConfigError(f"{where}: duration = {self.duration} s must be > 0")
-        check_number(self.model_step, "s", 1e-3, 10.0, f"{where}: model_step")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"{where}: seed must be a whole number >= 0, got {self.seed!r}")
         if not self.profile:
@@ -89,16 +98,24 @@ class BenchScene:
                     f"recording (duration {self.duration} s)"
                 )
 
+    @cached_property
+    def profiles(self) -> dict[str, Profile]:
+        """The speed [rad/s], temperature [K] and preload [N] commands: linear between the
+        points of ``profile``."""
+        times = tuple(p.time for p in self.profile)
+        return {
+            name: Profile(times, tuple(getattr(p, name) for p in self.profile))
+            for name in ("speed", "temperature", "preload")
+        }
+
     def profile_at(self, time: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
         """Speed [rad/s], temperature [K] and preload [N] of the profile at ``time`` [s]."""
-        t = np.asarray(time, dtype=np.float64)
-        knots = np.array([p.time for p in self.profile])
-
-        def column(name: str) -> FloatArray:
-            values = np.array([getattr(p, name) for p in self.profile])
-            return np.interp(t, knots, values)
-
-        return column("speed"), column("temperature"), column("preload")
+        profiles = self.profiles
+        return (
+            profiles["speed"].at(time),
+            profiles["temperature"].at(time),
+            profiles["preload"].at(time),
+        )
 
     def breakpoints(self) -> FloatArray:
         """Times [s] where the inputs of the twin change slope or jump: profile corners and
@@ -116,6 +133,9 @@ class BenchScene:
             return None
         return path_beside(self.config, self.source)
 
+
+#: The unit and range of each numeric field of :class:`BenchScene` (its field metadata).
+_LIMITS = {f.name: f.metadata for f in fields(BenchScene) if "min" in f.metadata}
 
 SCENE_KEYS = (
     "name",
@@ -154,7 +174,7 @@ def bench_scene_from_mapping(data: Any, source: str = "<mapping>") -> BenchScene
         "name": data["name"],
         "description": str(data.get("description") or ""),
         "config": config,
-        "duration": check_number(data["duration"], "s", 0.0, 36000.0, f"{source}: duration"),
+        "duration": check_number(data["duration"], _LIMITS["duration"], f"{source}: duration"),
         "profile": points,
         "sensors": sensors_from_mapping(data.get("sensors"), f"{source}: sensors"),
         "faults": faults_from_list(data.get("faults"), f"{source}: faults"),
@@ -164,7 +184,7 @@ def bench_scene_from_mapping(data: Any, source: str = "<mapping>") -> BenchScene
         values["seed"] = data["seed"]
     if "model_step" in data:
         values["model_step"] = check_number(
-            data["model_step"], "s", 1e-3, 10.0, f"{source}: model_step"
+            data["model_step"], _LIMITS["model_step"], f"{source}: model_step"
         )
     return BenchScene(**values)
 

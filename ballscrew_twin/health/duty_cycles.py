@@ -64,11 +64,13 @@ class Trajectory:
         return float(self.time[-1] + (self.time[1] - self.time[0])) if len(self.time) > 1 else 0.0
 
 
-def _smooth_steps(
+def _ramped_levels(
     t: FloatArray, times: list[float], levels: list[float], ramp: float
 ) -> FloatArray:
     """Piecewise-constant ``levels`` changing at ``times`` [s], each change a linear ramp of
-    ``ramp`` [s] (the drive's speed loop)."""
+    ``ramp`` [s] (the drive's speed loop). Not a :class:`~ballscrew_twin.models.profile.Profile`:
+    the ramps are linear and summed onto the first level in turn, the arithmetic the drawn
+    duty cycles (and so the seeded bench recordings) were made with."""
     out = np.full_like(t, levels[0])
     for k in range(1, len(levels)):
         fraction = np.clip((t - times[k]) / ramp, 0.0, 1.0)
@@ -110,7 +112,7 @@ def segment_speed(kind: str, t: FloatArray, rng: np.random.Generator, top_rpm: f
             now += rng.uniform(1.0, 5.0)
             times.append(now)
             levels.append(_peak(rng, top_rpm) * float(rng.choice([-1.0, 1.0])))
-        return _smooth_steps(t, times, levels, rng.uniform(0.02, 0.1))
+        return _ramped_levels(t, times, levels, rng.uniform(0.02, 0.1))
     if kind == "reversal":
         peak = _peak(rng, top_rpm)
         times, levels, now, sign = [0.0], [peak], 0.0, 1.0
@@ -119,7 +121,7 @@ def segment_speed(kind: str, t: FloatArray, rng: np.random.Generator, top_rpm: f
             sign = -sign
             times.append(now)
             levels.append(sign * peak)
-        return _smooth_steps(t, times, levels, rng.uniform(0.5, 3.0))
+        return _ramped_levels(t, times, levels, rng.uniform(0.5, 3.0))
     raise ConfigError(f"duty cycle: segment kind {kind!r} is not one of {SEGMENT_KINDS}")
 
 

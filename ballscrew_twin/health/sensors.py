@@ -13,8 +13,10 @@ Each sensor samples at its own rate and adds what real instruments add (all SI):
 - load cell: the preload force of the preload device, bias, white noise, quantisation.
 
 Random numbers come from a ``numpy.random.Generator`` passed in, so a seed reproduces a bag.
-:func:`validate_fields` checks the numeric fields of any frozen dataclass against the unit and
-range in their metadata (used by the fault and scene dataclasses too).
+Numeric fields are :func:`~ballscrew_twin.params.quantity` fields, checked against their unit
+and range by the package's one check (:func:`~ballscrew_twin.params.validate_fields`, used by
+the fault and scene dataclasses too) and built from YAML by
+:func:`~ballscrew_twin.params.from_mapping`.
 """
 
 from __future__ import annotations
@@ -27,86 +29,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
+from ..params import from_mapping, quantity, validate_fields
 
 FloatArray = NDArray[np.float64]
-
-
-def quantity(unit: str, lo: float, hi: float, doc: str, *, default: float | None = None) -> Any:
-    """A float dataclass field with unit, closed range [lo, hi] and description as metadata."""
-    meta = {"unit": unit, "min": lo, "max": hi, "doc": doc}
-    if default is None:
-        return field(metadata=meta)
-    return field(default=default, metadata=meta)
-
-
-def check_number(value: Any, unit: str, lo: float, hi: float, where: str) -> float:
-    """``value`` as a float within [lo, hi]; ConfigError naming ``where`` and the unit otherwise.
-
-    Numbers written as strings (PyYAML reads ``1e-3`` as a string) are accepted.
-    """
-    if isinstance(value, bool) or not isinstance(value, int | float | str):
-        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}")
-    try:
-        number = float(value)
-    except ValueError:
-        raise ConfigError(f"{where}: expected a number in {unit}, got {value!r}") from None
-    if not math.isfinite(number):
-        raise ConfigError(f"{where}: {value!r} is not a finite number")
-    if not lo <= number <= hi:
-        hint = (
-            " (times are in s, speeds in rad/s, temperatures in K)"
-            if unit
-            in (
-                "s",
-                "rad/s",
-                "K",
-            )
-            else ""
-        )
-        raise ConfigError(f"{where} = {value!r} is outside [{lo:g}, {hi:g}] {unit}{hint}")
-    return number
-
-
-def validate_fields(obj: Any, where: str) -> None:
-    """Check every field of dataclass ``obj`` that has range metadata; ConfigError otherwise."""
-    for fld in fields(obj):
-        meta = fld.metadata
-        if "min" in meta:
-            check_number(
-                getattr(obj, fld.name),
-                meta["unit"],
-                meta["min"],
-                meta["max"],
-                f"{where}.{fld.name}",
-            )
-
-
-def from_mapping(cls: type[Any], data: Any, where: str, **extra: Any) -> Any:
-    """Build frozen dataclass ``cls`` from a YAML mapping: unknown keys and missing required
-    fields are errors naming ``where``; numbers given as strings are converted."""
-    if not isinstance(data, dict):
-        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
-    known = {f.name: f for f in fields(cls) if f.init and f.name not in extra}
-    unknown = sorted(set(map(str, data)) - set(known))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {sorted(known)}")
-    values: dict[str, Any] = dict(extra)
-    for name, fld in known.items():
-        if name not in data:
-            continue
-        raw = data[name]
-        meta = fld.metadata
-        values[name] = (
-            check_number(raw, meta["unit"], meta["min"], meta["max"], f"{where}.{name}")
-            if "min" in meta
-            else raw
-        )
-    try:
-        return cls(**values)
-    except TypeError as err:  # a required field is missing
-        raise ConfigError(f"{where}: {err}") from None
-    except ConfigError as err:  # a cross-field check of the dataclass
-        raise ConfigError(f"{where}: {err}") from None
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -212,8 +212,9 @@ class SteadyStateModel(Protocol):
 class TimeSteppingModel(Protocol):
     """A model stepped in time by the node: the commands of each tick in, one output out.
 
-    Every fidelity level the node can run (catalogue, quasi-static steady state, the real-time
-    model, ...) offers this interface, so the node can switch between them at run time.
+    Every fidelity level offers this interface (catalogue and steady state quasi-statically,
+    the real-time model, the dynamic model through :class:`~.dynamic_loop.DynamicStepping`;
+    :func:`~.registry.as_stepping`), so the node can switch between them at run time.
     """
 
     name: str

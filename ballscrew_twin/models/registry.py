@@ -9,7 +9,9 @@ catalogue formula the paper compares against). The canonical names are accepted 
 :func:`build` returns the model as its class defines it: the catalogue formula, the steady
 state and the real-time model answer ``evaluate(op)``; the real-time model also steps in time;
 the dynamic model integrates its own state (``initial_state``, ``step``). :func:`as_evaluating`
-and :func:`as_stepping` give the interface a caller needs, or say why the model has none.
+and :func:`as_stepping` give the interface a caller needs: every model steps in time
+(:class:`~.base.TimeSteppingModel`), every one but the dynamic model evaluates an operating
+point (:func:`as_evaluating` says why the dynamic one does not).
 """
 
 from __future__ import annotations
@@ -208,12 +210,12 @@ def as_evaluating(model: Model) -> SteadyStateModel:
 
 def as_stepping(model: Model) -> TimeSteppingModel:
     """``model`` stepped in time tick by tick: the real-time model as it is, a steady-state
-    model quasi-statically (:class:`~.base.QuasiStaticModel`).
-
-    Raises:
-        ConfigError: the dynamic model, whose time loop is its own (``initial_state``,
-            ``step(state, commands)``).
-    """
+    model quasi-statically (:class:`~.base.QuasiStaticModel`), the dynamic model through the
+    one time loop (:class:`~.dynamic_loop.DynamicStepping`: whole steps of its time step)."""
     if hasattr(model, "reset"):
         return cast(TimeSteppingModel, model)
-    return QuasiStaticModel(as_evaluating(model))
+    if hasattr(model, "evaluate"):
+        return QuasiStaticModel(cast(SteadyStateModel, model))
+    from .dynamic_loop import DynamicStepping
+
+    return DynamicStepping(model)

@@ -14,15 +14,16 @@ averaged over the last 0.2 s.
 
 from __future__ import annotations
 
-import math
 from dataclasses import MISSING, dataclass, field, fields
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Literal, get_args
 
 from ..errors import ConfigError
-from ..params import path_beside, read_yaml
+from ..params import check_number, path_beside, quantity, read_yaml, validate_fields
 from .dynamic_state import Commands, SpeedController
 from .faults import faults_from_mapping
+from .profile import Profile, SmoothStep
 
 Backend = Literal["compiled", "reference"]
 
@@ -30,40 +31,6 @@ Backend = Literal["compiled", "reference"]
 STEP_MULTIPLE_TOLERANCE = 1e-6
 
 _DEFAULT_CONTROLLER = SpeedController()
-
-
-def _num(
-    unit: str, lo: float, hi: float, doc: str, *, default: float | None, lo_open: bool = False
-) -> Any:
-    """A float field with unit, range [lo, hi] ((lo, hi] when ``lo_open``) and description."""
-    meta = {"unit": unit, "min": lo, "max": hi, "min_open": lo_open, "doc": doc}
-    return field(default=default, metadata=meta)
-
-
-def _req(unit: str, lo: float, hi: float, doc: str) -> Any:
-    """A required float field with unit and closed range [lo, hi]."""
-    return field(metadata={"unit": unit, "min": lo, "max": hi, "min_open": False, "doc": doc})
-
-
-def _int(lo: int, hi: int, doc: str, *, default: int | None) -> Any:
-    """An integer field (``default`` None: optional, absent means "not overridden")."""
-    return field(
-        default=default, metadata={"unit": "-", "min": lo, "max": hi, "integer": True, "doc": doc}
-    )
-
-
-def smooth_step(t: float, t0: float, t1: float) -> float:
-    """Cubic smooth step: 0 for t <= t0, 1 for t >= t1, 3 s^2 - 2 s^3 with s = (t-t0)/(t1-t0).
-
-    Continuous with a continuous first derivative (zero at both ends). ``t1 == t0`` is a hard
-    step at t0 (value 1 from t0 on). Times in any consistent unit (s here).
-    """
-    if t >= t1:
-        return 1.0
-    if t <= t0:
-        return 0.0
-    s = (t - t0) / (t1 - t0)
-    return s * s * (3.0 - 2.0 * s)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -84,22 +51,33 @@ class Scenario:
         default=None,
         metadata={"doc": "parameter YAML, relative to the scenario file (default: shipped one)"},
     )
-    balls_per_nut: int | None = _int(
-        1, 500, "override of the configuration's loaded spheres per nut", default=None
+    balls_per_nut: int | None = quantity(
+        "-",
+        1,
+        500,
+        "override of the configuration's loaded spheres per nut",
+        default=None,
+        integer=True,
     )
-    temperature: float = _req("K", 139.0, 500.0, "bulk temperature, constant during the run")
-    preload: float = _req("N", 0.0, 1e5, "final preload force pushing the nuts apart")
-    preload_ramp_end: float = _num("s", 0.0, 100.0, "end of the preload smooth step", default=5e-3)
-    speed: float = _req("rad/s", -1e4, 1e4, "final screw speed command (sign = direction)")
-    speed_ramp_start: float = _num("s", 0.0, 100.0, "start of the speed smooth step", default=0.05)
-    speed_ramp_end: float = _num("s", 0.0, 100.0, "end of the speed smooth step", default=0.1)
-    duration: float = _num("s", 0.0, 100.0, "simulated time", default=0.6, lo_open=True)
-    average_window: float = _num(
+    temperature: float = quantity("K", 139.0, 500.0, "bulk temperature, constant during the run")
+    preload: float = quantity("N", 0.0, 1e5, "final preload force pushing the nuts apart")
+    preload_ramp_end: float = quantity(
+        "s", 0.0, 100.0, "end of the preload smooth step", default=5e-3
+    )
+    speed: float = quantity("rad/s", -1e4, 1e4, "final screw speed command (sign = direction)")
+    speed_ramp_start: float = quantity(
+        "s", 0.0, 100.0, "start of the speed smooth step", default=0.05
+    )
+    speed_ramp_end: float = quantity("s", 0.0, 100.0, "end of the speed smooth step", default=0.1)
+    duration: float = quantity("s", 0.0, 100.0, "simulated time", default=0.6, lo_open=True)
+    average_window: float = quantity(
         "s", 0.0, 100.0, "summary averaged over the last window", default=0.2, lo_open=True
     )
-    time_step: float = _num("s", 0.0, 1e-4, "integration step", default=1e-6, lo_open=True)
-    jacobian_interval: int = _int(1, 100_000, "steps between Jacobian refreshes", default=10)
-    fine_time_step: float | None = _num(
+    time_step: float = quantity("s", 0.0, 1e-4, "integration step", default=1e-6, lo_open=True)
+    jacobian_interval: int = quantity(
+        "-", 1, 100_000, "steps between Jacobian refreshes", default=10, integer=True
+    )
+    fine_time_step: float | None = quantity(
         "s",
         0.0,
         1e-4,
@@ -108,19 +86,19 @@ class Scenario:
         default=None,
         lo_open=True,
     )
-    fine_until: float = _num(
+    fine_until: float = quantity(
         "s", 0.0, 100.0, "end of the start phase run at fine_time_step (0: none)", default=0.0
     )
-    output_interval: float = _num(
+    output_interval: float = quantity(
         "s", 0.0, 100.0, "time-series sampling period", default=1e-4, lo_open=True
     )
-    contact_output_interval: float = _num(
+    contact_output_interval: float = quantity(
         "s", 0.0, 100.0, "contact-state sampling period", default=1e-3, lo_open=True
     )
-    controller_proportional: float = _num(
+    controller_proportional: float = quantity(
         "N m s/rad", 0.0, 1e3, "PI speed controller k_p", default=_DEFAULT_CONTROLLER.proportional
     )
-    controller_integral: float = _num(
+    controller_integral: float = quantity(
         "N m/rad", 0.0, 1e6, "PI speed controller k_i", default=_DEFAULT_CONTROLLER.integral
     )
     backend: Backend = field(
@@ -179,14 +157,7 @@ class Scenario:
             raise ConfigError(
                 f"{where}: backend = {self.backend!r} is not one of {list(get_args(Backend))}"
             )
-        for fld in fields(self):
-            meta = fld.metadata
-            if "min" not in meta:
-                continue
-            value = getattr(self, fld.name)
-            if value is None and fld.default is None:
-                continue
-            _check_number(value, meta, f"{where}: {fld.name}")
+        validate_fields(self, where, ": ")
         self._validate_timing(where)
 
     def _validate_timing(self, where: str) -> None:
@@ -291,57 +262,25 @@ class Scenario:
             return None
         return path_beside(self.config, self.source)
 
+    @cached_property
+    def speed_profile(self) -> Profile:
+        """The speed command [rad/s]: 0, then a smooth step to ``speed`` from
+        ``speed_ramp_start`` to ``speed_ramp_end``."""
+        return Profile(steps=(SmoothStep(self.speed_ramp_start, self.speed_ramp_end, self.speed),))
+
+    @cached_property
+    def preload_profile(self) -> Profile:
+        """The preload command [N]: a smooth step from 0 at t = 0 to ``preload`` at
+        ``preload_ramp_end``."""
+        return Profile(steps=(SmoothStep(0.0, self.preload_ramp_end, self.preload),))
+
     def commands_at(self, t: float) -> Commands:
         """Commanded screw speed [rad/s] and preload [N] at time ``t`` [s]."""
-        return Commands(
-            screw_speed=self.speed * smooth_step(t, self.speed_ramp_start, self.speed_ramp_end),
-            preload=self.preload * smooth_step(t, 0.0, self.preload_ramp_end),
-        )
+        return Commands(screw_speed=self.speed_profile(t), preload=self.preload_profile(t))
 
     def to_dict(self) -> dict[str, Any]:
         """The scenario as a JSON/YAML-ready mapping (SI units; ``source`` included)."""
         return {f.name: getattr(self, f.name) for f in fields(self)}
-
-
-def _check_number(raw: Any, meta: Any, path: str) -> None:
-    """Type, finiteness and range of one numeric field value."""
-    unit = meta["unit"]
-    integer = meta.get("integer", False)
-    if isinstance(raw, bool) or not isinstance(raw, int | float):
-        raise ConfigError(f"{path}: expected a number in {unit}, got {raw!r}")
-    if not math.isfinite(raw):
-        raise ConfigError(f"{path}: {raw!r} is not a finite number")
-    if integer and raw != int(raw):
-        raise ConfigError(f"{path}: expected a whole number, got {raw!r}")
-    lo, hi = meta["min"], meta["max"]
-    below = raw <= lo if meta.get("min_open") else raw < lo
-    if below or raw > hi:
-        left = "(" if meta.get("min_open") else "["
-        hint = ""
-        if raw < 0.0 <= lo:
-            hint = " (must not be negative)"
-        elif unit == "K" and raw < lo:
-            hint = " (temperatures are in kelvin, not degrees Celsius)"
-        elif raw > hi > 0 and unit == "s":
-            hint = " (times are in seconds)"
-        raise ConfigError(
-            f"{path} = {raw!r} is outside the allowed range {left}{lo:g}, {hi:g}] {unit}{hint}"
-        )
-
-
-def _coerce(raw: Any, fld: Any, path: str) -> Any:
-    """Numbers written as strings (PyYAML reads ``1e-6`` as a string) become numbers."""
-    if "min" not in fld.metadata or not isinstance(raw, str):
-        return raw
-    try:
-        value = float(raw)
-    except ValueError:
-        raise ConfigError(
-            f"{path}: expected a number in {fld.metadata['unit']}, got {raw!r}"
-        ) from None
-    if fld.metadata.get("integer") and math.isfinite(value) and value == int(value):
-        return int(value)
-    return value
 
 
 def scenario_from_mapping(data: Any, source: str = "<mapping>") -> Scenario:
@@ -361,7 +300,9 @@ def scenario_from_mapping(data: Any, source: str = "<mapping>") -> Scenario:
         raw = data[name]
         if raw is None and fld.default is None:
             continue
-        values[name] = _coerce(raw, fld, f"{source}: {name}")
+        if "min" in fld.metadata and isinstance(raw, str):  # PyYAML reads 1e-6 as a string
+            raw = check_number(raw, fld.metadata, f"{source}: {name}")
+        values[name] = raw
     if isinstance(values.get("config"), Path):
         values["config"] = str(values["config"])
     return Scenario(**values, source=source)

@@ -35,6 +35,7 @@ from ..physics.contact_types import ContactEvaluation
 from .base import OperatingPoint
 from .contact_forces import make_scene
 from .dynamic import DynamicModel
+from .dynamic_loop import StepPlan, TimeLoop
 from .dynamic_state import Commands, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
@@ -130,25 +131,6 @@ def _gravitational_power(model: DynamicModel, ball_mass: float, state: DynamicSt
     return power
 
 
-def _check_finite(state: DynamicState, report: StepReport, t: float) -> None:
-    """Raise :class:`SolverError` naming the first non-finite quantity of a step."""
-    checks = {
-        "screw speed": state.screw_speed,
-        "motor torque": report.motor_torque,
-        "dissipation": report.dissipation,
-        "screw torque": report.screw_torque,
-        "nut velocity": float(np.sum(state.nut_velocity)),
-        "sphere velocity": float(np.sum(state.ball_velocity)),
-        "sphere angular velocity": float(np.sum(state.ball_omega)),
-    }
-    for name, value in checks.items():
-        if not math.isfinite(value):
-            raise SolverError(
-                f"dynamic model diverged at t = {t:.7g} s: {name} is {value} "
-                f"(last screw speed {state.screw_speed:.6g} rad/s)"
-            )
-
-
 def simulate(
     scenario: Scenario, progress: ProgressCallback | None = None, *, compiled_loop: bool = True
 ) -> SimulationResult:
@@ -230,11 +212,12 @@ def simulate(
 
 
 class _Run:
-    """The time loop of :func:`simulate`: per step in Python, or per record interval compiled.
+    """A run of :func:`simulate`: the model's one time loop (:class:`TimeLoop`) with this run's
+    hook, or its compiled form, one call per record interval (kernels/dynamic_run.py).
 
-    Both visit steps k = 0 .. steps (the last one only for its report), accumulate the energy
-    integrals and window sums the same way and record every ``output_interval`` and
-    ``contact_output_interval``.
+    Both visit steps k = 0 .. steps (the last one only for its report) on the same
+    :class:`StepPlan`, accumulate the energy integrals and window sums the same way and record
+    every ``output_interval`` and ``contact_output_interval``.
     """
 
     def __init__(
@@ -253,16 +236,19 @@ class _Run:
         self.steps = scenario.steps
         # The start phase: its steps of time_step are each run as ``substeps`` semi-implicit
         # steps of fine_time_step; from step ``fine_steps`` on, time_step with the scenario's
-        # treatment of the positions (model.set_integrator).
-        self.fine_steps = scenario.fine_steps
-        self.substeps = scenario.substeps
-        # With implicit sphere positions, a step that does not converge is redone from its
-        # start as ``fallback`` semi-implicit steps of fine_time_step, with its commands.
-        self.fallback = scenario.fallback_substeps
+        # treatment of the positions. With implicit sphere positions, a step that does not
+        # converge is redone from its start as ``fallback`` semi-implicit steps of
+        # fine_time_step, with its commands.
+        self.plan = StepPlan(
+            time_step=scenario.time_step,
+            implicit_positions=scenario.implicit_positions,
+            fine_time_step=scenario.fine_time_step,
+            fine_steps=scenario.fine_steps,
+            substeps=scenario.substeps,
+            fallback=scenario.fallback_substeps,
+        )
         self.fallbacks = 0  # run steps redone as fallback substeps
-        if self.fine_steps > 0:
-            assert scenario.fine_time_step is not None  # fine_steps > 0 needs it
-            model.set_integrator(scenario.fine_time_step, False)
+        self.plan.start(model)
         self.every = scenario.steps_per(scenario.output_interval)
         self.contact_every = scenario.steps_per(scenario.contact_output_interval)
         self.window_first = self.steps - scenario.steps_per(scenario.average_window)
@@ -273,6 +259,10 @@ class _Run:
         self.progress_every = max(1, round(self.steps * PROGRESS_FRACTION))
         self.total0 = float(sum(model.energy(self.state).values()))
         self.abs_input_energy = 0.0
+        # The Python loop's energy integrals so far [J] and the (input power [W], dissipation
+        # [W], length [s]) of its last step.
+        self.input_energy = self.dissipated = 0.0
+        self.previous: tuple[float, float, float] | None = None
         self.window = {"motor": 0.0, "speed": 0.0, "gravity": 0.0, "count": 0}
         self.window_mechanisms = np.zeros(len(MECHANISMS))
         self.window_nuts = np.zeros(2)
@@ -319,67 +309,50 @@ class _Run:
         )
         self.rec.n += 1
 
-    def _parts(self, k: int) -> tuple[int, float]:
-        """Steps of the model in run step ``k`` and their length [s]; switches the model to
-        the scenario's step at the end of the start phase."""
-        scenario = self.scenario
-        if self.fine_steps > 0 and k == self.fine_steps:
-            self.model.set_integrator(scenario.time_step, scenario.implicit_positions)
-        if k < self.fine_steps:
-            assert scenario.fine_time_step is not None  # fine_steps > 0 needs it
-            return self.substeps, scenario.fine_time_step
-        return 1, scenario.time_step
-
     def python(self) -> None:
-        """One Python iteration per step of the model (the reference loop)."""
-        model, scenario, state = self.model, self.scenario, self.state
-        dt, steps = scenario.time_step, self.steps
-        motor = 0.0  # N m: the controller starts at rest with zero error
-        input_energy = dissipated = 0.0
-        # (input power [W], dissipation [W], length [s]) of the last step
-        previous: tuple[float, float, float] | None = None
-        for k in range(steps + 1):
-            t = k * dt
-            parts, step = self._parts(k)
-            redo = False  # the run step did not converge: redone as fallback substeps
-            unconverged = False  # one of its steps ended above the tolerance
-            j = 0
-            while j < parts:
-                t_model = t + j * step if parts > 1 else t
-                commands = scenario.commands_at(t if redo else t_model)
-                before = model.unconverged_steps
-                new_state, report = model.step(state, commands)
-                if parts == 1 and self.fallback > 1 and model.unconverged_steps > before:
-                    assert scenario.fine_time_step is not None  # fallback > 1 needs it
-                    model.unconverged_steps = before
-                    model.set_integrator(scenario.fine_time_step, False)
-                    parts, step, redo = self.fallback, scenario.fine_time_step, True
-                    self.fallbacks += 1
-                    continue
-                unconverged = unconverged or model.unconverged_steps > before
-                _check_finite(state, report, t_model)
-                power_in = model.input_power(state, commands, motor)
-                diss = report.dissipation
-                if previous is not None:
-                    interval = previous[2]
-                    input_energy += 0.5 * interval * (previous[0] + power_in)
-                    self.abs_input_energy += 0.5 * interval * (abs(previous[0]) + abs(power_in))
-                    dissipated += 0.5 * interval * (previous[1] + diss)
-                previous = (power_in, diss, step)
-                if j == 0:
-                    self._sample(k, commands, state, motor, report, (input_energy, dissipated))
-                if k == steps:
-                    break
-                state, motor = new_state, report.motor_torque
-                j += 1
-            if unconverged:  # listed once per run step, with its last step's residual
-                self.unconverged.append((k, model.last_step_residual))
-            if k == steps:
-                return
-            if redo:
-                model.set_integrator(dt, True)
-            if self.progress is not None and (k + 1) % self.progress_every == 0:
-                self.progress((k + 1) / steps, time.perf_counter() - self.started)
+        """One Python iteration per step of the model (the reference loop, :class:`TimeLoop`):
+        the energy integrals over every step, the samples at each run step's start."""
+        loop = TimeLoop(
+            self.model,
+            self.state,
+            self.plan,
+            self.scenario.commands_at,
+            self._visit,
+            self._progress if self.progress is not None else None,
+        )
+        loop.run(self.steps, final_report=True)
+        self.fallbacks = loop.fallbacks
+        self.unconverged = loop.unconverged
+
+    def _visit(
+        self,
+        k: int,
+        j: int,
+        length: float,
+        commands: Commands,
+        state: DynamicState,
+        motor: float,
+        report: StepReport,
+    ) -> None:
+        """Accumulate the energy integrals (trapezoid) over the model step of ``length`` [s]
+        from ``state``; sample at the start of run step ``k`` (substep ``j`` = 0)."""
+        power_in = self.model.input_power(state, commands, motor)
+        diss = report.dissipation
+        previous = self.previous
+        if previous is not None:
+            interval = previous[2]
+            self.input_energy += 0.5 * interval * (previous[0] + power_in)
+            self.abs_input_energy += 0.5 * interval * (abs(previous[0]) + abs(power_in))
+            self.dissipated += 0.5 * interval * (previous[1] + diss)
+        self.previous = (power_in, diss, length)
+        if j == 0:
+            self._sample(k, commands, state, motor, report, (self.input_energy, self.dissipated))
+
+    def _progress(self, done: int) -> None:
+        """Report progress after ``done`` run steps, about every PROGRESS_FRACTION."""
+        assert self.progress is not None  # only called with a callback
+        if done % self.progress_every == 0:
+            self.progress(done / self.steps, time.perf_counter() - self.started)
 
     def _sample(
         self,
@@ -448,7 +421,7 @@ class _Run:
         from ..kernels.contacts import evaluation_from_buffer
 
         kr.ensure_fresh_cache()
-        model, scenario, state = self.model, self.scenario, self.state
+        model, scenario, state, plan = self.model, self.scenario, self.state, self.plan
         kernel = model._kernel
         assert kernel is not None
         dt, steps = scenario.time_step, self.steps
@@ -492,16 +465,14 @@ class _Run:
                 (k // self.contact_every + 1) * self.contact_every,
                 (k // self.progress_every + 1) * self.progress_every,
                 steps,
-                self.fine_steps if k < self.fine_steps else steps,
+                plan.fine_steps if k < plan.fine_steps else steps,
             )
             n = 1 if k == steps else stop - k
-            parts, step = self._parts(k)
+            parts, step = plan.parts(model, k)
             times = _step_times(k, n, dt, parts, step)
             commands = np.empty((len(times), 2))
-            commands[:, 0] = scenario.speed * _smooth_steps(
-                times, scenario.speed_ramp_start, scenario.speed_ramp_end
-            )
-            commands[:, 1] = scenario.preload * _smooth_steps(times, 0.0, scenario.preload_ramp_end)
+            commands[:, 0] = scenario.speed_profile.at(times)
+            commands[:, 1] = scenario.preload_profile.at(times)
             motor = float(acc[kr.A_MOTOR])
             before = _body_state(pos, vel, omega, theta, body) if record else None
             mutable = (pos, vel, omega, theta, body, acc, *jacobian)
@@ -526,7 +497,7 @@ class _Run:
                     commands[(first - k) * parts : (last - k) * parts], pos,
                     vel, omega, theta, body, kernel.ball_nut, kernel.consts, kernel.params,
                     kernel.sphere_offset, kernel.spalls, jam_start, *jacobian, acc, first_stats,
-                    self.fallback if parts == 1 else 1, scenario.fine_time_step or dt,
+                    plan.fallback if parts == 1 else 1, scenario.fine_time_step or dt,
                 )  # fmt: skip
 
             active, buffer = steps_from(k, k + n)
@@ -591,15 +562,6 @@ class _Run:
         self.window_nuts = acc[kr.A_W_NUTS : kr.A_W_NUTS + 2].copy()
         self.abs_input_energy = float(acc[kr.A_ABS_INPUT])
         self.fallbacks = int(acc[kr.A_FALLBACKS])
-
-
-def _smooth_steps(t: FloatArray, t0: float, t1: float) -> FloatArray:
-    """:func:`~ballscrew_twin.models.scenario.smooth_step` at every time of ``t`` (same
-    arithmetic, so the same values)."""
-    if t1 <= t0:
-        return np.where(t >= t1, 1.0, 0.0)
-    s = np.clip((t - t0) / (t1 - t0), 0.0, 1.0)
-    return np.where(t >= t1, 1.0, np.where(t <= t0, 0.0, s * s * (3.0 - 2.0 * s)))
 
 
 def _step_times(k: int, n: int, dt: float, parts: int, step: float) -> FloatArray:

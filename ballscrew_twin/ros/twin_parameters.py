@@ -6,14 +6,12 @@ describes them.
 from __future__ import annotations
 
 from ..bags.recording import BenchTopics
+from ..units import SCREW_FRAME_ID
 from .fidelity_modes import FIDELITY_MODES
 from .inputs import InputLimits
 from .parameters import ParameterSpec
 
 NODE_NAME = "ballscrew_twin"
-#: ``header.frame_id`` of the screw, the one of every message and bag of the project (the
-#: simulation writer, the bench-data generator and the health node use the same).
-SCREW_FRAME_ID = "screw"
 #: Executor names (parameter ``executor``); ``events`` served the ticks best
 #: (docs/benchmarks.md, "Real-time node").
 EXECUTORS = ("single_threaded", "events")

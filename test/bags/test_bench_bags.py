@@ -22,6 +22,7 @@ from ballscrew_twin.bags.recording import TRUTH_KEY, BenchTopics, truth_path
 from ballscrew_twin.errors import BagError
 from ballscrew_twin.health.bench_data import START_NS, generate
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
+from ballscrew_twin.units import SCREW_FRAME_ID
 
 STORE = get_typestore(Stores.ROS2_JAZZY)
 T = STORE.types
@@ -458,8 +459,12 @@ def test_intact_bags_report_no_loss(small_data: Any, tmp_path: Path) -> None:
     for storage in ("mcap", "sqlite3"):
         bag = write_bench_bag(small_data, tmp_path / storage, START_NS, storage=storage)
         with open_raw_bag(bag) as raw:
-            assert sum(1 for _ in raw.messages()) == sum(t.count for t in raw.topics.values())
+            messages = list(raw.messages())
+            assert len(messages) == sum(t.count for t in raw.topics.values())
             assert raw.issues == []
+        # every header names the screw's frame (the one definition in units.py)
+        frames = {STORE.deserialize_cdr(m.data, m.msgtype).header.frame_id for m in messages}
+        assert frames == {SCREW_FRAME_ID}
 
 
 def test_a_joint_not_in_the_bag_is_an_error_naming_the_joints_found(tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ from ballscrew_twin.models import registry
 from ballscrew_twin.models.base import OperatingPoint, QuasiStaticModel
 from ballscrew_twin.models.catalog import CatalogModel
 from ballscrew_twin.models.dynamic import DynamicModel
+from ballscrew_twin.models.dynamic_loop import DynamicStepping
 from ballscrew_twin.models.faults import Faults, SphereDefect
 from ballscrew_twin.models.realtime import RealTimeModel
 from ballscrew_twin.models.registry import ModelName, ModelOptions
@@ -142,8 +143,8 @@ def test_interfaces_of_the_built_models() -> None:
     dynamic = registry.build(ModelName.DYNAMIC, CONFIG)
     with pytest.raises(ConfigError, match="no evaluate"):
         registry.as_evaluating(dynamic)
-    with pytest.raises(ConfigError, match="no evaluate"):
-        registry.as_stepping(dynamic)
+    stepping = registry.as_stepping(dynamic)  # through the one time loop
+    assert isinstance(stepping, DynamicStepping) and stepping.model is dynamic
 
 
 def test_a_screw_without_a_table_has_no_realtime_model(

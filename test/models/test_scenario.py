@@ -14,7 +14,8 @@ from hypothesis import strategies as st
 
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.models.dynamic_state import SpeedController
-from ballscrew_twin.models.scenario import Scenario, load_scenario, smooth_step
+from ballscrew_twin.models.profile import smooth_step
+from ballscrew_twin.models.scenario import Scenario, load_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "config" / "scenarios"
 BASE: dict[str, Any] = {"name": "t", "temperature": 293.15, "preload": 100.0, "speed": 10.0}

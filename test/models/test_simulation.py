@@ -32,6 +32,7 @@ from ballscrew_twin.results import (
     write_csv,
     write_npz,
 )
+from ballscrew_twin.units import SCREW_FRAME_ID
 
 #: Relative power-balance error measured on SMALL: 5.7e-4; bound = 10x.
 BALANCE_BOUND = 6e-3
@@ -438,6 +439,7 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     for i, (t_ns, msg) in enumerate(drags):
         assert t_ns == start + round(result.time[i] * 1e9)
         assert msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec == t_ns
+        assert msg.header.frame_id == SCREW_FRAME_ID
         assert msg.total == result.drag_torque[i]
         # the message carries deg C (REP 103); the scenario is at 293.15 K
         assert msg.fidelity == "dynamic" and msg.temperature == pytest.approx(20.0, abs=1e-12)
@@ -451,6 +453,7 @@ def test_bag_round_trip(result: SimulationResult, tmp_path: Path, storage: str) 
     for j, (t_ns, msg) in enumerate(arrays):
         assert t_ns == start + round(result.contact_time[j] * 1e9)
         assert len(msg.contacts) == int(result.in_contact[j].sum())
+        assert msg.header.frame_id == SCREW_FRAME_ID
         for c in msg.contacts:
             ball = int(
                 np.flatnonzero((result.ball_nut == c.nut) & (result.ball_index == c.sphere_index))[

@@ -1,0 +1,151 @@
+"""The package's one check of a number against its field metadata (params.check_number) and of a
+mapping against a dataclass (params.from_mapping): every error names the field, the unit and the
+allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes)
+answers through them."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from typing import Any
+
+import pytest
+
+from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
+from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
+from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
+from ballscrew_twin.params import (
+    Orientation,
+    check_number,
+    from_mapping,
+    limits,
+    quantity,
+    validate_fields,
+)
+from ballscrew_twin.scene import scene_from_mapping
+
+SPEED = limits("rad/s", -100.0, 100.0)
+STEP = limits("s", 0.0, 1e-4, lo_open=True)
+COUNT = limits("-", 1, 500, integer=True)
+
+
+@pytest.mark.parametrize(
+    ("raw", "meta", "message"),
+    [
+        ("fast", SPEED, "w: expected a number in rad/s within [-100, 100], got 'fast'"),
+        ([1.0], SPEED, "w: expected a number in rad/s within [-100, 100], got [1.0]"),
+        (True, SPEED, "w: expected a number in rad/s within [-100, 100], got True"),
+        (float("nan"), SPEED, "w: nan is not a finite number (allowed range [-100, 100] rad/s)"),
+        (2.5, COUNT, "w: expected a whole number, got 2.5 (allowed range [1, 500] -)"),
+        (0.0, STEP, "w = 0.0 is outside the allowed range (0, 0.0001] s"),
+        (-1.0, STEP, "w = -1.0 is outside the allowed range (0, 0.0001] s (must not be negative)"),
+        (
+            900.0,  # rpm: 94 rad/s
+            SPEED,
+            "w = 900.0 is outside the allowed range [-100, 100] rad/s "
+            "(speeds are in rad/s, not rpm)",
+        ),
+        (
+            20.0,
+            limits("K", 139.0, 500.0),
+            "w = 20.0 is outside the allowed range [139, 500] K "
+            "(temperatures are in kelvin, not degrees Celsius)",
+        ),
+        (
+            "8",
+            limits("m", 1e-3, 0.5),
+            "w = '8' is outside the allowed range [0.001, 0.5] m "
+            "(given in milli-units? values are SI)",
+        ),
+        (0.6, limits("-", 0.0, 0.5, hint="between 0 and 0.5"), "(between 0 and 0.5)"),
+    ],
+)
+def test_each_error_names_the_field_the_unit_and_the_range(
+    raw: Any, meta: dict[str, Any], message: str
+) -> None:
+    with pytest.raises(ConfigError) as err:
+        check_number(raw, meta, "w")
+    assert message in str(err.value)
+
+
+def test_valid_numbers_come_back_as_numbers() -> None:
+    assert check_number("1e-6", STEP, "w") == 1e-6  # PyYAML reads 1e-6 as a string
+    assert check_number(1e-4, STEP, "w") == 1e-4  # the closed end
+    count = check_number("3", COUNT, "w")
+    assert count == 3 and isinstance(count, int)
+    with pytest.raises(ConfigError, match="expected a number"):
+        check_number("1e-6", STEP, "w", text=False)
+
+
+def test_validate_fields_checks_every_ranged_field_and_skips_an_unset_optional_one() -> None:
+    @dataclass(frozen=True)
+    class Thing:
+        speed: float = quantity("rad/s", -100.0, 100.0, "a speed")
+        count: int | None = quantity("-", 1, 500, "a count", default=None, integer=True)
+
+    validate_fields(Thing(speed=1.0), "thing")
+    with pytest.raises(ConfigError, match=re.escape("thing: count = 0 is outside")):
+        validate_fields(Thing(speed=1.0, count=0), "thing", ": ")
+    with pytest.raises(ConfigError, match=re.escape("thing.speed: expected a number in rad/s")):
+        validate_fields(Thing(speed="1"), "thing")  # type: ignore[arg-type]
+
+
+#: The same wrong value through every loader: the same words.
+OUTSIDE = re.compile(r"= -5(\.0)? is outside the allowed range \[0, [0-9e+.]+\] N \(must not")
+
+
+def test_every_loader_answers_through_the_one_check() -> None:
+    scenario = {"name": "s", "temperature": 293.15, "preload": -5.0, "speed": 1.0}
+    scene = {
+        "name": "s",
+        "duration": 1.0,
+        "output_rate": 4.0,
+        "commands": {"speed": 1.0, "temperature": 293.15, "preload": -5.0},
+        "tolerance": {"drag_torque": 0.02},
+    }
+    bench = {"name": "b", "duration": 1.0, "profile": [{"time": 0.0, "speed": 1.0,
+             "temperature": 293.15, "preload": -5.0}]}  # fmt: skip
+    loaders = [
+        lambda: scenario_from_mapping(scenario, "f"),
+        lambda: Scenario(**scenario),
+        lambda: scene_from_mapping(scene, "f"),
+        lambda: bench_scene_from_mapping(bench, "f"),
+    ]
+    for load in loaders:
+        with pytest.raises(ConfigError) as err:
+            load()
+        assert OUTSIDE.search(str(err.value)), str(err.value)
+    with pytest.raises(ConfigError, match=re.escape("sensors.torque.noise = -1 is outside")):
+        sensors_from_mapping({"torque": {"noise": -1}}, "sensors")
+    with pytest.raises(ConfigError, match=re.escape("sensors.torque.rate = 0.5 is outside")):
+        TorqueMeter(rate=0.5)
+
+
+def test_from_mapping_builds_a_dataclass_naming_every_refusal() -> None:
+    @dataclass(frozen=True, kw_only=True)
+    class Part:
+        kind: str
+        length: float = quantity("m", 0.0, 1.0, "a length")
+        orientation: Orientation = "vertical"
+        count: int = quantity("-", 1, 9, "a count", default=1, integer=True)
+
+        def __post_init__(self) -> None:
+            if self.kind == "bad":
+                raise ConfigError("kind bad")
+
+    part = from_mapping(Part, {"length": "0.5", "orientation": "horizontal"}, "p", kind="k")
+    assert part == Part(kind="k", length=0.5, orientation="horizontal")
+    refusals = [
+        ([1.0], {}, "p: expected a mapping, got list"),
+        ({"length": 0.5, "size": 1}, {}, "p: unknown key(s) ['size']; allowed: ['count', "),
+        ({}, {}, "p.length: missing"),
+        ({"length": 2.0}, {}, "p.length = 2.0 is outside the allowed range [0, 1] m"),
+        ({"length": 0.5, "orientation": "up"}, {}, "p.orientation: 'up' is not one of"),
+        ({"length": 0.5, "count": 1.5}, {}, "p.count: expected a whole number"),
+        ({"length": 0.5}, {"kind": "bad"}, "p: kind bad"),
+    ]
+    for data, extra, message in refusals:
+        with pytest.raises(ConfigError) as err:
+            from_mapping(Part, data, "p", **{"kind": "k", **extra})
+        assert message in str(err.value)
