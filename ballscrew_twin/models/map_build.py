@@ -29,8 +29,11 @@ from .steady_map import SteadyMap
 
 FloatArray = NDArray[np.float64]
 
-#: Steady-solver tolerance of the map's nodes (scaled residual) [-].
-MAP_TOLERANCE = 1e-9
+#: Steady-solver tolerance of the map's nodes (scaled residual) [-]: the steady model's default,
+#: so that each node is the model's own answer. Where the model has several states the one its
+#: start-up path reaches can depend on the tolerance: at 1e-9 (the tolerance before) the paper
+#: screw's node -15 C / 86 N / 3686 rpm was 36.0 mN m, at 1e-10 to 1e-12 30.5 mN m.
+MAP_TOLERANCE = 1e-10
 #: Niceness of the worker processes of a build (the real-time ticks of a node go first).
 WORKER_NICENESS = 10
 

@@ -56,6 +56,31 @@ NUT_NAMES = ("master", "slave")
 #: Node counts (speed, temperature, preload) of the preview table of a new screw: built in
 #: seconds, it serves while the full table is built (its error is measured by ``bench screw``).
 PREVIEW_NODES = (9, 7, 9)
+#: The preload nodes are uniform in :func:`preload_coordinate`, (preload + PRELOAD_OFFSET) **
+#: (1 / PRELOAD_ROOT): dense at 5-100 N, where the spheres' start-up state changes fastest with
+#: the preload (docs/model.md 7a; 8 of 33 nodes below 100 N: 0, 5.1, 11.9, 20.9, 32.3, 46.7,
+#: 64.4, 86 N, against 5 uniform in sqrt(preload)), without the lines below 5 N that a plain
+#: fourth root adds and whose nodes mostly fail, each running every fallback of the steady
+#: solver (the 32 mm screw's table: 1.3 times the CPU time of the square root's, a plain fourth
+#: root 2.8 times; docs/benchmarks.md, issue 14). Root [-].
+PRELOAD_ROOT = 4
+#: Offset of the preload coordinate [N] (see :data:`PRELOAD_ROOT`).
+PRELOAD_OFFSET = 10.0
+
+
+def preload_coordinate(preload: float) -> float:
+    """The coordinate [N^(1/4)] in which the preload nodes are uniform, 0 at 0 N, of a preload
+    [N] >= 0."""
+    return float((preload + PRELOAD_OFFSET) ** (1.0 / PRELOAD_ROOT) - _COORDINATE_ZERO)
+
+
+def preload_at(coordinate: FloatArray) -> FloatArray:
+    """The preloads [N] of :func:`preload_coordinate` values >= 0 (its inverse; 0 N exactly at
+    0, not a rounding error below it)."""
+    return np.maximum((coordinate + _COORDINATE_ZERO) ** PRELOAD_ROOT - PRELOAD_OFFSET, 0.0)
+
+
+_COORDINATE_ZERO = PRELOAD_OFFSET ** (1.0 / PRELOAD_ROOT)
 
 
 def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
@@ -79,7 +104,7 @@ class MapGrid:
         temperature_max: highest temperature [K].
         temperature_nodes: nodes uniform in temperature.
         preload_max: highest equivalent preload [N] (the lowest is 0 N).
-        preload_nodes: nodes uniform in sqrt(preload).
+        preload_nodes: nodes uniform in :func:`preload_coordinate`.
     """
 
     speed_min: float = 0.05 * RPM
@@ -124,8 +149,9 @@ class MapGrid:
 
     @property
     def preloads(self) -> FloatArray:
-        """Equivalent-preload nodes [N], uniform in sqrt(preload)."""
-        return np.linspace(0.0, math.sqrt(self.preload_max), self.preload_nodes) ** 2
+        """Equivalent-preload nodes [N], uniform in :func:`preload_coordinate`."""
+        top = preload_coordinate(self.preload_max)
+        return preload_at(np.linspace(0.0, top, self.preload_nodes))
 
     def coarse(self) -> MapGrid:
         """Every other node of each axis (the grid of the contact table)."""

@@ -16,7 +16,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .map_grid import MapGrid
+from .map_grid import MapGrid, preload_coordinate
 
 FloatArray = NDArray[np.float64]
 
@@ -73,8 +73,10 @@ def temperature_node(grid: MapGrid, temperature: float) -> float:
 
 def preload_node(grid: MapGrid, preload: float) -> float:
     """The equivalent preload [N] in node units of ``grid``'s preload axis (uniform in
-    sqrt(preload)) [-]."""
-    u = math.copysign(math.sqrt(abs(preload) / grid.preload_max), preload)
+    :func:`~.map_grid.preload_coordinate`) [-]."""
+    u = math.copysign(preload_coordinate(abs(preload)), preload) / preload_coordinate(
+        grid.preload_max
+    )
     return u * (grid.preload_nodes - 1)
 
 

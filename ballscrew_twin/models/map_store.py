@@ -19,7 +19,7 @@ from ..params import TwinConfig, config_fingerprint
 from ..units import RPM
 from . import map_grid
 from .map_grid import MapGrid
-from .steady_map import DEFAULT_MAP_PATH, SteadyMap, load_map
+from .steady_map import DEFAULT_MAP_PATH, FORMAT_VERSION, SteadyMap, load_map
 
 #: Folder of the user's cache below ``$XDG_CACHE_HOME`` (default ``~/.cache``).
 CACHE_FOLDER = "ballscrew_twin"
@@ -48,10 +48,12 @@ def cache_dir() -> Path:
 
 def cached_map_path(config: TwinConfig, grid: MapGrid) -> Path:
     """Where the table of ``config`` on ``grid`` is cached: :func:`cache_dir` / a name made of
-    the fingerprint and the node counts."""
+    the fingerprint, the node counts and the file format (a table of an earlier format is not
+    looked at: it is built again)."""
     nodes = f"{grid.speed_nodes}x{grid.temperature_nodes}x{grid.preload_nodes}"
     rpm = f"{grid.speed_max / RPM:.0f}rpm"
-    return cache_dir() / f"steady_map_{config_fingerprint(config)[:20]}_{nodes}_{rpm}.npz"
+    name = f"steady_map_{config_fingerprint(config)[:20]}_{nodes}_{rpm}_v{FORMAT_VERSION}.npz"
+    return cache_dir() / name
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,9 @@ as functions of
 - the temperature, on uniform nodes;
 - the nut's *equivalent preload* (the preload that loads the nut alike with no external load:
   preload + axial load for the master nut, the preload for the slave nut; see
-  :func:`~.map_grid.equivalent_preloads`), on nodes uniform in its square root (the Hertz laws are
-  steepest near zero load).
+  :func:`~.map_grid.equivalent_preloads`), on nodes uniform in the fourth root of
+  (equivalent preload + 10 N) (:func:`~.map_grid.preload_coordinate`; the Hertz laws and the
+  spheres' film and motion change fastest at light load).
 
 Between the nodes each quantity is a tensor product of Catmull-Rom cubics (C1; the edge cells
 use a linearly extrapolated ghost node). The nut's drag torque is interpolated as
@@ -76,8 +77,9 @@ from .map_interpolation import (
 
 FloatArray = NDArray[np.float64]
 
-#: Format version of the saved file; a file of another version is refused.
-FORMAT_VERSION = 1
+#: Format version of the saved file; a file of another version is refused. 2: preload nodes
+#: uniform in :func:`~.map_grid.preload_coordinate` (1: in the square root of the preload).
+FORMAT_VERSION = 2
 #: The committed map of the default parameter set (package data).
 DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map.npz"
 _LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])

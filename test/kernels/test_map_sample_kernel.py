@@ -11,6 +11,7 @@ import pytest
 
 from ballscrew_twin.models import map_grid
 from ballscrew_twin.models import steady_map as sm
+from ballscrew_twin.models.map_interpolation import axis_cell, preload_node
 
 RNG_SEED = 20261121
 
@@ -85,11 +86,15 @@ def test_a_note_names_the_nut_near_a_filled_node(table: sm.SteadyMap) -> None:
     sign, s, t, p = (int(i) for i in np.argwhere(table.filled)[0])
     speed = float(g.speeds[s]) * (1.0 if sign == 0 else -1.0)
     cell_s, cell_t = min(s, g.speed_nodes - 2), min(t, g.temperature_nodes - 2)
+    # The slave nut's preload: a node whose cell (as the query finds it: the node's preload in
+    # node units may round to just below the node) uses no filled node.
     clear = next(
-        q for q in range(g.preload_nodes - 1) if not table._filled_near(sign, (cell_s, cell_t, q))
+        float(preload)
+        for preload in g.preloads
+        if not table._filled_near(
+            sign, (cell_s, cell_t, axis_cell(preload_node(g, preload), g.preload_nodes)[0])
+        )
     )
-    notes = table.sample(
-        speed, float(g.temperatures[t]), (float(g.preloads[p]), float(g.preloads[clear]))
-    ).notes
+    notes = table.sample(speed, float(g.temperatures[t]), (float(g.preloads[p]), clear)).notes
     assert any(n.startswith("master nut: interpolated near map nodes") for n in notes)
     assert not any(n.startswith("slave nut") for n in notes)
