@@ -26,9 +26,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import OperatingPointError, SolverError
-from ..physics.contact_types import ContactEvaluation
-from .base import MECHANISMS, ContactStates, OperatingPoint, TorqueBreakdown, TwinOutput
+from .base import MECHANISMS, OperatingPoint, TorqueBreakdown, TwinOutput
 from .dynamic_state import Commands, DynamicState, StepReport
+from .steady_output import contact_states
 
 if TYPE_CHECKING:
     from .dynamic import DynamicModel
@@ -182,43 +182,6 @@ class TimeLoop:
             self.next_step = k + 1
             if self.after_step is not None:
                 self.after_step(k + 1)
-
-
-def contact_states(ball_nut: NDArray[np.int64], ev: ContactEvaluation) -> ContactStates:
-    """The dynamic model's contacts, one row per sphere (every sphere of both nuts, numbered
-    0 .. 2B - 1) and half groove; what no contact carries is 0, as in the steady model's."""
-    rows = ev.active.size
-    friction = ev.friction_lubricant + ev.friction_dry
-    safe = np.where(friction > 0.0, friction, 1.0)
-    lub_share = np.where(friction > 0.0, ev.friction_lubricant / safe, 0.0)
-    hc = ev.hertz
-    active = ev.active
-
-    def flat(a: FloatArray) -> FloatArray:
-        return np.asarray(np.where(active, a, 0.0).reshape(rows), dtype=np.float64)
-
-    count = len(ball_nut)
-    return ContactStates(
-        sphere=np.repeat(np.arange(count), 4),
-        nut=np.repeat(ball_nut, 4),
-        half_groove=np.tile(np.arange(4), count),
-        in_contact=active.reshape(rows),
-        normal_force=flat(hc.stiffness * np.maximum(ev.approach, 0.0) ** 1.5),
-        friction_force=flat(friction),
-        contact_angle=np.asarray(ev.contact_angle.reshape(rows)),
-        approach=flat(ev.approach),
-        stiffness=np.asarray(hc.stiffness.reshape(rows)),
-        max_pressure=flat(hc.max_pressure),
-        semi_axis_x=flat(hc.semi_axis_x),
-        semi_axis_y=flat(hc.semi_axis_y),
-        film_thickness=flat(ev.film_total),
-        tallian_parameter=flat(ev.tallian),
-        load_share=flat(ev.load_share),
-        shear_stress=flat(ev.shear_stress),
-        lubricant_share=flat(lub_share),
-        dry_share=flat(np.where(friction > 0.0, 1.0 - lub_share, 0.0)),
-        slip_speed=flat(ev.slip),
-    )
 
 
 def dynamic_output(

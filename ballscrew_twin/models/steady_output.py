@@ -67,7 +67,7 @@ def assemble(
     direct = -float(np.sum(np.where(screw_side, ev.groove_moment_z, 0.0) * weight))
     lift_power = potential_energy_rate(model.config, scene, balls, state)
     gravity_torque = lift_power / speed if speed != 0.0 else 0.0
-    contacts = contact_states(balls, ev)
+    contacts = contact_states(balls.nut, ev)
     output = TwinOutput(
         drag_torque=total,
         nut_torque=nut_torque,
@@ -184,9 +184,11 @@ def fixed_notes(
     return notes
 
 
-def contact_states(balls: BallSet, ev: ContactEvaluation) -> ContactStates:
-    """Flatten (B, 4) contact arrays into one row per sphere and half groove."""
-    count = len(balls.nut)
+def contact_states(ball_nut: NDArray[np.int64], ev: ContactEvaluation) -> ContactStates:
+    """Flatten (B, 4) contact arrays into one row per sphere and half groove (``ball_nut``:
+    each sphere's nut, 0 master or 1 slave; what no contact carries is 0). The steady and the
+    dynamic model both report their contacts through it."""
+    count = len(ball_nut)
     rows = count * 4
     friction = ev.friction_lubricant + ev.friction_dry
     safe = np.where(friction > 0.0, friction, 1.0)
@@ -199,7 +201,7 @@ def contact_states(balls: BallSet, ev: ContactEvaluation) -> ContactStates:
 
     return ContactStates(
         sphere=np.repeat(np.arange(count), 4),
-        nut=np.repeat(balls.nut, 4),
+        nut=np.repeat(ball_nut, 4),
         half_groove=np.tile(np.arange(4), count),
         in_contact=active.reshape(rows),
         normal_force=flat(hc.stiffness * np.maximum(ev.approach, 0.0) ** 1.5),
