@@ -208,8 +208,8 @@ def run_dynamic(
     the output times: the state at a sample step's start and that step's report
     (:func:`~ballscrew_twin.models.dynamic_loop.dynamic_output`)."""
     from ..models.dynamic import DynamicModel
-    from ..models.dynamic_loop import StepPlan, TimeLoop, dynamic_output
-    from ..models.dynamic_state import Commands, DynamicState, StepReport
+    from ..models.dynamic_loop import ModelStep, StepPlan, TimeLoop, dynamic_output
+    from ..models.dynamic_state import Commands
 
     time_step = bounds.dynamic.get("time_step_s", 1e-6)
     options = registry.ModelOptions(
@@ -228,20 +228,12 @@ def run_dynamic(
     def commands_at(t: float) -> Commands:
         return Commands(screw_speed=scene.speed(t), preload=scene.preload(t))
 
-    def sample(
-        k: int,
-        j: int,
-        length: float,
-        commands: Commands,
-        state: DynamicState,
-        motor: float,
-        report: StepReport,
-    ) -> None:
-        i = sample_steps.get(k)
+    def sample(step: ModelStep) -> None:
+        i = sample_steps.get(step.k)
         if i is not None:
-            result.screw_speed[i] = state.screw_speed
-            op = scene.operating_point(k * time_step)
-            _store(result, i, dynamic_output(model, state, report, op), per_sphere)
+            result.screw_speed[i] = step.state.screw_speed
+            op = scene.operating_point(step.k * time_step)
+            _store(result, i, dynamic_output(model, step.state, step.report, op), per_sphere)
             progress(1)
 
     state = model.initial_state(scene.preload(0.0))

@@ -35,9 +35,28 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-#: The hook of every step of the model: (run step k, substep j, step length [s], commands,
-#: state at the step's start, motor torque before the step [N m], the step's report).
-StepHook = Callable[[int, int, float, Commands, DynamicState, float, StepReport], None]
+
+@dataclass(frozen=True, slots=True)
+class ModelStep:
+    """One step of the model as :class:`TimeLoop` hands it to its hook.
+
+    Attributes:
+        k: run step [-]; j: model step within it (substeps of the start phase or of a redone
+        step) [-]; length: the step's length [s]; commands: its commands; state: the state at
+        its start; motor: the motor torque before it [N m]; report: what the step computed.
+    """
+
+    k: int
+    j: int
+    length: float
+    commands: Commands
+    state: DynamicState
+    motor: float
+    report: StepReport
+
+
+#: The hook of every step of the model.
+StepHook = Callable[[ModelStep], None]
 
 #: Below this screw speed [rad/s] the dynamic model's drag torque is 0 (nothing to divide by).
 STANDSTILL_SPEED = 1e-9
@@ -168,7 +187,7 @@ class TimeLoop:
                     continue
                 unconverged = unconverged or model.unconverged_steps > before
                 check_finite(self.state, report, t_model)
-                self.visit(k, j, step, commands, self.state, self.motor, report)
+                self.visit(ModelStep(k, j, step, commands, self.state, self.motor, report))
                 if report_only:
                     break
                 self.state, self.motor = new_state, report.motor_torque
@@ -280,15 +299,6 @@ class DynamicStepping:
         """The command of the tick (held over it; ``t`` [s] is not used)."""
         return self._commands
 
-    def _keep(
-        self,
-        k: int,
-        j: int,
-        length: float,
-        commands: Commands,
-        state: DynamicState,
-        motor: float,
-        report: StepReport,
-    ) -> None:
+    def _keep(self, step: ModelStep) -> None:
         """Keep the last step's start state and report (the tick's output)."""
-        self._last = (state, report)
+        self._last = (step.state, step.report)

@@ -35,7 +35,7 @@ from ..physics.contact_types import ContactEvaluation
 from .base import OperatingPoint
 from .contact_forces import make_scene
 from .dynamic import DynamicModel
-from .dynamic_loop import StepPlan, TimeLoop
+from .dynamic_loop import ModelStep, StepPlan, TimeLoop
 from .dynamic_state import Commands, DynamicState, StepReport
 from .faults import faults_from_mapping
 from .scenario import Scenario
@@ -324,18 +324,10 @@ class _Run:
         self.fallbacks = loop.fallbacks
         self.unconverged = loop.unconverged
 
-    def _visit(
-        self,
-        k: int,
-        j: int,
-        length: float,
-        commands: Commands,
-        state: DynamicState,
-        motor: float,
-        report: StepReport,
-    ) -> None:
-        """Accumulate the energy integrals (trapezoid) over the model step of ``length`` [s]
-        from ``state``; sample at the start of run step ``k`` (substep ``j`` = 0)."""
+    def _visit(self, step: ModelStep) -> None:
+        """Accumulate the energy integrals (trapezoid) over the model ``step`` from its start
+        state; sample at the start of each run step (its substep 0)."""
+        state, commands, motor, report = step.state, step.commands, step.motor, step.report
         power_in = self.model.input_power(state, commands, motor)
         diss = report.dissipation
         previous = self.previous
@@ -344,9 +336,10 @@ class _Run:
             self.input_energy += 0.5 * interval * (previous[0] + power_in)
             self.abs_input_energy += 0.5 * interval * (abs(previous[0]) + abs(power_in))
             self.dissipated += 0.5 * interval * (previous[1] + diss)
-        self.previous = (power_in, diss, length)
-        if j == 0:
-            self._sample(k, commands, state, motor, report, (self.input_energy, self.dissipated))
+        self.previous = (power_in, diss, step.length)
+        if step.j == 0:
+            energies = (self.input_energy, self.dissipated)
+            self._sample(step.k, commands, state, motor, report, energies)
 
     def _progress(self, done: int) -> None:
         """Report progress after ``done`` run steps, about every PROGRESS_FRACTION."""

@@ -18,8 +18,8 @@ from ballscrew_twin.errors import OperatingPointError, SolverError
 from ballscrew_twin.models import registry
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.dynamic import DynamicModel
-from ballscrew_twin.models.dynamic_loop import DynamicStepping, StepPlan, TimeLoop
-from ballscrew_twin.models.dynamic_state import Commands, DynamicState, StepReport
+from ballscrew_twin.models.dynamic_loop import DynamicStepping, ModelStep, StepPlan, TimeLoop
+from ballscrew_twin.models.dynamic_state import Commands, DynamicState
 from ballscrew_twin.models.registry import ModelName, ModelOptions
 from ballscrew_twin.params import load_config
 
@@ -93,16 +93,8 @@ def test_the_loop_runs_the_start_phase_in_substeps_and_the_last_step_for_its_rep
     visits: list[tuple[int, int, float, float]] = []
     done: list[int] = []
 
-    def visit(
-        k: int,
-        j: int,
-        length: float,
-        commands: Commands,
-        state: DynamicState,
-        motor: float,
-        report: StepReport,
-    ) -> None:
-        visits.append((k, j, length, state.time))
+    def visit(step: ModelStep) -> None:
+        visits.append((step.k, step.j, step.length, step.state.time))
 
     loop = TimeLoop(
         model,
