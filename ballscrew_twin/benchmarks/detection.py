@@ -511,10 +511,7 @@ def plot(runs: list[Run], out: Path) -> list[Path]:
     ax.set_ylabel("true-positive rate (detected within 5 s) [-]")
     ax.set_title("ROC of fault detection per class")
     ax.legend(fontsize=7)
-    fig.tight_layout()
-    roc_png = out / "roc.png"
-    fig.savefig(roc_png, dpi=110)
-    plt.close(fig)
+    roc_png = _saved(fig, out / "roc.png")
 
     fig, ax = plt.subplots(figsize=(8, 4))
     for i, cls in enumerate(FAULT_CLASSES):
@@ -525,10 +522,7 @@ def plot(runs: list[Run], out: Path) -> list[Path]:
     ax.set_yscale("log")
     ax.set_ylabel("detection delay [s]")
     ax.legend()
-    fig.tight_layout()
-    delay_png = out / "delays.png"
-    fig.savefig(delay_png, dpi=110)
-    plt.close(fig)
+    delay_png = _saved(fig, out / "delays.png")
 
     fig, ax = plt.subplots(figsize=(8, 5))
     faulty = [r for r in runs if r.true_class and math.isfinite(r.effect) and r.effect > 0.0]
@@ -549,11 +543,17 @@ def plot(runs: list[Run], out: Path) -> list[Path]:
     ax.set_xlabel(f"fault's effect: RMS torque change in the {DELAY_GOAL:g} s after onset [%]")
     ax.set_ylabel("detection delay [s] (hollow: gated >= 90 % of those seconds)")
     ax.legend(fontsize=7)
+    return [roc_png, delay_png, _saved(fig, out / "effects.png")]
+
+
+def _saved(fig: Any, path: Path) -> Path:
+    """Lay out ``fig``, write it to ``path`` (PNG) and close it."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
-    effect_png = out / "effects.png"
-    fig.savefig(effect_png, dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
-    return [roc_png, delay_png, effect_png]
+    return path
 
 
 def _range(text: str) -> range:
