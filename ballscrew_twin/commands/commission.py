@@ -51,8 +51,7 @@ def run(args: argparse.Namespace) -> int:
         f"bias {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m, "
         f"preload scale {b.preload_scale:.3f} +- {u['preload_scale']:.3f}, "
         f"temperature shift {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K, "
-        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; for the fault classes: "
-        f"Eyring stress x {b.eyring_scale:.2f}, mu_dry x {b.dry_friction_scale:.2f}; "
+        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; "
         f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
         f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
     )

@@ -23,9 +23,7 @@ differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`)
 of the error with the distance d_T [K] of the temperature from the range commissioned in the
 block's speed band (:meth:`Baseline.temperature_distance`), and outside that range the part
 of the twin's change from the nearest commissioned temperature T_edge that a fitted shift dT
-leaves uncertain (:meth:`Baseline.extrapolation_error`). The fault classes' responses are
-taken from the steady model with the unit's Eyring stress and mu_dry scaled by
-``eyring_scale`` and ``dry_friction_scale`` (:mod:`.friction_scales`).
+leaves uncertain (:meth:`Baseline.extrapolation_error`).
 :func:`.commission.commission` fits all of them on a healthy recording; without one the nominal
 baseline (:meth:`Baseline.nominal`) is used with the default model error of the accuracy
 benchmark. Saved as YAML (SI units, every field documented in the file).
@@ -73,10 +71,6 @@ FIELD_DOCS: dict[str, str] = {
     "inertia": "J, rotating inertia between torque sensor and screw [kg m^2]",
     "shape_slope": "beta_1, drag change per decade of speed about 30 rad/s [-]",
     "shape_curvature": "beta_2, drag change per decade of speed squared [-]",
-    "eyring_scale": "s_tau, the unit's Eyring stress over nominal, for the fault classes' "
-    "responses [-]",
-    "dry_friction_scale": "s_mu, the unit's mu_dry over nominal, for the fault classes' "
-    "responses [-]",
     "sensor_noise": "sigma_s, noise of one torque sample [N m]",
     "error_relative": "e_rel, twin error relative to the drag torque after the fit (1 sigma) [-]",
     "error_bands": "e_rel in the speed bands split at 3, 10, 30, 100, 300 rad/s [-] (empty: one)",
@@ -114,8 +108,6 @@ class Baseline:
     inertia: float
     shape_slope: float = 0.0
     shape_curvature: float = 0.0
-    eyring_scale: float = 1.0
-    dry_friction_scale: float = 1.0
     sensor_noise: float | None = None
     error_relative: float = 0.03
     error_bands: tuple[float, ...] = ()
@@ -133,7 +125,7 @@ class Baseline:
     settling_angle: float | None = None
 
     def __post_init__(self) -> None:
-        positive = ("torque_gain", "preload_scale", "inertia", "eyring_scale", "dry_friction_scale")
+        positive = ("torque_gain", "preload_scale", "inertia")
         for f in fields(self):
             value = getattr(self, f.name)
             if isinstance(value, float) and f.name != "fit_rms" and not math.isfinite(value):

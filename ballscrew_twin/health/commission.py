@@ -36,7 +36,6 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import ConfigError
-from ..models.base import OperatingPoint
 from ..params import TwinConfig, config_fingerprint
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
@@ -47,7 +46,6 @@ from .correction import (
     basis,
     robust_fit,
 )
-from .friction_scales import FIT_POINTS, QUIET_SHARE, fit_friction_scales
 from .residuals import (
     Block,
     BlockAligner,
@@ -375,34 +373,6 @@ def _settling_angle(
     return min(max(settled_from, lowest, SETTLING_STEP), gate_angle)
 
 
-def _friction_scales(
-    usable: list[Block], theta: FloatArray, config: TwinConfig
-) -> tuple[float, float]:
-    """The unit's tau_e and mu_dry scales [-] (:mod:`.friction_scales`) from its quiet blocks
-    at its operating point of the main fit, theta = (g, b, ln k_F, dT, J, beta_1, beta_2)."""
-    quiet = [
-        b
-        for b in usable
-        if abs(b.mean_acceleration) * theta[4] < QUIET_SHARE * abs(float(np.mean(b.torque)))
-    ]
-    picked = quiet[:: max(len(quiet) // FIT_POINTS, 1)][:FIT_POINTS]
-    measured = np.array(
-        [
-            float(np.mean(b.torque)) - theta[1] - theta[0] * theta[4] * b.mean_acceleration
-            for b in picked
-        ]
-    )
-    points = [
-        OperatingPoint(
-            screw_speed=float(np.mean(b.speed)),
-            temperature=b.temperature + float(theta[3]),
-            preload=b.preload * math.exp(float(theta[2])),
-        )
-        for b in picked
-    ]
-    return fit_friction_scales(measured, points, config)
-
-
 def commission(
     channels: Mapping[str, tuple[FloatArray, FloatArray]],
     config: TwinConfig,
@@ -534,7 +504,6 @@ def commission(
         b for b in usable if abs(b.mean_acceleration) * theta[4] < 0.05 * np.mean(np.abs(b.torque))
     ]
     variances = [v for b in (quiet or usable) if (v := within_block_variance(b)) is not None]
-    eyring_scale, dry_friction_scale = _friction_scales(usable, theta, config)
     noise = math.sqrt(float(np.median(variances))) if variances else None
     mean_n = float(np.mean([b.samples for b in fit_blocks]))
     temperatures = [b.temperature for b in usable]
@@ -558,8 +527,6 @@ def commission(
         inertia=float(theta[4]),
         shape_slope=float(theta[5]),
         shape_curvature=float(theta[6]),
-        eyring_scale=eyring_scale,
-        dry_friction_scale=dry_friction_scale,
         sensor_noise=noise,
         error_relative=error_relative,
         error_bands=bands,

@@ -49,7 +49,6 @@ from .detectors import (
     Cusum,
     WindowChiSquare,
 )
-from .friction_scales import scaled_friction
 from .memory import (
     LOUD_SIGMA,
     REPEAT_SHARE,
@@ -186,14 +185,6 @@ class HealthMonitor:
         else:
             baseline.check_config(config)
         self.baseline = baseline
-        #: The twin whose changes the fault classes are judged by: the steady model with the
-        #: unit's commissioned Eyring stress and mu_dry (:mod:`.friction_scales`).
-        unit_friction = scaled_friction(config, baseline.eyring_scale, baseline.dry_friction_scale)
-        self.responses = (
-            self.predictor
-            if unit_friction is config
-            else TwinPredictor(unit_friction, s.residual, model_factory)
-        )
         self.twin: UnitTwin | _SteadyTwin
         #: Why the twin is what it is (e.g. no real-time map for this screw).
         self.twin_note = ""
@@ -704,7 +695,7 @@ class HealthMonitor:
                     op = self.baseline.unit_point(r.operating_point)
                     self._fault_changes[(name, r.time)] = np.array(
                         [
-                            gain * r.correction * self.responses.fault_change(name, op, a)
+                            gain * r.correction * self.predictor.fault_change(name, op, a)
                             for a in severities
                         ]
                     )
