@@ -206,10 +206,13 @@ def test_profile_is_piecewise_linear_and_held_after_the_last_point() -> None:
         },
         "p.yaml",
     )
-    speed, temperature, preload = scene.profile_at([1.0, 2.0, 9.0])
+    times = [1.0, 2.0, 9.0]
+    speed, temperature, preload = scene.profile_at(times)
     np.testing.assert_allclose(speed, [10.0, 20.0, 20.0])
     np.testing.assert_allclose(temperature, [305.0, 310.0, 310.0])
     np.testing.assert_allclose(preload, [200.0, 300.0, 300.0])
+    # the very arithmetic of numpy's interpolation, which the seeded recordings were made with
+    np.testing.assert_array_equal(temperature, np.interp(times, [0.0, 2.0], [300.0, 310.0]))
 
 
 # ---------------------------------------------------------------------------------------------

@@ -9,7 +9,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.models.profile import Profile, SmoothStep, smooth_step
 from ballscrew_twin.models.scenario import Scenario
 from ballscrew_twin.scene import scene_from_mapping
@@ -90,20 +89,3 @@ def test_scene_steps_alone_start_from_zero() -> None:
     assert scene.speed(0.0) == 0.0 and not np.signbit(scene.speed(0.0))  # +0, as before
     assert scene.speed(0.6) == pytest.approx(-20.0 * smooth_step(0.6, 0.5, 0.7))
     assert scene.speed(1.0) == -20.0 and scene.range("speed") == (-20.0, 0.0)
-
-
-def test_bench_scene_profile_is_linear_between_its_points() -> None:
-    scene = bench_scene_from_mapping(
-        {
-            "name": "b",
-            "duration": 10.0,
-            "profile": [
-                {"time": 0.0, "speed": 0.0, "temperature": 293.15, "preload": 500.0},
-                {"time": 4.0, "speed": 100.0, "temperature": 303.15, "preload": 500.0},
-            ],
-        }
-    )
-    speed, temperature, preload = scene.profile_at([0.0, 1.0, 4.0, 9.0])
-    np.testing.assert_array_equal(speed, [0.0, 25.0, 100.0, 100.0])
-    np.testing.assert_array_equal(temperature, np.interp([0, 1, 4, 9], [0, 4], [293.15, 303.15]))
-    np.testing.assert_array_equal(preload, 500.0)
