@@ -35,7 +35,6 @@ import dataclasses
 import math
 import multiprocessing
 import os
-import struct
 import threading
 import time
 from collections.abc import Callable
@@ -59,10 +58,6 @@ ON_TIME_NS = 1_000_000
 MEASURING = "measuring"
 #: Time the commander keeps receiving after the node's window closed [s].
 IN_FLIGHT = 0.5
-#: Offset of the header stamp (int32 sec, uint32 nanosec) in a serialised message [bytes]:
-#: after the 4-byte CDR encapsulation header (``ros/cdr.py``).
-STAMP_OFFSET = 4
-_STAMP = struct.Struct("<iI")
 SPEED = 10.47  # rad/s (100 rpm)
 
 
@@ -356,6 +351,8 @@ def _run_one(
     from sensor_msgs.msg import Temperature
     from std_msgs.msg import Float64
 
+    from ..ros.cdr import header_stamp_ns
+
     params: dict[str, Any] = {
         "executor": executor_name,
         "tick_source": tick_source,
@@ -378,8 +375,7 @@ def _run_one(
 
     def counter(key: str) -> Any:
         def count(raw: bytes) -> None:
-            sec, nanosec = _STAMP.unpack_from(raw, STAMP_OFFSET)
-            stamps[key].append(sec * 1_000_000_000 + nanosec)
+            stamps[key].append(header_stamp_ns(raw))
 
         return count
 

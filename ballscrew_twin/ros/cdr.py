@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import MessageEncodingError
+from ..units import NS_PER_S
 
 #: Encapsulation header of plain little-endian CDR (representation id 0x0001, options 0).
 ENCAPSULATION = b"\x00\x01\x00\x00"
@@ -93,6 +94,14 @@ def _string_body(name: str, text: str) -> bytes:
             f"{name} {text!r} is not encodable as UTF-8 ({err.reason})"
         ) from err
     return _UINT32.pack(len(data) + 1) + data + b"\x00"
+
+
+def header_stamp_ns(raw: bytes) -> int:
+    """The ``header.stamp`` [ns] of a serialised message whose first field is a
+    ``std_msgs/Header`` (``DragTorque``, ``ContactStateArray``, ...): its int32 sec and uint32
+    nanosec right after the encapsulation header, read without deserialising the rest."""
+    sec, nanosec = _STAMP.unpack_from(raw, len(ENCAPSULATION))
+    return int(sec) * NS_PER_S + int(nanosec)
 
 
 def _check_stamp(sec: int, nanosec: int) -> None:

@@ -31,7 +31,12 @@ from std_msgs.msg import Header
 
 from ballscrew_twin.bags.writer import project_typestore
 from ballscrew_twin.errors import MessageEncodingError
-from ballscrew_twin.ros.cdr import CONTACT_FLOAT_FIELDS, DragTorqueEncoder, encode_contact_states
+from ballscrew_twin.ros.cdr import (
+    CONTACT_FLOAT_FIELDS,
+    DragTorqueEncoder,
+    encode_contact_states,
+    header_stamp_ns,
+)
 
 from .conftest import OPERATING_POINT, TORQUES, SpinUntil
 
@@ -488,3 +493,11 @@ def test_published_bytes_arrive_as_messages(
     assert len(got.contacts) == 200
     assert got.contacts[199].sphere_index == contacts.sphere_index[199]
     assert _bits(got.contacts[123].film_thickness) == _bits(contacts.columns[6][123])
+
+
+@pytest.mark.parametrize(("sec", "nanosec"), [(0, 0), (1_764_230_000, 999_999_999), (-5, 7)])
+def test_header_stamp_is_read_from_what_rclpy_serialises(sec: int, nanosec: int) -> None:
+    """The stamp of a message rclpy serialised, read without deserialising it."""
+    header = Header(stamp=Time(sec=sec, nanosec=nanosec), frame_id="screw")
+    for msg in (DragTorque(header=header, fidelity="x"), ContactStateArray(header=header)):
+        assert header_stamp_ns(serialize_message(msg)) == sec * 1_000_000_000 + nanosec
