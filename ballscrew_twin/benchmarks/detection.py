@@ -469,11 +469,11 @@ def effect_band(effect: float) -> int:
 def _effect_table(faulty: list[Run]) -> list[str]:
     """Detections within DELAY_GOAL by class and band of the fault's effect on the torque, the
     runs gated for >= BLIND_SHARE of the window apart (markdown lines)."""
-    percent = [f"{100.0 * e:g} %" for e in EFFECT_BANDS]
+    edges = [100.0 * e for e in EFFECT_BANDS]
     labels = [
-        f"< {percent[0]}",
-        *(f"{a[:-2]}-{b}" for a, b in itertools.pairwise(percent)),
-        f">= {percent[-1]}",
+        f"< {edges[0]:g} %",
+        *(f"{a:g}-{b:g} %" for a, b in itertools.pairwise(edges)),
+        f">= {edges[-1]:g} %",
     ]
     lines = [
         f"Detected within {DELAY_GOAL:g} s by the fault's effect on the torque in the "
