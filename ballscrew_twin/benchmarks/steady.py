@@ -60,7 +60,6 @@ from ..kernels.contacts import evaluate_contacts_compiled
 from ..models.base import OperatingPoint
 from ..models.contact_forces import evaluate_contacts, make_scene
 from ..models.steady import SteadyStateModel
-from ..models.steady_continuation import forget_startup_path
 from ..params import TwinConfig, default_config_path, load_config
 from ..timing import cpu_time
 from ..units import CELSIUS_ZERO, RPM
@@ -139,7 +138,7 @@ def _tasks(
 
     def cold() -> None:
         model.forget_warm_start()
-        forget_startup_path(model)  # else the path of the last cold solve is resumed
+        model.forget_startup_path()  # else the path of the last cold solve is resumed
         model.solve(point)
 
     def warm() -> None:

@@ -47,7 +47,7 @@ from ..physics.contact_types import ContactScene
 from .base import MECHANISMS, OperatingPoint, TwinOutput
 from .contact_forces import evaluate_contacts, make_scene
 from .steady_compiled import newton_compiled, predicted_start
-from .steady_continuation import cold_solve
+from .steady_continuation import StartupPath, cold_solve
 from .steady_output import assemble
 from .steady_problem import (
     averaged_ball_set,
@@ -171,6 +171,9 @@ class SteadyStateModel:
         self._contact_index: dict[str, tuple[NDArray[np.int64], ...]] = {}
         # Sphere Jacobian blocks of the compiled solver's last solve, with their residual scales.
         self._jacobian: tuple[FloatArray, tuple[float, float, float]] | None = None
+        # The last start-up path a cold solve followed, which the next one resumes where both
+        # share it (steady_continuation.StartupPath).
+        self.startup_path: StartupPath | None = None
         self._scenes: dict[float, ContactScene] = {}
         # The scenes at a temperature and a speed (the last ones used), as scene() returns them.
         self._moving_scenes: dict[tuple[float, float], ContactScene] = {}
@@ -369,6 +372,11 @@ class SteadyStateModel:
         self._warm_loads = None
         self._jacobian = None
         self._history = []
+
+    def forget_startup_path(self) -> None:
+        """Drop the kept start-up path: the next cold solve climbs from 1 rpm (the same result;
+        ``bench steady`` times a cold solve so)."""
+        self.startup_path = None
 
     def evaluate(self, op: OperatingPoint) -> TwinOutput:
         """Drag torque and contact states at ``op`` (warm-started from the previous call)."""

@@ -13,7 +13,6 @@ scenes and warm-start rescaling it uses. Units: SI (rad/s, N).
 from __future__ import annotations
 
 import math
-import weakref
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
@@ -244,25 +243,15 @@ class StartupPath:
         return start, tried
 
 
-#: The last start-up path of each model (:class:`StartupPath`).
-_PATHS: weakref.WeakKeyDictionary[SteadyStateModel, StartupPath] = weakref.WeakKeyDictionary()
-
-
-def forget_startup_path(model: SteadyStateModel) -> None:
-    """Drop ``model``'s kept start-up path: its next cold solve climbs from
-    :data:`STARTUP_SPEED` (the same result; ``bench steady`` times a cold solve so)."""
-    _PATHS.pop(model, None)
-
-
 def startup_path(
     model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
 ) -> StartupPath:
     """``model``'s kept start-up path when it is one of ``op``'s temperature, speed sign,
     ``loads`` [N] and ``balls``; otherwise a new empty one, kept in its place."""
     key = (op.temperature, math.copysign(1.0, op.screw_speed), np.asarray(loads).tobytes())
-    path = _PATHS.get(model)
+    path = model.startup_path
     if path is None or path.key != key or path.balls is not balls:
-        path = _PATHS[model] = StartupPath(key, balls)
+        path = model.startup_path = StartupPath(key, balls)
     return path
 
 

@@ -15,7 +15,6 @@ from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.steady_continuation import (
     STARTUP_MAX_RATIO,
     STARTUP_SPEED,
-    forget_startup_path,
     startup_continuation,
 )
 from ballscrew_twin.params import default_config_path, load_config
@@ -92,7 +91,7 @@ def test_a_forgotten_start_up_path_is_climbed_again(config) -> None:  # type: ig
     used.solve(op(*POINTS[0]))
     used_calls = counted(used)
     used.forget_warm_start()
-    forget_startup_path(used)
+    used.forget_startup_path()
     assert used.solve(point).output.drag_torque == expected
     assert used_calls[0] == fresh_calls[0]  # the whole path from the start-up speed
 
