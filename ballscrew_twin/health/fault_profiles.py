@@ -46,8 +46,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig
-from .sensors import from_mapping, quantity, validate_fields
+from ..params import TwinConfig, from_mapping, quantity, validate_fields
 
 FloatArray = NDArray[np.float64]
 

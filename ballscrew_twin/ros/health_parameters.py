@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
+from ..units import SCREW_FRAME_ID
 from .parameters import ParameterSpec
-from .twin_parameters import SCREW_FRAME_ID
 
 NODE_NAME = "ballscrew_health"
 #: Message types of the inputs that may be chosen (parameters ``*_type``).
