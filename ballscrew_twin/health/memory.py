@@ -18,10 +18,7 @@ The local innovation of a block at a bin with n >= :data:`MIN_COUNT` earlier blo
 
     z = (q - m) / sqrt(v + v_m / n + FLOOR^2 + (s_w dln w)^2 + (s_T dT)^2)
 
-with m the bin's mean residual (from the median of its first MIN_COUNT blocks on: those are
-learnt untested, and one block the transient model underrates, e.g. the first after a step
-from -172 to -2.9 rad/s, 7.6 % off, would otherwise set a reference that every later healthy
-block differs from, held-out unit 6000), v the block's own variance (sensor noise and the
+with m the bin's mean residual, v the block's own variance (sensor noise and the
 inertia/transient terms, relative, the latter at the share :data:`REPEAT_SHARE` that does not
 repeat), v_m the bin's mean block variance, dln w and dT the block's distance from the bin's
 mean log speed and temperature with the slope bounds :data:`SPEED_SLOPE` and
@@ -32,6 +29,16 @@ surface's slope across it). A block updates its bin while the run is healthy and
 healthy past; the bin's memory is an average over at most :data:`MEMORY_BLOCKS` blocks, and a
 bin not visited for :data:`MEMORY_AGE` is forgotten, so the reference is the run's recent past
 (a thermometer drifts over minutes).
+
+A new bin's blocks are learnt untested, and the bin becomes a reference only once its last
+:data:`MIN_COUNT` blocks agree: each within ``agreement`` sigma (the z above, at the window's
+mean variance) of their median, which starts the bin's mean; the blocks before that window
+leave no trace. The torque settling after a speed step otherwise sets a reference that every
+later healthy block differs from: held-out unit 6000 (one block after a step from -172 to
+-2.9 rad/s, 7.6 % off; the median of the first blocks was enough there) and held-out unit
+18003 (after a step from 288 to 2.2 rad/s the first five blocks were 24.8, 8.3, 3.1, 0.9 and
+0.5 % off, their median 3.05 %, and the settled blocks at 0.4 % then read -3.4 to -4.5 sigma:
+a false alarm).
 """
 
 from __future__ import annotations
@@ -81,6 +88,17 @@ LOUD_SIGMA = 0.3
 SETTLING_FACTOR = 2.0
 
 
+@dataclass(frozen=True)
+class _Learnt:
+    """One untested block of a bin that is not yet a reference: relative residual and own
+    variance [-], temperature [K], log of |speed| [ln(rad/s)]."""
+
+    residual: float
+    variance: float
+    temperature: float
+    log_speed: float
+
+
 @dataclass
 class _Bin:
     count: int = 0
@@ -89,7 +107,8 @@ class _Bin:
     last: float = -math.inf
     temperature: float = math.nan
     log_speed: float = math.nan
-    first: list[float] = field(default_factory=list)
+    #: The last MIN_COUNT blocks while the bin is not yet a reference; empty once it is.
+    window: list[_Learnt] = field(default_factory=list)
 
     def fresh(self, time: float, temperature: float) -> bool:
         """Whether the bin is still a reference at ``time`` [s] and ``temperature`` [K]
@@ -130,12 +149,18 @@ def bin_key(
 
 
 class ResidualMemory:
-    """Per-bin mean relative residual of the blocks this run has compared (module doc)."""
+    """Per-bin mean relative residual of the blocks this run has compared (module doc):
+    ``floor`` [-] the residual's variation within a bin, one sigma; ``agreement`` [-] the
+    largest z of a new bin's last MIN_COUNT blocks against their median for the bin to become
+    a reference (inf: its first MIN_COUNT blocks as they come)."""
 
-    def __init__(self, floor: float = FLOOR) -> None:
+    def __init__(self, floor: float = FLOOR, agreement: float = UPDATE_GATE) -> None:
         if not (math.isfinite(floor) and floor >= 0.0):
             raise ConfigError(f"residual memory floor = {floor!r} must be finite and >= 0")
+        if not agreement > 0.0:
+            raise ConfigError(f"residual memory agreement = {agreement!r} sigma must be > 0")
         self.floor = floor
+        self.agreement = agreement
         self._bins: dict[BinKey, _Bin] = {}
 
     def __len__(self) -> int:
@@ -186,19 +211,41 @@ class ResidualMemory:
     ) -> None:
         """Add a healthy block at ``time`` [s], ``temperature`` [K] and mean ``speed``
         [rad/s] to its bin (the caller checks |z| < UPDATE_GATE); a stale bin (MEMORY_AGE,
-        TEMPERATURE_SPAN) starts afresh. The mean of a bin that reaches MIN_COUNT blocks is
-        set to their median, then follows the running mean."""
+        TEMPERATURE_SPAN) starts afresh. A bin that is not yet a reference keeps its last
+        MIN_COUNT blocks and becomes one when they agree (:meth:`_settle`); a reference
+        follows the running mean."""
         b = self._bins.get(key)
         if b is None or not b.fresh(time, temperature):
-            b = self._bins[key] = _Bin(temperature=temperature, log_speed=math.log(abs(speed)))
+            b = self._bins[key] = _Bin()
         b.last = time
+        log_speed = math.log(abs(speed))
+        if b.count < MIN_COUNT:
+            b.window.append(_Learnt(residual, variance, temperature, log_speed))
+            del b.window[:-MIN_COUNT]
+            self._settle(b)
+            return
         b.count = min(b.count + 1, MEMORY_BLOCKS)
         weight = 1.0 / b.count
         b.mean += weight * (residual - b.mean)
-        if b.count <= MIN_COUNT:
-            b.first.append(residual)
-            if b.count == MIN_COUNT:  # the reference the bin starts testing with
-                b.mean = statistics.median(b.first)
         b.variance += weight * (variance - b.variance)
         b.temperature += weight * (temperature - b.temperature)
-        b.log_speed += weight * (math.log(abs(speed)) - b.log_speed)
+        b.log_speed += weight * (log_speed - b.log_speed)
+
+    def _settle(self, b: _Bin) -> None:
+        """Take the window's temperature and speed as the bin's [K, ln(rad/s)]; when it holds
+        MIN_COUNT blocks each within ``agreement`` sigma of their median (sigma^2 the
+        block's variance + the window's mean variance / MIN_COUNT + floor^2), make the bin a
+        reference from them: mean = median, count = MIN_COUNT, the rest their means."""
+        window = b.window
+        b.temperature = statistics.fmean(each.temperature for each in window)
+        b.log_speed = statistics.fmean(each.log_speed for each in window)
+        if len(window) < MIN_COUNT:
+            return
+        median = statistics.median(each.residual for each in window)
+        spread = statistics.fmean(each.variance for each in window)
+        for each in window:
+            sigma = math.sqrt(each.variance + spread / MIN_COUNT + self.floor**2)
+            if abs(each.residual - median) > self.agreement * sigma:
+                return
+        b.mean, b.variance, b.count = median, spread, MIN_COUNT
+        b.window = []

@@ -63,6 +63,9 @@ class MonitorSettings:
             (training units of bench detection).
         inertia_gate: a block whose inertia torque |J dw/dt| exceeds this multiple of its
             drag torque is gated: the drive's acceleration, not friction, makes the signal [-].
+        bin_agreement: largest z of each of a new memory bin's last blocks against their
+            median for the bin to become the local test's reference [-] (:mod:`.memory`);
+            inf takes a bin's first blocks as they come (the rule up to round 19).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -83,6 +86,7 @@ class MonitorSettings:
     drift_error_time: float = 10.0
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = 1.0
+    bin_agreement: float = 3.0
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning."""
@@ -108,6 +112,10 @@ class MonitorSettings:
                 f"health settings: confident_class = {self.confident_class!r} must be <= 1"
             )
         check_detectors(self.detectors)
+        if not self.bin_agreement > 0.0:
+            raise ConfigError(
+                f"health settings: bin_agreement = {self.bin_agreement!r} sigma must be > 0"
+            )
         if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
             raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
         if self.chi_square_window < 2:
