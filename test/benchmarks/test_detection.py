@@ -13,8 +13,11 @@ from __future__ import annotations
 import argparse
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
+from types import SimpleNamespace
 
+import numpy as np
 import pytest
 
 from ballscrew_twin.benchmarks import detection
@@ -26,7 +29,9 @@ from ballscrew_twin.health.bench_units import draw_unit
 from ballscrew_twin.health.classify import FAULT_CLASSES
 from ballscrew_twin.health.duty_cycles import draw_trajectory
 from ballscrew_twin.health.fault_profiles import FaultSpec
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.sensors import sensors_from_mapping
+from ballscrew_twin.health.verdicts import FAULT, OK, UNKNOWN
 from ballscrew_twin.params import TwinConfig, load_config
 
 #: Two units, each: commissioning, healthy and one fault recording [s] (see the module doc).
@@ -53,6 +58,8 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     faulty = [r for r in runs if r["true_class"]]
     assert faulty and all(r["effect"] is not None and r["effect"] >= 0.0 for r in faulty)
     assert "by the fault's effect on the torque" in first
+    assert "Fault runs not detected within 5 s" in first
+    assert all("effect_compared" in r for r in faulty)
 
 
 def _arguments(*argv: str) -> argparse.Namespace:
@@ -133,6 +140,60 @@ def test_a_fault_effect_refuses_recordings_that_differ_before_the_onset(
         detection.fault_effect(data, generate_unit_data(paper, unit, trajectory, seed=6))
     with pytest.raises(ConfigError, match="needs a fault recording"):
         detection.fault_effect(data.__class__(**{**data.__dict__, "truth": {"faults": []}}), data)
+
+
+def test_the_effect_where_compared_counts_only_the_flagged_samples(paper: TwinConfig) -> None:
+    """A change of 1 % of the RMS torque over the window's first half and 3 % over its second
+    (added to a clean recording by hand): 3 % where only the second half is compared, the RMS
+    of both where all is, nan where nothing in the window is."""
+    clean = generate_unit_data(
+        paper, draw_unit(3), draw_trajectory(11, 12.0, kinds=("steps",)), seed=5
+    )
+    onset = 4.0
+    t = clean.torque_time
+    window = (t >= onset) & (t < onset + detection.DELAY_GOAL)
+    size = math.sqrt(float(np.mean(clean.torque[window] ** 2)))
+    second = window & (t >= onset + 0.5 * detection.DELAY_GOAL)
+    change = np.where(second, 0.03, 0.01) * size * window
+    truth = {"faults": [{"onset_s": onset}]}
+    data = clean.__class__(**{**clean.__dict__, "torque": clean.torque + change, "truth": truth})
+    assert detection.fault_effect(data, clean, second) == pytest.approx(0.03, rel=1e-9)
+    both = math.sqrt(float(np.mean(np.where(second[window], 0.03, 0.01) ** 2)))
+    assert detection.fault_effect(data, clean, np.ones_like(window)) == pytest.approx(both)
+    assert detection.fault_effect(data, clean) == pytest.approx(both)
+    assert math.isnan(detection.fault_effect(data, clean, t < onset))
+
+
+def test_the_compared_samples_are_those_of_blocks_with_a_verdict() -> None:
+    """Blocks of 0.1 s at mid times 10.05, 10.15, 10.25 (since the recording's start): the first
+    and last compared, the middle one gated; samples every 0.02 s from 9.99 to 10.33."""
+    start = detection.START_NS * 1e-9
+    verdicts = (OK, UNKNOWN, FAULT)
+    monitor = SimpleNamespace(
+        settings=MonitorSettings(),
+        samples=[
+            SimpleNamespace(time=start + 10.05 + 0.1 * k, verdict=v) for k, v in enumerate(verdicts)
+        ],
+    )
+    data = SimpleNamespace(torque_time=9.99 + 0.02 * np.arange(18))
+    flags = detection.compared_samples(monitor, data)  # type: ignore[arg-type]
+    expected = [(10.0 <= t < 10.1 or 10.2 <= t <= 10.3) for t in data.torque_time]
+    assert flags.tolist() == expected
+
+
+def test_the_runs_not_detected_in_time_are_listed_with_both_effects() -> None:
+    runs = [
+        replace(_run("preload_loss", 0.02, math.nan), effect_compared=0.001, unit=7),
+        replace(_run("jam_onset", 0.05, 6.5, window_gated=0.4), effect_compared=0.03, unit=8),
+        _run("jam_onset", 0.05, 1.0),
+    ]
+    table = detection._late_table(runs)
+    assert table[0].startswith("Fault runs not detected within 5 s (2 of 3)")
+    rows = [line for line in table if line.startswith("| ") and line[2].isdigit()]
+    assert rows == [
+        "| 8 | jam_onset | 0.1 | step | 6.50 | 5.00 | 3.00 | 40% |",
+        "| 7 | preload_loss | 0.1 | step | never | 2.00 | 0.10 | 0% |",
+    ]
 
 
 def _run(true_class: str, effect: float, delay: float, window_gated: float = 0.0) -> Run:
