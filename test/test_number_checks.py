@@ -76,6 +76,17 @@ def test_each_error_names_the_field_the_unit_and_the_range(
     assert message in str(err.value)
 
 
+def test_a_hint_of_none_gives_no_hint_and_rates_get_no_milli_unit_hint() -> None:
+    with pytest.raises(ConfigError) as err:
+        check_number(-5.0, limits("m", 0.0, 10.0, hint=None), "w")
+    assert str(err.value) == "w = -5.0 is outside the allowed range [0, 10] m"  # not negative
+    with pytest.raises(ConfigError) as err:
+        check_number(5000.0, limits("Hz", 1.0, 100.0), "w")
+    assert str(err.value) == "w = 5000.0 is outside the allowed range [1, 100] Hz"
+    with pytest.raises(ConfigError, match=re.escape("(given in milli-units? values are SI)")):
+        check_number(5000.0, limits("s", 1.0, 100.0), "w")
+
+
 def test_valid_numbers_come_back_as_numbers() -> None:
     assert check_number("1e-6", STEP, "w") == 1e-6  # PyYAML reads 1e-6 as a string
     assert check_number(1e-4, STEP, "w") == 1e-4  # the closed end
