@@ -168,6 +168,9 @@ def test_faults_bounds_sweeps_and_node_limits_answer_through_the_one_check(
         "columns: [preload_N]\nrows: [[0]]\nreference: {drag_torque: 0.1}\n"
         "dynamic: {step_cost_s: -5}\ncost: {catalog: 1e-6}\n"
     )
+    infinite = tmp_path / "infinite.yaml"  # an error of a reference of 0: kept, rules it out
+    infinite.write_text(bounds.read_text().replace("step_cost_s: -5", "drag_torque: .inf"))
+    assert load_bounds(infinite).dynamic == {"drag_torque": float("inf")}
     with pytest.raises(FidelityError) as fidelity:
         load_bounds(bounds)
     assert str(fidelity.value) == (
