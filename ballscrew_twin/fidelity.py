@@ -37,7 +37,14 @@ from numpy.typing import NDArray
 
 from .errors import ConfigError, FidelityError
 from .models.base import OperatingPoint
-from .params import TwinConfig, config_fingerprint, default_config_path, read_yaml
+from .params import (
+    TwinConfig,
+    check_number,
+    config_fingerprint,
+    default_config_path,
+    limits,
+    read_yaml,
+)
 from .scene import QUANTITIES, Scene
 
 FloatArray = NDArray[np.float64]
@@ -134,16 +141,31 @@ class Bounds:
         return float(values.max()), f"max over {int(mask.sum())} grid points"
 
 
-def _floats(data: Any, where: str) -> dict[str, float]:
+#: Unit of a bounds-file number by the end of its key (relative errors otherwise).
+_KEY_UNITS = (("_Nm", "N m"), ("_s", "s"))
+
+
+def _floats(data: Any, where: str, unit: str | None = None) -> dict[str, float]:
+    """The numbers of one section of the bounds file, each >= 0 (the package's one number
+    check, :func:`~ballscrew_twin.params.check_number`, its unit ``unit`` or named by its key's
+    end, else ``-``); text and null entries (descriptions) are left out, and an infinite error
+    (of a reference of 0, :func:`~ballscrew_twin.benchmarks.skips.relative`) is kept: it rules
+    its model out."""
     if not isinstance(data, dict):
         raise FidelityError(f"{where}: expected a mapping of numbers")
     out = {}
     for key, value in data.items():
-        if isinstance(value, bool) or not isinstance(value, int | float) or not value >= 0.0:
-            if isinstance(value, str | type(None)):  # descriptive entries (scenario file, ...)
-                continue
-            raise FidelityError(f"{where}.{key} = {value!r}: expected a number >= 0")
-        out[str(key)] = float(value)
+        if isinstance(value, str | type(None)):  # descriptive entries (scenario file, ...)
+            continue
+        name = str(key)
+        if value == math.inf:
+            out[name] = math.inf
+            continue
+        given = unit or next((u for end, u in _KEY_UNITS if name.endswith(end)), "-")
+        try:
+            out[name] = float(check_number(value, limits(given, 0.0, math.inf), f"{where}.{name}"))
+        except ConfigError as err:
+            raise FidelityError(str(err)) from None
     return out
 
 
@@ -181,7 +203,7 @@ def load_bounds(path: str | Path | None = None) -> Bounds:
         rows=rows,
         reference=_floats(data["reference"], f"{where}: reference"),
         dynamic=_floats(data["dynamic"], f"{where}: dynamic"),
-        cost=_floats(data["cost"], f"{where}: cost"),
+        cost=_floats(data["cost"], f"{where}: cost", "s"),
         realtime=None if realtime is None else _floats(realtime, f"{where}: realtime"),
         fingerprint=str(data.get("config_fingerprint", "")),
     )

@@ -49,12 +49,18 @@ Orientation = Literal["vertical", "horizontal"]
 
 
 def limits(
-    unit: str, lo: float, hi: float, *, lo_open: bool = False, integer: bool = False, hint: str = ""
+    unit: str,
+    lo: float,
+    hi: float,
+    *,
+    lo_open: bool = False,
+    integer: bool = False,
+    hint: str | None = "",
 ) -> dict[str, Any]:
     """What :func:`check_number` checks a value against (the metadata of a :func:`quantity`):
-    its SI ``unit``, the range [lo, hi] ((lo, hi] when ``lo_open``), whole numbers only when
-    ``integer``; ``hint`` replaces the unit-slip hints of an out-of-range value
-    (:func:`range_hint`)."""
+    its SI ``unit``, the range [lo, hi] ((lo, hi] when ``lo_open``; an end may be infinite),
+    whole numbers only when ``integer``; ``hint`` replaces the unit-slip hints of an
+    out-of-range value (:func:`range_hint`), None: no hint at all."""
     return {
         "unit": unit,
         "min": lo,
@@ -125,10 +131,13 @@ def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = T
 def range_hint(value: float, meta: Mapping[str, Any]) -> str:
     """Why the out-of-range ``value`` may have been given (the metadata's own hint, else a
     likely unit slip: degrees Celsius for K, degrees for rad, rpm for rad/s, milli-units or GPa
-    for dimensioned SI values; a negative value where none is allowed); "" if none fits."""
+    for dimensioned SI values but rates; a negative value where none is allowed); "" if none
+    fits or the metadata's hint is None."""
     lo, hi, unit = meta["min"], meta["max"], meta["unit"]
     if meta.get("hint"):
         return f" ({meta['hint']})"
+    if "hint" in meta and meta["hint"] is None:
+        return ""
     if unit == "K" and value < lo and lo <= value + CELSIUS_ZERO <= hi:
         return " (temperatures are in kelvin, not degrees Celsius)"
     if unit == "rad" and lo <= math.radians(value) <= hi:
@@ -137,7 +146,7 @@ def range_hint(value: float, meta: Mapping[str, Any]) -> str:
         return " (speeds are in rad/s, not rpm)"
     if value < 0.0 <= lo:
         return " (must not be negative)"
-    if unit == "-" or not (value > hi > 0):
+    if unit in ("-", "Hz") or not (value > hi > 0):  # no milli-units of a rate
         return ""
     if lo <= value * 1e-3 <= hi:
         return " (given in milli-units? values are SI)"

@@ -99,8 +99,9 @@ if "PYTEST_XDIST_WORKER" in os.environ:
     Dispatcher.compile = compile_one_at_a_time(Dispatcher.compile)  # type: ignore[method-assign]
 
 #: Test modules that take longest under ``make test`` in a fresh clone (numba compiling in both
-#: workers, 2026-11-27), slowest first; the first two compile different kernels (the steady
-#: solver, the dynamic model), so the two workers start without compiling the same code.
+#: workers, 2026-11-27), slowest first. Both of the first two need the steady solver's kernels
+#: before anything else (the second one's dynamic model too): the modules of
+#: :data:`WHILE_THE_STEADY_SOLVER_COMPILES` go between them (:func:`module_order`).
 SLOWEST_FIRST = (
     "test/models/test_paper_claims.py",
     "test/models/test_simulation.py",
@@ -116,22 +117,90 @@ SLOWEST_FIRST = (
     "test/test_report.py",
     "test/ros/test_tables.py",
     "test/models/test_dynamic.py",
-    "test/ros/test_cdr.py",
     "test/health/test_detect.py",
     "test/benchmarks/test_node_bench.py",
     "test/health/test_classification_window.py",
 )
 
 
+#: Test modules that load none of the steady solver's kernels (2026-11-27: every kernel a
+#: module's tests load logged, one module per process), longest first. Nearly every other
+#: module needs the steady solver, whose kernels take about 95 s of CPU to compile in a fresh
+#: clone: the second worker runs these while the first compiles it (for the first module of
+#: :data:`SLOWEST_FIRST`) instead of waiting for its lock from the start.
+WHILE_THE_STEADY_SOLVER_COMPILES = (
+    "test/health/test_detectors.py",
+    "test/ros/test_cdr.py",
+    "test/health/test_correction.py",
+    "test/health/test_detect_input.py",
+    "test/ros/test_packaging.py",
+    "test/physics/test_hertz.py",
+    "test/health/test_duty_cycles.py",
+    "test/ros/test_tick_thread.py",
+    "test/kernels/test_map_sample_kernel.py",
+    "test/ros/test_console_view.py",
+    "test/models/test_registry.py",
+    "test/ros/test_twin_node_adversarial.py",
+    "test/physics/test_traction.py",
+    "test/models/test_profile.py",
+    "test/models/test_scenario.py",
+    "test/health/test_tracker.py",
+    "test/ros/test_twin_node_bench_inputs.py",
+    "test/ros/test_scheduler.py",
+    "test/physics/test_lubricant.py",
+    "test/test_plot_checks.py",
+    "test/kernels/test_cache_stamp.py",
+    "test/ros/test_fidelity.py",
+    "test/ros/test_health_diagnostics.py",
+    "test/physics/test_rolling.py",
+    "test/physics/test_geometry.py",
+    "test/physics/test_film.py",
+    "test/health/test_baseline.py",
+    "test/ros/test_inputs.py",
+    "test/ros/test_messages.py",
+    "test/ros/test_parameters.py",
+    "test/ros/test_twin_node_realtime.py",
+    "test/ros/test_frame_id.py",
+    "test/ros/test_parameter_tables.py",
+    "test/test_module_size.py",
+    "test/health/test_classify.py",
+    "test/health/test_residuals.py",
+    "test/health/test_sensors.py",
+    "test/models/test_base.py",
+    "test/models/test_catalog.py",
+    "test/models/test_sphere_contact.py",
+    "test/ros/test_msg_definitions.py",
+    "test/ros/test_step_down.py",
+    "test/ros/test_throttle.py",
+    "test/ros/test_tick_counts.py",
+    "test/ros/test_twin_diagnostics.py",
+    "test/ros/test_twin_messages.py",
+    "test/ros/test_twin_models.py",
+    "test/test_conftest_order.py",
+    "test/test_hypothesis_profile.py",
+    "test/test_number_checks.py",
+    "test/test_scene.py",
+    "test/test_units.py",
+    "test/test_worker_domains.py",
+)
+
+
+def module_order() -> tuple[str, ...]:
+    """The order in which the workers get the modules named here: the slowest module (which
+    compiles the steady solver), the modules that need none of it, the other slow ones."""
+    return (SLOWEST_FIRST[0], *WHILE_THE_STEADY_SOLVER_COMPILES, *SLOWEST_FIRST[1:])
+
+
 def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
-    """Under pytest-xdist, run the modules of :data:`SLOWEST_FIRST` first, in its order (the
+    """Under pytest-xdist, run the modules of :func:`module_order` first, in its order (the
     others after them, in collection order; the tests of a module keep theirs). ``make test``
     runs ``--dist loadscope --no-loadscope-reorder``, which hands the modules to the workers
     in this order: the longest start first and the short ones fill the end, so that neither
-    worker is left with a long module while the other has finished."""
+    worker is left with a long module while the other has finished, and the second worker
+    has work that needs no steady solver while the first compiles it."""
     if "PYTEST_XDIST_WORKER" not in os.environ:
         return
-    rank = {path: index for index, path in enumerate(SLOWEST_FIRST)}
+    rank = {path: index for index, path in enumerate(module_order())}
     items.sort(key=lambda item: rank.get(item.nodeid.split("::", 1)[0], len(rank)))
 
 

@@ -265,3 +265,24 @@ def test_bounds_of_another_parameter_set_are_refused(bounds: Bounds, config) -> 
     )
     with pytest.raises(FidelityError, match="another parameter set"):
         select(scene(), bounds, other)
+
+
+def test_bench_skips_refuses_a_grid_list_naming_the_option_and_its_unit(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from ballscrew_twin.cli import main
+
+    out = tmp_path / "bounds.yaml"
+    args = ["--preloads", "1500", "--speeds", "100,fast", "--temperatures", "20,nan"]
+    assert main(["bench", "skips", *args, "--no-dynamic", "--quiet", "--out", str(out)]) == 2
+    assert (
+        "--speeds '100,fast': expected a number in rpm within [-inf, inf], got 'fast'"
+        in capsys.readouterr().err
+    )
+    args[3] = "100"
+    assert main(["bench", "skips", *args, "--no-dynamic", "--quiet", "--out", str(out)]) == 2
+    assert (
+        "--temperatures '20,nan': 'nan' is not a finite number (allowed range [-inf, inf] C)"
+        in capsys.readouterr().err
+    )
+    assert not out.exists()

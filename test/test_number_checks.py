@@ -1,19 +1,24 @@
 """The package's one check of a number against its field metadata (params.check_number) and of a
 mapping against a dataclass (params.from_mapping): every error names the field, the unit and the
-allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes)
-answers through them."""
+allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes,
+faults, the fidelity bounds, sweep dimensions) and the ROS nodes' parameters and inputs answer
+through them."""
 
 from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import pytest
 
-from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.commands.sweep import parse_dimension
+from ballscrew_twin.errors import ConfigError, FidelityError, SweepError
+from ballscrew_twin.fidelity import load_bounds
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
+from ballscrew_twin.models.faults import SphereJam, faults_from_mapping
 from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
 from ballscrew_twin.params import (
     Orientation,
@@ -23,6 +28,8 @@ from ballscrew_twin.params import (
     quantity,
     validate_fields,
 )
+from ballscrew_twin.ros.inputs import InputLimits, check_preload, check_screw_speed
+from ballscrew_twin.ros.parameters import ParameterSpec
 from ballscrew_twin.scene import scene_from_mapping
 
 SPEED = limits("rad/s", -100.0, 100.0)
@@ -67,6 +74,17 @@ def test_each_error_names_the_field_the_unit_and_the_range(
     with pytest.raises(ConfigError) as err:
         check_number(raw, meta, "w")
     assert message in str(err.value)
+
+
+def test_a_hint_of_none_gives_no_hint_and_rates_get_no_milli_unit_hint() -> None:
+    with pytest.raises(ConfigError) as err:
+        check_number(-5.0, limits("m", 0.0, 10.0, hint=None), "w")
+    assert str(err.value) == "w = -5.0 is outside the allowed range [0, 10] m"  # not negative
+    with pytest.raises(ConfigError) as err:
+        check_number(5000.0, limits("Hz", 1.0, 100.0), "w")
+    assert str(err.value) == "w = 5000.0 is outside the allowed range [1, 100] Hz"
+    with pytest.raises(ConfigError, match=re.escape("(given in milli-units? values are SI)")):
+        check_number(5000.0, limits("s", 1.0, 100.0), "w")
 
 
 def test_valid_numbers_come_back_as_numbers() -> None:
@@ -120,6 +138,58 @@ def test_every_loader_answers_through_the_one_check() -> None:
         sensors_from_mapping({"torque": {"noise": -1}}, "sensors")
     with pytest.raises(ConfigError, match=re.escape("sensors.torque.rate = 0.5 is outside")):
         TorqueMeter(rate=0.5)
+    # the ROS nodes: a parameter's value and a commanded input
+    preload = ParameterSpec("initial_preload", 1500.0, "N", "Preload", 0.0, 1.0e6)
+    assert OUTSIDE.search(preload.check(-5.0) or ""), preload.check(-5.0)
+    assert OUTSIDE.search(check_preload(-5.0, InputLimits()) or ""), check_preload(
+        -5.0, InputLimits()
+    )
+
+
+def test_faults_bounds_sweeps_and_node_limits_answer_through_the_one_check(
+    tmp_path: Path,
+) -> None:
+    """The refusals of the other validators carry the one check's words: the field or input,
+    its unit and its range (a private check would word them otherwise)."""
+    with pytest.raises(ConfigError) as err:
+        faults_from_mapping({"jams": [{"nut": 1, "index": 0, "start": -5.0}]}, 3, "f")
+    assert str(err.value) == (
+        "f.jams[0].start = -5.0 is outside the allowed range [0, 100] s (must not be negative)"
+    )
+    with pytest.raises(
+        ConfigError, match=re.escape("index = 3 is outside the allowed range [0, 2] -")
+    ):
+        faults_from_mapping({"jams": [{"nut": 1, "index": 3, "start": 0.0}]}, 3, "f")
+    with pytest.raises(ConfigError, match=re.escape("sphere jam.nut = 2 is outside the allowed")):
+        SphereJam(nut=2, index=0, start=0.0)
+    bounds = tmp_path / "bounds.yaml"
+    bounds.write_text(
+        "command: c\ngrid: {preload_N: [0], speed_rad_s: [1], temperature_K: [293]}\n"
+        "columns: [preload_N]\nrows: [[0]]\nreference: {drag_torque: 0.1}\n"
+        "dynamic: {step_cost_s: -5}\ncost: {catalog: 1e-6}\n"
+    )
+    infinite = tmp_path / "infinite.yaml"  # an error of a reference of 0: kept, rules it out
+    infinite.write_text(bounds.read_text().replace("step_cost_s: -5", "drag_torque: .inf"))
+    assert load_bounds(infinite).dynamic == {"drag_torque": float("inf")}
+    with pytest.raises(FidelityError) as fidelity:
+        load_bounds(bounds)
+    assert str(fidelity.value) == (
+        f"{bounds}: dynamic.step_cost_s = -5 is outside the allowed range [0, inf] s "
+        "(must not be negative)"
+    )
+    with pytest.raises(SweepError) as sweep:
+        parse_dimension("screw_speed", "10,fast", "rad/s", float, "rpm")
+    assert str(sweep.value) == (
+        "sweep dimension screw_speed = '10,fast': expected a number in rpm within [-inf, inf], "
+        "got 'fast'"
+    )
+    reason = check_screw_speed(3000.0, InputLimits(max_screw_speed=1884.96))
+    assert reason is not None and reason.startswith(
+        "screw speed = 3000.0 is outside the allowed range [-1884.96, 1884.96] rad/s (was it sent "
+        "in rpm?"
+    )
+    with pytest.raises(ConfigError, match=re.escape("limits.max_preload = -5.0 is outside the")):
+        InputLimits(max_preload=-5.0)
 
 
 def test_from_mapping_builds_a_dataclass_naming_every_refusal() -> None:

@@ -48,7 +48,7 @@ def test_dimension_forms_in_si() -> None:
 @pytest.mark.parametrize(
     ("spec", "message"),
     [
-        ("1,x", "not a number"),
+        ("1,x", "expected a number in N"),
         ("1,nan", "not a finite number"),
         ("lin:0:1", "expected lin:LO:HI:N"),
         ("lin:0:1:2.5", "whole number"),

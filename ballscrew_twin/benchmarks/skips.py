@@ -45,12 +45,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..errors import BallscrewTwinError, SolverError
+from ..errors import BallscrewTwinError, ConfigError, SolverError
 from ..fidelity import bounds_fingerprint
 from ..models import registry
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.steady import SteadyStateModel
-from ..params import TwinConfig, default_config_path, load_config
+from ..params import TwinConfig, check_number, default_config_path, limits, load_config
 from ..timing import cpu_time
 from ..units import CELSIUS_ZERO, RPM
 
@@ -98,14 +98,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _floats(text: str, what: str) -> list[float]:
+def _floats(text: str, what: str, unit: str) -> list[float]:
+    """The sorted distinct numbers [unit] of the comma-separated list ``text`` of ``--what``,
+    each by the package's one number check (finite; the refusal names the option, the value
+    and the unit)."""
     try:
-        values = sorted({float(v) for v in text.split(",") if v.strip()})
-    except ValueError:
-        raise BallscrewTwinError(f"--{what}: {text!r} is not a comma-separated list") from None
-    if not values or not all(math.isfinite(v) for v in values):
-        raise BallscrewTwinError(f"--{what}: {text!r} must hold finite numbers")
-    return values
+        values = {
+            float(check_number(v, limits(unit, -math.inf, math.inf), f"--{what} {text!r}"))
+            for v in text.split(",")
+            if v.strip()
+        }
+    except ConfigError as err:
+        raise BallscrewTwinError(str(err)) from None
+    if not values:
+        raise BallscrewTwinError(f"--{what}: {text!r} holds no number")
+    return sorted(values)
 
 
 # --------------------------------------------------------------------------- error metrics
@@ -349,6 +356,7 @@ def measure_dynamic(scenario_path: Path, config: TwinConfig, quiet: bool) -> dic
     """Steady model against the dynamic model on a scenario, the reference's own numerical
     error, and the cost of one dynamic step of the full parameter set."""
     from ..models.dynamic import DynamicModel
+    from ..models.dynamic_loop import StepPlan, TimeLoop
     from ..models.dynamic_state import Commands
     from ..models.scenario import load_scenario
     from ..models.simulation import build_config, simulate
@@ -384,13 +392,20 @@ def measure_dynamic(scenario_path: Path, config: TwinConfig, quiet: bool) -> dic
     )
     dyn_drag = s["drag_torque_Nm"]
     numerical = max(abs(s["power_balance_error_relative"]), s["drag_torque_std_Nm"] / abs(dyn_drag))
+    # One step of the full parameter set at rest under 1500 N, on the one dynamic loop: each
+    # timed call runs the loop's next run step (the state goes on from the last one's end).
     model = DynamicModel(config, 293.15)
-    state = model.initial_state(1500.0)
     commands = Commands(screw_speed=0.0, preload=1500.0)
-    holder = [state]
+    loop = TimeLoop(
+        model,
+        model.initial_state(commands.preload),
+        StepPlan(time_step=model.time_step, implicit_positions=model.implicit_positions),
+        lambda _t: commands,
+        lambda _step: None,
+    )
 
     def one_step() -> None:
-        holder[0] = model.step(holder[0], commands)[0]
+        loop.run(loop.next_step, final_report=False)
 
     step_cost = cpu_time(one_step, 30, warmup=5)
     return {
@@ -495,11 +510,11 @@ def run(args: argparse.Namespace) -> int:
         print(format_table(list(shown.columns), rows, list(shown.grid["speed_rad_s"])))
         return 0
     config = load_config(args.config)
-    preloads = _floats(args.preloads, "preloads")
-    speeds = [v * RPM for v in _floats(args.speeds, "speeds")]
+    preloads = _floats(args.preloads, "preloads", "N")
+    speeds = [v * RPM for v in _floats(args.speeds, "speeds", "rpm")]
     if min(speeds) <= 0.0:
         raise BallscrewTwinError(f"--speeds {args.speeds}: speed magnitudes must be > 0 rpm")
-    temperatures = [v + CELSIUS_ZERO for v in _floats(args.temperatures, "temperatures")]
+    temperatures = [v + CELSIUS_ZERO for v in _floats(args.temperatures, "temperatures", "C")]
     out = Path(args.out) if args.out else default_config_path().parent / "fidelity_bounds.yaml"
     command = (
         f"ballscrew-twin bench skips --preloads {args.preloads} --speeds {args.speeds} "

@@ -55,7 +55,7 @@ from .. import __version__
 from ..errors import ConfigError, SweepError
 from ..models.base import MECHANISMS, OperatingPoint
 from ..models.validity import ValidatedModel, ValidityEnvelope, kelvin_from_command_line
-from ..params import TwinConfig, config_from_mapping, load_config
+from ..params import TwinConfig, check_number, config_from_mapping, limits, load_config
 from ..units import RPM
 from .drag import MODEL_CHOICES, command_line_model
 
@@ -137,18 +137,24 @@ class Dimension:
         return [float(v) for v in rng.uniform(self.low, self.high, count)]
 
 
-def _number(text: str, where: str) -> float:
+def _number(
+    text: str, where: str, unit: str, *, lo: float = -math.inf, whole: bool = False
+) -> float:
+    """``text`` as a finite number in ``unit`` from ``lo`` on (a whole one with ``whole``): the
+    package's one number check (:func:`~ballscrew_twin.params.check_number`); its refusal as a
+    SweepError naming ``where``."""
     try:
-        value = float(text)
-    except ValueError:
-        raise SweepError(f"{where}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise SweepError(f"{where}: {text!r} is not a finite number")
-    return value
+        return float(check_number(text, limits(unit, lo, math.inf, integer=whole), where))
+    except ConfigError as err:
+        raise SweepError(str(err)) from None
 
 
 def parse_dimension(
-    name: str, spec: str, unit: str, to_si: Callable[[float], float] = float
+    name: str,
+    spec: str,
+    unit: str,
+    to_si: Callable[[float], float] = float,
+    given_unit: str | None = None,
 ) -> Dimension:
     """Parse one dimension's specification (see the module docstring) into SI units.
 
@@ -158,34 +164,38 @@ def parse_dimension(
             ``loguniform:LO:HI``, in the command-line unit of the quantity.
         unit: the SI unit of the result (for messages and the settings file).
         to_si: conversion from the command-line unit to SI.
+        given_unit: the command-line unit of ``spec``'s numbers (None: ``unit``).
 
     Raises:
         SweepError: naming the dimension and what is wrong.
     """
     where = f"sweep dimension {name} = {spec!r}"
+    given = given_unit or unit
     kind, _, rest = spec.partition(":")
     if not rest:
-        values = tuple(to_si(_number(part.strip(), where)) for part in spec.split(","))
+        values = tuple(to_si(_number(part.strip(), where, given)) for part in spec.split(","))
         return Dimension(name, unit, values=values)
     parts = rest.split(":")
     if kind in ("lin", "log"):
         if len(parts) != 3:
             raise SweepError(f"{where}: expected {kind}:LO:HI:N")
-        low, high = _number(parts[0], where), _number(parts[1], where)
-        count = _number(parts[2], where)
-        if count != int(count) or count < 1:
-            raise SweepError(f"{where}: N = {parts[2]} must be a whole number >= 1")
+        low, high = (
+            _number(parts[0], f"{where}: LO", given),
+            _number(parts[1], f"{where}: HI", given),
+        )
+        count = int(_number(parts[2], f"{where}: N", "-", lo=1, whole=True))
         if kind == "log":
             if low <= 0.0 or high <= 0.0:
                 raise SweepError(f"{where}: log spacing needs LO, HI > 0")
-            grid = np.geomspace(low, high, int(count))
+            grid = np.geomspace(low, high, count)
         else:
-            grid = np.linspace(low, high, int(count))
+            grid = np.linspace(low, high, count)
         return Dimension(name, unit, values=tuple(to_si(float(v)) for v in grid))
     if kind in ("uniform", "loguniform"):
         if len(parts) != 2:
             raise SweepError(f"{where}: expected {kind}:LO:HI")
-        low, high = to_si(_number(parts[0], where)), to_si(_number(parts[1], where))
+        low = to_si(_number(parts[0], f"{where}: LO", given))
+        high = to_si(_number(parts[1], f"{where}: HI", given))
         if not low < high:
             raise SweepError(f"{where}: LO must be below HI")
         if kind == "loguniform" and low <= 0.0:
@@ -545,8 +555,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def dimensions_from_args(args: argparse.Namespace, config: TwinConfig) -> list[Dimension]:
     """The swept dimensions of the command line (SI), single values included."""
     dims = [
-        parse_dimension(name, getattr(args, name.replace("screw_", "")), unit, to_si)
-        for name, (unit, _, to_si) in OPERATING_DIMENSIONS.items()
+        parse_dimension(name, getattr(args, name.replace("screw_", "")), unit, to_si, given)
+        for name, (unit, given, to_si) in OPERATING_DIMENSIONS.items()
     ]
     for item in args.param:
         path, sep, spec = item.partition("=")

@@ -19,7 +19,7 @@ for the sphere's rotational energy, lost at the instant the jam begins.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,18 +27,41 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
+from ..params import check_number, from_mapping, limits, quantity, validate_fields
 from ..physics.geometry import HALF_GROOVE_NAMES, IS_NUT
 
 FloatArray = NDArray[np.float64]
+
+
+#: Largest change of a sphere's radius a fault may give [m].
+MAX_RADIUS_CHANGE = 5e-5
+#: Most spheres a nut may hold (the parameter sets' limit of balls_per_nut) [-].
+MAX_SPHERES = 500
+
+
+def _nut() -> Any:
+    return quantity("-", 0, 1, "nut of the sphere: 0 master, 1 slave", integer=True)
+
+
+def _index() -> Any:
+    return quantity(
+        "-", 0, MAX_SPHERES - 1, "sphere of that nut, 0 .. balls_per_nut - 1", integer=True
+    )
 
 
 @dataclass(frozen=True, kw_only=True)
 class SphereDefect:
     """A sphere whose radius differs from nominal (wear, wrong grade, debris on it)."""
 
-    nut: int  # 0 master, 1 slave
-    index: int  # sphere of that nut, 0 .. balls_per_nut - 1
-    radius_change: float  # m, positive: oversized
+    nut: int = _nut()
+    index: int = _index()
+    radius_change: float = quantity(
+        "m", -MAX_RADIUS_CHANGE, MAX_RADIUS_CHANGE, "change of the radius, positive: oversized"
+    )
+
+    def __post_init__(self) -> None:
+        """Every number within its field's range (params.validate_fields)."""
+        validate_fields(self, "sphere defect")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -46,18 +69,34 @@ class RacewaySpall:
     """A local hollow in one half groove (fatigue spall, pit)."""
 
     half_groove: str  # S1, S2, N1 or N2
-    centre: float  # rad, helix parameter of its centre on the grooved body
-    width: float  # rad, extent along the thread
-    depth: float  # m, largest depth
+    centre: float = quantity("rad", -1e4, 1e4, "helix parameter of its centre on the grooved body")
+    width: float = quantity("rad", 1e-4, 2.0 * math.pi, "extent along the thread")
+    depth: float = quantity("m", 0.0, 1e-4, "largest depth")
+
+    def __post_init__(self) -> None:
+        """A half groove by its name, every number within its field's range."""
+        if self.half_groove not in HALF_GROOVE_NAMES:
+            raise ConfigError(
+                f"half_groove: {self.half_groove!r} is not one of {HALF_GROOVE_NAMES}"
+            )
+        validate_fields(self, "raceway spall")
 
 
 @dataclass(frozen=True, kw_only=True)
 class SphereJam:
     """A sphere whose rotation is blocked from ``start`` on."""
 
-    nut: int  # 0 master, 1 slave
-    index: int  # sphere of that nut, 0 .. balls_per_nut - 1
-    start: float  # s, simulated time at which the rotation is blocked
+    nut: int = _nut()
+    index: int = _index()
+    start: float = quantity("s", 0.0, 100.0, "simulated time at which the rotation is blocked")
+
+    def __post_init__(self) -> None:
+        """Every number within its field's range (params.validate_fields)."""
+        validate_fields(self, "sphere jam")
+
+
+#: The kinds of fault a scene's ``faults`` mapping may list.
+FAULT_KINDS = ("spheres", "spalls", "jams")
 
 
 @dataclass(frozen=True)
@@ -130,72 +169,44 @@ class Faults:
         return sphere, spalls
 
 
-def _number(item: dict[str, Any], key: str, lo: float, hi: float, unit: str, where: str) -> float:
-    """A finite number within [lo, hi] from ``item[key]``."""
-    if key not in item:
-        raise ConfigError(f"{where}.{key}: missing")
-    try:
-        value = float(item[key])
-    except (TypeError, ValueError):
-        raise ConfigError(
-            f"{where}.{key}: expected a number in {unit}, got {item[key]!r}"
-        ) from None
-    if not (math.isfinite(value) and lo <= value <= hi):
-        raise ConfigError(f"{where}.{key} = {item[key]!r} is outside [{lo:g}, {hi:g}] {unit}")
-    return value
+def _sphere_of(fault: SphereDefect | SphereJam, balls_per_nut: int, path: str) -> None:
+    """The sphere a fault entry names must exist: index 0 .. balls_per_nut - 1."""
+    check_number(
+        fault.index, limits("-", 0, balls_per_nut - 1, integer=True), f"{path}.index", text=False
+    )
 
 
-def _fields(item: Any, allowed: Sequence[str], where: str) -> dict[str, Any]:
-    if not isinstance(item, dict):
-        raise ConfigError(f"{where}: expected a mapping, got {type(item).__name__}")
-    unknown = sorted(set(item) - set(allowed))
-    if unknown:
-        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {list(allowed)}")
-    return item
-
-
-def _sphere_of(item: dict[str, Any], balls_per_nut: int, path: str) -> tuple[int, int]:
-    """The (nut, index) a fault entry names: whole numbers, nut 0..1, index 0..Z-1."""
-    nut = _number(item, "nut", 0, 1, "-", path)
-    index = _number(item, "index", 0, balls_per_nut - 1, "-", path)
-    if nut != int(nut) or index != int(index):
-        raise ConfigError(f"{path}: nut and index must be whole numbers")
-    return int(nut), int(index)
+def _entries(data: Mapping[str, Any], key: str) -> list[Any]:
+    """The list of faults under ``key`` (absent or null: none)."""
+    return list(data.get(key) or [])
 
 
 def faults_from_mapping(data: Any, balls_per_nut: int, where: str) -> Faults:
     """Validate ``{spheres: [...], spalls: [...], jams: [...]}`` (all optional) into
-    :class:`Faults`."""
+    :class:`Faults`: every entry by :func:`~ballscrew_twin.params.from_mapping` (unknown and
+    missing keys, each number against its field's unit and range, a spall's half groove by
+    name), and the sphere an entry names must be one of the ``balls_per_nut`` of its nut."""
     if data is None:
         return Faults()
-    data = _fields(data, ("spheres", "spalls", "jams"), where)
+    if not isinstance(data, dict):
+        raise ConfigError(f"{where}: expected a mapping, got {type(data).__name__}")
+    unknown = sorted(str(key) for key in set(data) - set(FAULT_KINDS))
+    if unknown:
+        raise ConfigError(f"{where}: unknown key(s) {unknown}; allowed: {list(FAULT_KINDS)}")
     spheres = []
-    for k, item in enumerate(data.get("spheres") or []):
+    for k, item in enumerate(_entries(data, "spheres")):
         path = f"{where}.spheres[{k}]"
-        item = _fields(item, ("nut", "index", "radius_change"), path)
-        nut, index = _sphere_of(item, balls_per_nut, path)
-        change = _number(item, "radius_change", -5e-5, 5e-5, "m", path)
-        spheres.append(SphereDefect(nut=nut, index=index, radius_change=change))
+        defect = from_mapping(SphereDefect, item, path)
+        _sphere_of(defect, balls_per_nut, path)
+        spheres.append(defect)
     spalls = []
-    for k, item in enumerate(data.get("spalls") or []):
+    for k, item in enumerate(_entries(data, "spalls")):
         path = f"{where}.spalls[{k}]"
-        item = _fields(item, ("half_groove", "centre", "width", "depth"), path)
-        groove = item.get("half_groove")
-        if groove not in HALF_GROOVE_NAMES:
-            raise ConfigError(f"{path}.half_groove: {groove!r} is not one of {HALF_GROOVE_NAMES}")
-        spalls.append(
-            RacewaySpall(
-                half_groove=str(groove),
-                centre=_number(item, "centre", -1e4, 1e4, "rad", path),
-                width=_number(item, "width", 1e-4, 2.0 * math.pi, "rad", path),
-                depth=_number(item, "depth", 0.0, 1e-4, "m", path),
-            )
-        )
+        spalls.append(from_mapping(RacewaySpall, item, path))
     jams = []
-    for k, item in enumerate(data.get("jams") or []):
+    for k, item in enumerate(_entries(data, "jams")):
         path = f"{where}.jams[{k}]"
-        item = _fields(item, ("nut", "index", "start"), path)
-        nut, index = _sphere_of(item, balls_per_nut, path)
-        start = _number(item, "start", 0.0, 100.0, "s", path)
-        jams.append(SphereJam(nut=nut, index=index, start=start))
+        jam = from_mapping(SphereJam, item, path)
+        _sphere_of(jam, balls_per_nut, path)
+        jams.append(jam)
     return Faults(spheres=tuple(spheres), spalls=tuple(spalls), jams=tuple(jams))

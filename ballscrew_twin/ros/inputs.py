@@ -1,8 +1,9 @@
 """Validation, unit conversion and book-keeping of the twin node's inputs (no rclpy here).
 
 The node keeps the last good value of every input; a command that fails these checks is
-rejected with a reason that the node logs and reports on ``/diagnostics``. All values are SI:
-rad/s, K, N; times are integer nanoseconds of the node's clock.
+rejected with a reason that the node logs and reports on ``/diagnostics``: the package's one
+number check (:func:`~ballscrew_twin.params.check_number`) names the input, its unit and its
+range. All values are SI: rad/s, K, N; times are integer nanoseconds of the node's clock.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 from ..errors import ConfigError
+from ..params import check_number, limits, quantity, validate_fields
 from ..units import CELSIUS_ZERO, NS_PER_S, RPM
 
 
@@ -26,27 +28,44 @@ class InputLimits:
         max_axial_load: largest accepted magnitude of the external axial load [N].
     """
 
-    max_screw_speed: float = 2000.0
-    min_temperature: float = 233.15
-    max_temperature: float = 473.15
-    max_preload: float = 50_000.0
-    max_axial_load: float = 50_000.0
+    max_screw_speed: float = quantity(
+        "rad/s", 0.0, math.inf, "largest |screw speed|", default=2000.0, lo_open=True
+    )
+    min_temperature: float = quantity(
+        "K", 0.0, math.inf, "lowest temperature", default=233.15, lo_open=True
+    )
+    max_temperature: float = quantity(
+        "K", 0.0, math.inf, "highest temperature", default=473.15, lo_open=True
+    )
+    max_preload: float = quantity(
+        "N", 0.0, math.inf, "largest preload", default=50_000.0, lo_open=True
+    )
+    max_axial_load: float = quantity(
+        "N", 0.0, math.inf, "largest |axial load|", default=50_000.0, lo_open=True
+    )
 
     def __post_init__(self) -> None:
-        """Reject limits that are not finite or not ordered."""
-        values = (
-            self.max_screw_speed,
-            self.min_temperature,
-            self.max_temperature,
-            self.max_preload,
-            self.max_axial_load,
-        )
-        if not all(math.isfinite(v) for v in values):
-            raise ConfigError(f"input limits must be finite: {self}")
-        if self.max_screw_speed <= 0.0 or self.max_preload <= 0.0 or self.max_axial_load <= 0.0:
-            raise ConfigError(f"max_screw_speed, max_preload, max_axial_load must be > 0: {self}")
-        if not 0.0 < self.min_temperature < self.max_temperature:
-            raise ConfigError(f"need 0 K < min_temperature < max_temperature: {self}")
+        """Reject limits that are not finite and positive (the package's one number check,
+        naming the parameter) or not ordered."""
+        validate_fields(self, "limits")
+        if not self.min_temperature < self.max_temperature:
+            raise ConfigError(
+                f"limits.min_temperature = {self.min_temperature:g} K must be below "
+                f"limits.max_temperature = {self.max_temperature:g} K"
+            )
+
+
+def _refusal(
+    value: float, what: str, unit: str, lo: float, hi: float, hint: str | None
+) -> str | None:
+    """Why ``value`` [unit] is refused for the input ``what`` by the package's one number
+    check (finite, within [lo, hi]; the reason names the input, the unit and the range, with
+    ``hint`` when out of range), or None when accepted."""
+    try:
+        check_number(value, limits(unit, lo, hi, hint=hint), what, text=False)
+    except ConfigError as err:
+        return str(err)
+    return None
 
 
 def check_screw_speed(value: float, limits: InputLimits) -> str | None:
@@ -55,19 +74,13 @@ def check_screw_speed(value: float, limits: InputLimits) -> str | None:
     A speed beyond the limit that would be plausible if it were in rpm is reported as a likely
     unit mistake (topics carry rad/s, REP 103).
     """
-    if not math.isfinite(value):
-        return f"screw speed {value!r} rad/s is not a finite number"
-    if abs(value) > limits.max_screw_speed:
-        reason = (
-            f"screw speed {value:g} rad/s exceeds the limit of ±{limits.max_screw_speed:g} rad/s"
+    top = limits.max_screw_speed
+    hint = None
+    if abs(value) * RPM <= top:
+        hint = (
+            f"was it sent in rpm? {value:g} rpm = {value * RPM:.4g} rad/s; the topic carries rad/s"
         )
-        if abs(value) * RPM <= limits.max_screw_speed:
-            reason += (
-                f"; was it sent in rpm? ({value:g} rpm = "
-                f"{value * RPM:.4g} rad/s; the topic carries rad/s)"
-            )
-        return reason
-    return None
+    return _refusal(value, "screw speed", "rad/s", -top, top, hint)
 
 
 def check_temperature(value: float, limits: InputLimits) -> str | None:
@@ -76,37 +89,23 @@ def check_temperature(value: float, limits: InputLimits) -> str | None:
     A value that is plausible once the Celsius offset is taken off again is reported as a
     likely unit mistake (``sensor_msgs/Temperature`` carries degrees Celsius).
     """
-    if not math.isfinite(value):
-        return f"temperature {value!r} K is not a finite number"
-    if not limits.min_temperature <= value <= limits.max_temperature:
-        reason = (
-            f"temperature {value:g} K is outside "
-            f"[{limits.min_temperature:g}, {limits.max_temperature:g}] K"
-        )
-        if limits.min_temperature <= value - CELSIUS_ZERO <= limits.max_temperature:
-            reason += "; was it sent in kelvin? sensor_msgs/Temperature carries degrees Celsius"
-        return reason
-    return None
+    lo, hi = limits.min_temperature, limits.max_temperature
+    hint = None
+    if lo <= value - CELSIUS_ZERO <= hi:
+        hint = "was it sent in kelvin? sensor_msgs/Temperature carries degrees Celsius"
+    return _refusal(value, "temperature", "K", lo, hi, hint)
 
 
 def check_preload(value: float, limits: InputLimits) -> str | None:
     """Return why a commanded preload [N] is rejected, or None if accepted."""
-    if not math.isfinite(value):
-        return f"preload {value!r} N is not a finite number"
-    if value < 0.0:
-        return f"preload {value:g} N is negative"
-    if value > limits.max_preload:
-        return f"preload {value:g} N exceeds the limit of {limits.max_preload:g} N"
-    return None
+    hint = "must not be negative" if value < 0.0 else None
+    return _refusal(value, "preload", "N", 0.0, limits.max_preload, hint)
 
 
 def check_axial_load(value: float, limits: InputLimits) -> str | None:
     """Return why a commanded external axial load [N] is rejected, or None if accepted."""
-    if not math.isfinite(value):
-        return f"axial load {value!r} N is not a finite number"
-    if abs(value) > limits.max_axial_load:
-        return f"axial load {value:g} N exceeds the limit of ±{limits.max_axial_load:g} N"
-    return None
+    top = limits.max_axial_load
+    return _refusal(value, "axial load", "N", -top, top, None)
 
 
 def check_stamp(

@@ -12,8 +12,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from ..errors import ConfigError
+from ..params import check_number, limits
 
 #: Python types of parameter values, by the name used in descriptions and docs.
 ParameterValue = bool | int | float | str | tuple[str, ...]
@@ -75,8 +77,22 @@ class ParameterSpec:
             text += f" [{self.unit}]"
         return text
 
+    @property
+    def number_limits(self) -> dict[str, Any]:
+        """What a number of this parameter is checked against by the package's one number
+        check (:func:`~ballscrew_twin.params.check_number`): its unit (``-`` when it has
+        none), its bounds (infinite when None), whole numbers for an integer."""
+        return limits(
+            self.unit or "-",
+            -math.inf if self.low is None else self.low,
+            math.inf if self.high is None else self.high,
+            integer=self.kind is int,
+        )
+
     def check(self, value: object) -> str | None:
-        """Why ``value`` is not accepted for this parameter, or None when it is."""
+        """Why ``value`` is not accepted for this parameter, or None when it is: its type,
+        a number by the package's one number check (finite, within :attr:`number_limits`; the
+        refusal names the parameter, its unit and range), a string by its choices."""
         if self.kind is float and type(value) is int:
             value = float(value)
         if isinstance(self.default, tuple) and isinstance(value, list):
@@ -86,12 +102,10 @@ class ParameterSpec:
                 f"{self.name} = {value!r} is a {type(value).__name__}, expected a {self.type_name}"
             )
         if isinstance(value, int | float) and not isinstance(value, bool):
-            if not math.isfinite(value):
-                return f"{self.name} = {value!r} is not a finite number"
-            if self.low is not None and value < self.low:
-                return f"{self.name} = {value:g} {self.unit} is below {self.low:g} {self.unit}"
-            if self.high is not None and value > self.high:
-                return f"{self.name} = {value:g} {self.unit} is above {self.high:g} {self.unit}"
+            try:
+                check_number(value, self.number_limits, self.name, text=False)
+            except ConfigError as err:
+                return str(err)
         if self.choices:
             items = value if isinstance(value, tuple) else (value,)
             for item in items:

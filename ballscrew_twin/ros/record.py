@@ -35,7 +35,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import RecordError, ReplayError, ResultsError
+from ..errors import ConfigError, RecordError, ReplayError, ResultsError
+from ..params import check_number, limits
 from .command_args import add_ros_arguments, ros_argv
 from .executors import spin_once
 from .replay import message_class
@@ -219,8 +220,11 @@ def run(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
-    if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0.0):
-        raise RecordError(f"--duration {args.duration} must be a number of seconds > 0")
+    if args.duration is not None:
+        try:
+            check_number(args.duration, limits("s", 0.0, math.inf, lo_open=True), "--duration")
+        except ConfigError as err:
+            raise RecordError(str(err)) from None
     requests = [parse_topic(t) for t in args.topics]
     rclpy.init(args=ros_argv("ballscrew-twin-record", args))
     context = rclpy.get_default_context()

@@ -50,7 +50,8 @@ from typing import Any
 
 from ..bags.reader import RawBag, open_raw_bag
 from ..bags.records import RawMessage
-from ..errors import ReplayError
+from ..errors import ConfigError, ReplayError
+from ..params import check_number, limits
 from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
 
@@ -79,6 +80,15 @@ def message_class(msgtype: str) -> Any:
         return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
     except (ImportError, AttributeError) as err:
         raise ReplayError(f"message type {msgtype} is not installed ({err})") from err
+
+
+def _check(value: float, meta: dict[str, Any], name: str) -> None:
+    """``value`` by the package's one number check (its refusal, naming ``name``, its unit and
+    its range, as a ReplayError)."""
+    try:
+        check_number(value, meta, name, text=False)
+    except ConfigError as err:
+        raise ReplayError(str(err)) from None
 
 
 @dataclass
@@ -135,12 +145,9 @@ class BagPlayer:
     ) -> None:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-        if not (math.isfinite(rate) and rate >= 0.0):
-            raise ReplayError(f"rate = {rate!r} must be a finite number >= 0 (0: no pacing)")
-        if not (math.isfinite(clock_rate) and clock_rate > 0.0):
-            raise ReplayError(f"clock_rate = {clock_rate!r} Hz must be > 0")
-        if depth < 1:
-            raise ReplayError(f"depth = {depth} must be >= 1")
+        _check(rate, limits("-", 0.0, math.inf, hint="0: no pacing"), "rate")
+        _check(clock_rate, limits("Hz", 0.0, math.inf, lo_open=True), "clock_rate")
+        _check(depth, limits("-", 1, math.inf, integer=True), "depth")
         wanted = list(bag.topics) if topics is None else list(topics)
         missing = sorted(set(wanted) - set(bag.topics))
         if missing:
@@ -305,8 +312,7 @@ def run(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
-    if not (math.isfinite(args.drain) and args.drain >= 0.0):
-        raise ReplayError(f"--drain {args.drain!r} s must be a finite number >= 0 (0: no wait)")
+    _check(args.drain, limits("s", 0.0, math.inf, hint="0: no wait"), "--drain")
 
     rclpy.init(args=ros_argv("ballscrew-twin-replay", args))
     context = rclpy.get_default_context()

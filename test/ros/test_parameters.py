@@ -24,9 +24,12 @@ FLAG = ParameterSpec("flag", False, "", "A flag")
 
 def test_a_value_is_checked_for_type_bounds_and_choices() -> None:
     assert RATE.check(50.0) is None and RATE.check(50) is None  # an integer is a double
-    assert RATE.check(100.5) == "rate = 100.5 Hz is above 100 Hz"
-    assert RATE.check(0.5) == "rate = 0.5 Hz is below 1 Hz"
-    assert RATE.check(math.nan) == "rate = nan is not a finite number"
+    # numbers through the package's one check: the name, the unit and the range
+    assert RATE.check(100.5) == "rate = 100.5 is outside the allowed range [1, 100] Hz"
+    assert RATE.check(0.5) == "rate = 0.5 is outside the allowed range [1, 100] Hz"
+    assert RATE.check(1e4) == "rate = 10000.0 is outside the allowed range [1, 100] Hz"  # no hint
+    assert RATE.check(math.nan) == "rate: nan is not a finite number (allowed range [1, 100] Hz)"
+    assert RATE.check(1.0) is None and RATE.check(100.0) is None  # the closed ends
     assert RATE.check("fast") == "rate = 'fast' is a str, expected a double"
     assert COUNT.check(2.0) == "count = 2.0 is a float, expected a integer"
     assert COUNT.check(6) is not None and COUNT.check(5) is None
@@ -37,7 +40,7 @@ def test_a_value_is_checked_for_type_bounds_and_choices() -> None:
 
 
 def test_a_spec_refuses_its_own_bad_default() -> None:
-    with pytest.raises(ConfigError, match="below"):
+    with pytest.raises(ConfigError, match=r"x = 0.0 is outside the allowed range \[1, 2\] s"):
         ParameterSpec("x", 0.0, "s", "X", 1.0, 2.0)
 
 

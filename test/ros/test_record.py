@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import argparse
+import math
 import os
 import select
 import signal
@@ -21,6 +23,7 @@ from ballscrew_twin.bags.reader import open_raw_bag
 from ballscrew_twin.bags.writer import ROS_DISTRO
 from ballscrew_twin.errors import RecordError
 from ballscrew_twin.ros.record import BagRecorder, parse_topic
+from ballscrew_twin.ros.record import run as record_run
 from ballscrew_twin.ros.replay import BagPlayer
 
 from .test_replay import TORQUES, write_test_bag
@@ -183,3 +186,9 @@ def test_a_shutdown_just_before_the_wait_still_closes_the_bag(
     assert "record: wrote" in capsys.readouterr().out
     with Reader(out) as reader:  # closed and valid
         assert (reader.message_count, reader.ros_distro) == (0, "jazzy")
+
+
+@pytest.mark.parametrize("duration", [0.0, -1.0, math.nan])
+def test_a_duration_that_is_not_a_time_is_refused(duration: float) -> None:
+    with pytest.raises(RecordError, match=r"--duration.*allowed range \(0, inf\] s"):
+        record_run(argparse.Namespace(duration=duration))
