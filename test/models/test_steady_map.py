@@ -53,18 +53,30 @@ def _from_interpolated(name: str, value: np.ndarray | float) -> np.ndarray:
     return np.asarray(value if scale is None else scale * np.sinh(value))
 
 
+def _master_torque(s: np.ndarray | float, t: np.ndarray | float) -> np.ndarray:
+    """The synthetic master nut torque [N m]: asinh(torque / scale) linear in log speed and
+    temperature, the same at every preload."""
+    return np.asarray(map_grid.TORQUE_SCALE * np.sinh(_linear(s, t, 0.0, 0.9, 0.01, 0.0)))
+
+
+def _slave_torque(p: np.ndarray | float) -> np.ndarray:
+    """The synthetic slave nut torque [N m]: linear in the preload coordinate (from 2e-5 N m
+    at 0 N to ~0.1 N m at 1600 N, where asinh(torque / scale) is far from linear in it), the
+    same at every speed and temperature."""
+    return np.asarray(2e-5 + 0.02 * np.asarray(p))
+
+
 def _synthetic_map() -> sm.SteadyMap:
-    """A map whose asinh(nut torque / scale) and contact fields are linear in the node
-    coordinates (Catmull-Rom with linear ghost nodes reproduces them exactly)."""
+    """A map whose nut torques are linear in the node coordinates along the preload, and whose
+    asinh(nut torque / scale) and contact fields are linear in them along speed and temperature
+    (Catmull-Rom with linear ghost nodes reproduces them exactly; the nut torque is
+    interpolated along the preload as it is, along the other axes as its asinh)."""
     s, t, p = np.meshgrid(*_coordinates(GRID), indexing="ij")
     torque = np.zeros((2, *s.shape, 2, len(MECHANISMS)))
     for sign, direction in enumerate((1.0, -1.0)):
-        for nut in range(2):
-            total = (
-                direction * map_grid.TORQUE_SCALE * np.sinh(_linear(s, t, p, 0.9, 0.01, 0.02 + nut))
-            )
+        for nut, total in enumerate((_master_torque(s, t), _slave_torque(p))):
             shares = np.linspace(0.1, 0.3, len(MECHANISMS))
-            torque[sign, ..., nut, :] = total[..., None] * shares / shares.sum()
+            torque[sign, ..., nut, :] = direction * total[..., None] * shares / shares.sum()
     coarse = GRID.coarse()
     cs, ct, cp = np.meshgrid(*_coordinates(coarse), indexing="ij")
     contacts = np.zeros((2, *cs.shape, 2, 4, F))
@@ -93,18 +105,12 @@ def test_interpolation_reproduces_linear_fields(sign: float) -> None:
         preloads = (rng.uniform(0.0, GRID.preload_max), rng.uniform(0.0, GRID.preload_max))
         sample = table.sample(sign * speed, temperature, preloads)
         assert sample.notes == ()
+        exact = (
+            _master_torque(math.log(speed), temperature),
+            _slave_torque(map_grid.preload_coordinate(preloads[1])),
+        )
         for nut in range(2):
-            exact = (
-                sign
-                * map_grid.TORQUE_SCALE
-                * math.sinh(
-                    1.0
-                    + 0.9 * math.log(speed)
-                    + 0.01 * temperature
-                    + (0.02 + nut) * map_grid.preload_coordinate(preloads[nut])
-                )
-            )
-            assert sample.torque[nut].sum() == pytest.approx(exact, rel=1e-9)
+            assert sample.torque[nut].sum() == pytest.approx(sign * exact[nut], rel=1e-9)
             expected = [
                 _from_interpolated(
                     name,
