@@ -148,7 +148,9 @@ class SteadyMap:
     filled: NDArray[np.bool_]
     fingerprint: str
     orientation: str
-    _padded: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
+    # The tables as the interpolation reads them: "torque" (2, S, T, P, 2, 1 + 6), the nut torque
+    # then its mechanisms, not padded; "contacts" and "static" with their asinh fields, padded.
+    _prepared: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
     _coarse: MapGrid | None = field(default=None, compare=False, repr=False)
     _any_filled: bool = field(default=False, compare=False, repr=False)
     _filled_window: NDArray[np.bool_] = field(
@@ -184,7 +186,7 @@ class SteadyMap:
             contacts = pad_axis(contacts, axis)
         for axis in (0, 1):
             static = pad_axis(static, axis)
-        self._padded.update(torque=torque, contacts=contacts, static=static)
+        self._prepared.update(torque=torque, contacts=contacts, static=static)
         object.__setattr__(self, "_coarse", c)
         object.__setattr__(self, "_any_filled", bool(self.filled.any()))
         # [sign, s, t, p]: whether filled[sign, s:s+4, t:t+4, p:p+4] holds a filled node.
@@ -303,7 +305,7 @@ class SteadyMap:
             pos = folded_position(cell, g.preload_nodes)
             p0 = pos.start
             # (sign, S, 4, 4) nut torques around the temperature and preload cells.
-            table = self._padded["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
+            table = self._prepared["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
             lines = np.arcsinh(np.einsum("abjk,k->abj", table, pos.weights) / TORQUE_SCALE)
             plane = np.einsum("abj,j->ab", lines, temperature_pos.weights)  # (sign, speed node)
             rows = plane[sign[:, None], starts[:, None] + offsets[None, :]]  # (N, 4)
@@ -318,7 +320,7 @@ class SteadyMap:
         speed ``sign`` (0: >= 0) at the query's cells on the fine (torque) and coarse
         (contact) grids, with the standstill ``blend`` [-]: the readable numpy reference."""
         g = self.grid
-        torque_table = self._padded["torque"][sign]
+        torque_table = self._prepared["torque"][sign]
         speed = folded_position(fine.speed, g.speed_nodes)
         temperature = folded_position(fine.temperature, g.temperature_nodes)
         values = np.empty((NUTS, len(MECHANISMS) + 1))
@@ -341,8 +343,8 @@ class SteadyMap:
                 coarse_pos = Positions(coarse_speed, coarse_temperature, stencil_position(cells[1]))
                 solved[cells] = (
                     torque_stencil(torque_table, pos),
-                    stencil(self._padded["contacts"][sign], coarse_pos),
-                    stencil_2d(self._padded["static"], coarse_pos) if blend < 1.0 else None,
+                    stencil(self._prepared["contacts"][sign], coarse_pos),
+                    stencil_2d(self._prepared["static"], coarse_pos) if blend < 1.0 else None,
                 )
             nut_values, nut_rows, nut_still = solved[cells]
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
@@ -365,7 +367,7 @@ class SteadyMap:
         cells = np.array([cell for cell, _ in fine.preloads], dtype=np.int64)
         fractions = np.array([fraction for _, fraction in fine.preloads])
         torque = map_sample.nut_torques(
-            self._padded["torque"][sign],
+            self._prepared["torque"][sign],
             fine.speed,
             fine.temperature,
             cells,
@@ -378,8 +380,8 @@ class SteadyMap:
         cells = np.array([cell for cell, _ in coarse.preloads], dtype=np.int64)
         fractions = np.array([fraction for _, fraction in coarse.preloads])
         states = map_sample.contact_states(
-            self._padded["contacts"][sign],
-            self._padded["static"],
+            self._prepared["contacts"][sign],
+            self._prepared["static"],
             coarse.speed,
             coarse.temperature,
             cells,
