@@ -2,12 +2,15 @@
 
 The compiled twin of the numeric part of :meth:`ballscrew_twin.models.steady_map.SteadyMap.sample`
 (the readable reference; read it and the module docstring of ``steady_map`` first): tensor
-Catmull-Rom stencils over 4 x 4 x 4 nodes of the padded tables, the asinh back-transform of the
-nut torque and of the power-law contact fields, the share-out of the torque over the mechanisms,
-the blend to standstill and the lower bounds. Where the query falls on each axis (cell and
-fraction), the clamping and the notes stay in Python and are shared with the reference, so only
-the arithmetic is duplicated; test/kernels/test_map_sample_kernel.py checks the two agree to
-rounding (the reference sums the 64 stencil terms in BLAS order, the kernel in loop order).
+Catmull-Rom stencils over 4 x 4 x 4 nodes of the tables (the torque table along the preload
+first, then along speed and temperature on asinh of the nut torque; the contact tables padded),
+the asinh back-transform of the nut torque and of the power-law contact fields, the share-out
+of the torque over the mechanisms, the blend to standstill and the lower bounds. Where the
+query falls on each axis (cell and fraction), the clamping and the notes stay in Python and are
+shared with the reference, so only the arithmetic is duplicated (the torque table's stencils,
+``_folded``, follow ``map_interpolation.folded_rows``); test/kernels/test_map_sample_kernel.py
+checks the two agree to rounding (the reference sums the 64 stencil terms in BLAS order, the
+kernel in loop order).
 
 Why: the reference takes ~110 us per new command (torque only) and ~160 us with the contact
 states, nearly all of it the overhead of small numpy calls; a bench that streams its speed at
@@ -83,6 +86,29 @@ def _stencil_2d(
 
 
 @njit(cache=True)
+def _folded(cell: int, t: float, count: int, out: FloatArray) -> int:
+    """Weights of the stencil of ``cell`` at fraction ``t`` on an unpadded axis of ``count``
+    nodes into ``out``; returns its first node (as ``map_interpolation.folded_rows``: an edge
+    cell's ghost node weight folded onto the two nodes it is extrapolated from)."""
+    _catmull_rom(t, out)
+    if cell == 0:
+        ghost = out[0]
+        out[0] = out[1] + 2.0 * ghost
+        out[1] = out[2] - ghost
+        out[2] = out[3]
+        out[3] = 0.0
+        return 0
+    if cell == count - 2:
+        ghost = out[3]
+        out[3] = out[2] + 2.0 * ghost
+        out[2] = out[1] - ghost
+        out[1] = out[0]
+        out[0] = 0.0
+        return count - 4
+    return cell - 1
+
+
+@njit(cache=True)
 def nut_torques(
     table: FloatArray,
     speed: tuple[int, float],
@@ -92,8 +118,10 @@ def nut_torques(
     blend: float,
     torque_scale: float,
 ) -> FloatArray:
-    """(2, M) drag torque per nut and mechanism [N m] from the padded (S, T, P, 2, 1 + M) torque
-    table of one speed sign (asinh(nut torque / ``torque_scale``), then the M mechanisms).
+    """(2, M) drag torque per nut and mechanism [N m] from the unpadded (S, T, P, 2, 1 + M)
+    torque table of one speed sign (the nut torque, then the M mechanisms): the preload axis
+    first, then speed and temperature on asinh(nut torque / ``torque_scale``) (as
+    ``map_interpolation.torque_stencil``).
 
     Args:
         speed, temperature: (cell, fraction) of the query on those axes.
@@ -106,14 +134,25 @@ def nut_torques(
     ws = np.empty(4)
     wt = np.empty(4)
     wp = np.empty(4)
-    _catmull_rom(speed[1], ws)
-    _catmull_rom(temperature[1], wt)
+    s = _folded(speed[0], speed[1], table.shape[0], ws)
+    t = _folded(temperature[0], temperature[1], table.shape[1], wt)
+    line = np.empty(width)
     values = np.empty(width)
     out = np.empty((2, width - 1))
     for nut in range(2):
-        _catmull_rom(preload_fractions[nut], wp)
-        cells = (speed[0], temperature[0], preload_cells[nut])
-        _stencil_3d(table, cells, (ws, wt, wp), nut, values)
+        p = _folded(preload_cells[nut], preload_fractions[nut], table.shape[2], wp)
+        values[:] = 0.0
+        for i in range(4):
+            for j in range(4):
+                line[:] = 0.0
+                for k in range(4):
+                    row = table[s + i, t + j, p + k, nut]
+                    for v in range(width):
+                        line[v] += wp[k] * row[v]
+                line[0] = math.asinh(line[0] / torque_scale)
+                wij = ws[i] * wt[j]
+                for v in range(width):
+                    values[v] += wij * line[v]
         total = torque_scale * math.sinh(values[0])
         mechanism_sum = 0.0
         size = 0.0

@@ -58,11 +58,10 @@ NUT_NAMES = ("master", "slave")
 PREVIEW_NODES = (9, 7, 9)
 #: The preload nodes are uniform in :func:`preload_coordinate`, (preload + PRELOAD_OFFSET) **
 #: (1 / PRELOAD_ROOT): dense at 5-100 N, where the spheres' start-up state changes fastest with
-#: the preload (docs/model.md 7a; 8 of 33 nodes below 100 N: 0, 5.1, 11.9, 20.9, 32.3, 46.7,
-#: 64.4, 86 N, against 5 uniform in sqrt(preload)), without the lines below 5 N that a plain
-#: fourth root adds and whose nodes mostly fail, each running every fallback of the steady
-#: solver (the 32 mm screw's table: 1.3 times the CPU time of the square root's, a plain fourth
-#: root 2.8 times; docs/benchmarks.md, issue 14). Root [-].
+#: the preload (docs/model.md 7a; with the 41 nodes of :class:`MapGrid` 10 below 100 N: 0, 4.0,
+#: 9.0, 15.3, 23.0, 32.3, 43.6, 56.9, 72.5, 90.8 N, against 5 of 33 uniform in sqrt(preload)),
+#: without the lines below 4 N that a plain fourth root adds and whose nodes mostly fail, each
+#: running every fallback of the steady solver (docs/benchmarks.md, issue 14). Root [-].
 PRELOAD_ROOT = 4
 #: Offset of the preload coordinate [N] (see :data:`PRELOAD_ROOT`).
 PRELOAD_OFFSET = 10.0
@@ -104,7 +103,9 @@ class MapGrid:
         temperature_max: highest temperature [K].
         temperature_nodes: nodes uniform in temperature.
         preload_max: highest equivalent preload [N] (the lowest is 0 N).
-        preload_nodes: nodes uniform in :func:`preload_coordinate`.
+        preload_nodes: nodes uniform in :func:`preload_coordinate` (41: with 33 the drag
+            of the paper screw at 3900 rpm, 53-60 C, 56-60 N was up to 1.4 % off, its curve
+            over the preload bending between the nodes at 46.7 and 64.4 N).
     """
 
     speed_min: float = 0.05 * RPM
@@ -114,7 +115,7 @@ class MapGrid:
     temperature_max: float = CELSIUS_ZERO + 100.0
     temperature_nodes: int = 29
     preload_max: float = 4000.0
-    preload_nodes: int = 33
+    preload_nodes: int = 41
 
     def __post_init__(self) -> None:
         checks = (

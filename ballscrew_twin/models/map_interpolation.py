@@ -3,8 +3,10 @@
 Each axis is a sequence of nodes; a query falls in a cell of each axis (:func:`axis_cell`, in
 node units: :func:`speed_node`, :func:`temperature_node`, :func:`preload_node`) and is the
 weighted sum of the 4 x 4 x 4 nodes around it (:func:`catmull_rom_weights`; C1). The edge cells
-use a linearly extrapolated ghost node (:func:`pad_axis`). The compiled twin is
-``kernels/map_sample.py``.
+use a linearly extrapolated ghost node: a padded table (:func:`pad_axis`, :func:`stencil`) or,
+where the values are transformed between the axes, the ghost's weight folded onto the two
+nodes it is extrapolated from (:func:`folded_position`, :func:`torque_stencil`). The compiled
+twin is ``kernels/map_sample.py``.
 """
 
 from __future__ import annotations
@@ -16,9 +18,10 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .map_grid import MapGrid, preload_coordinate
+from .map_grid import TORQUE_SCALE, MapGrid, preload_coordinate
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 def catmull_rom_weights(t: float) -> FloatArray:
@@ -120,6 +123,49 @@ class Positions:
     speed: AxisPosition
     temperature: AxisPosition
     preload: AxisPosition
+
+
+def folded_rows(cells: IntArray, fractions: FloatArray, count: int) -> tuple[IntArray, FloatArray]:
+    """The Catmull-Rom stencils of many cells on an unpadded axis of ``count`` >= 4 nodes: the
+    first node of each (N,) and the (N, 4) weights of that node and the next three.
+
+    In an edge cell the ghost node (linearly extrapolated, ``2 * first - second``) is not
+    stored; its weight goes to the two nodes it is made of, so ``start`` stays inside the axis
+    (a node of the four beyond the stencil gets weight 0).
+    """
+    w = catmull_rom_rows(fractions)
+    folded = w.copy()
+    first, last = cells == 0, cells == count - 2
+    a, b = w[first].T, w[last].T  # the weights of nodes i-1, i, i+1, i+2 of those cells
+    # Ghost before node 0 (weight a[0]): nodes 0, 1, 2, 3.
+    folded[first] = np.column_stack([a[1] + 2.0 * a[0], a[2] - a[0], a[3], np.zeros_like(a[0])])
+    # Ghost after node count-1 (weight b[3]): nodes count-4 .. count-1.
+    folded[last] = np.column_stack([np.zeros_like(b[0]), b[0], b[1] - b[3], b[2] + 2.0 * b[3]])
+    return np.clip(cells - 1, 0, count - 4), folded
+
+
+def folded_position(cell: AxisCell, count: int) -> AxisPosition:
+    """The stencil of one ``cell`` as :func:`folded_rows` makes it."""
+    starts, weights = folded_rows(np.array([cell[0]]), np.array([cell[1]]), count)
+    return AxisPosition(int(starts[0]), weights[0])
+
+
+def torque_stencil(table: FloatArray, pos: Positions) -> FloatArray:
+    """Interpolate an unpadded (S, T, P, nut, 1 + M) torque table (the nut torque [N m], then
+    its M mechanisms) at the :func:`folded_position` stencils ``pos``: (nut, 1 + M), the nut
+    torque as asinh(torque / :data:`~.map_grid.TORQUE_SCALE`).
+
+    The preload axis first, on the torques as they are; then speed and temperature on
+    asinh(nut torque / scale) (the mechanisms as they are). Along the preload a light nut's
+    torque can pass near zero or change sign (docs/model.md 11), where its logarithm has no
+    cubic to follow; along speed and temperature it follows power laws of the film and the
+    viscosity, which the logarithm makes nearly linear.
+    """
+    s, t, p = pos.speed.start, pos.temperature.start, pos.preload.start
+    block = table[s : s + 4, t : t + 4, p : p + 4]
+    lines = np.einsum("ijknv,k->ijnv", block, pos.preload.weights)
+    lines[..., 0] = np.arcsinh(lines[..., 0] / TORQUE_SCALE)
+    return np.asarray(np.einsum("ijnv,i,j->nv", lines, pos.speed.weights, pos.temperature.weights))
 
 
 def stencil(table: FloatArray, pos: Positions) -> FloatArray:

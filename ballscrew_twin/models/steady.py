@@ -250,15 +250,20 @@ class SteadyStateModel:
         warm: bool = False,
         polished: bool = False,
         max_iterations: int = NEWTON_MAX_ITER,
+        tolerance: float | None = None,
     ) -> tuple[SteadyState, ContactSource, int, float]:
         """Newton iteration from ``state``: (converged state, its contacts, iterations, worst
         scaled residual); SolverError when it does not converge in ``max_iterations``.
         ``warm``: ``state`` comes from the last solution (the compiled solver may then reuse its
         Jacobian); ``polished``: it is the polished solution of this very point
-        (:attr:`SteadyState.polished`)."""
+        (:attr:`SteadyState.polished`); ``tolerance``: the convergence limit of the worst scaled
+        residual [-] (None: :attr:`tolerance`; the start-up path's steps use their own)."""
+        limit = self.tolerance if tolerance is None else tolerance
         if self.backend == "compiled":
-            return newton_compiled(self, scene, balls, state, loads, warm, polished, max_iterations)
-        return self._reference.solve(scene, balls, state, loads, max_iterations)
+            return newton_compiled(
+                self, scene, balls, state, loads, warm, polished, max_iterations, limit
+            )
+        return self._reference.solve(scene, balls, state, loads, max_iterations, limit)
 
     def solve(self, op: OperatingPoint, warm_start: SteadyState | None = None) -> SteadySolution:
         """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one)."""

@@ -43,6 +43,7 @@ def newton_compiled(
     warm: bool,
     polished: bool,
     max_iterations: int,
+    tolerance: float,
 ) -> tuple[SteadyState, KernelSolution, int, float]:
     """The iteration of :meth:`~ballscrew_twin.models.steady_reference.ReadableNewton.solve`,
     compiled, with exact per-sphere Jacobian blocks (:mod:`ballscrew_twin.kernels.steady_solver`):
@@ -50,7 +51,8 @@ def newton_compiled(
     when it does not converge. ``warm``: ``state`` is the last solution of ``model``, or near
     it, so the Jacobian blocks of the last solve are reused while they converge fast
     (refreshed when they do not); ``polished``: it is the polished solution of this very
-    point (:attr:`SteadyState.polished`)."""
+    point (:attr:`SteadyState.polished`); ``tolerance``: the convergence limit of the worst
+    scaled residual [-]."""
     solver = model._solver
     count = len(balls.nut)
     z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
@@ -76,7 +78,7 @@ def newton_compiled(
         loads,
         scales,
         model.inertial_terms,
-        model.tolerance,
+        tolerance,
         kernel_parameters(model, scene),
         max_iterations,
     )
@@ -92,7 +94,7 @@ def newton_compiled(
             )
         raise SolverError(
             f"steady state did not converge in {max_iterations} iterations "
-            f"(scaled residual {worst:.3g} > {model.tolerance:.1g})"
+            f"(scaled residual {worst:.3g} > {tolerance:.1g})"
         )
     solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed, reuse)
     return solved_state, solved, iterations, worst

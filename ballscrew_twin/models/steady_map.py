@@ -16,10 +16,13 @@ as functions of
   spheres' film and motion change fastest at light load).
 
 Between the nodes each quantity is a tensor product of Catmull-Rom cubics (C1; the edge cells
-use a linearly extrapolated ghost node). The nut's drag torque is interpolated as
-asinh(T / :data:`TORQUE_SCALE`), which is logarithmic for torques well above the scale, so the
-power laws of the film and the viscosity become nearly linear; the mechanisms are interpolated
-as they are and then corrected to add up to that torque. The contact states, which the drag
+use a linearly extrapolated ghost node). The nut's drag torque is interpolated along the
+preload first, as it is, and then along speed and temperature as asinh(T /
+:data:`TORQUE_SCALE`), which is logarithmic for torques well above the scale, so the power laws
+of the film and the viscosity become nearly linear (along the preload a light nut's torque can
+pass near zero, where a logarithm has no cubic to follow:
+:func:`~.map_interpolation.torque_stencil`); the mechanisms are interpolated as they are and
+then corrected to add up to that torque. The contact states, which the drag
 torque does not depend on, are kept on every other node of each axis (a quarter of the
 file). Below ``speed_min`` the torque goes linearly to zero and the contact states are blended
 linearly towards the standstill solution; outside the grid the inputs are clamped;
@@ -64,8 +67,8 @@ from .map_interpolation import (
     Positions,
     QueryCells,
     axis_cell,
-    catmull_rom_rows,
-    catmull_rom_weights,
+    folded_position,
+    folded_rows,
     pad_axis,
     preload_node,
     query_cells,
@@ -73,6 +76,7 @@ from .map_interpolation import (
     stencil_2d,
     stencil_position,
     temperature_node,
+    torque_stencil,
 )
 
 FloatArray = NDArray[np.float64]
@@ -144,7 +148,9 @@ class SteadyMap:
     filled: NDArray[np.bool_]
     fingerprint: str
     orientation: str
-    _padded: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
+    # The tables as the interpolation reads them: "torque" (2, S, T, P, 2, 1 + 6), the nut torque
+    # then its mechanisms, not padded; "contacts" and "static" with their asinh fields, padded.
+    _prepared: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
     _coarse: MapGrid | None = field(default=None, compare=False, repr=False)
     _any_filled: bool = field(default=False, compare=False, repr=False)
     _filled_window: NDArray[np.bool_] = field(
@@ -169,17 +175,18 @@ class SteadyMap:
             if name != "filled" and not np.isfinite(table).all():
                 raise MapError(f"steady map: {name} holds non-finite values")
         mechanisms = np.asarray(self.torque, dtype=np.float64)
-        total = np.arcsinh(mechanisms.sum(axis=-1, keepdims=True) / TORQUE_SCALE)
-        torque = np.concatenate([total, mechanisms], axis=-1)
+        # Not padded: the edge cells fold the ghost node's weight (folded_position), because
+        # the nut torque is transformed between the preload and the other axes.
+        torque = np.concatenate([mechanisms.sum(axis=-1, keepdims=True), mechanisms], axis=-1)
         contacts = np.asarray(self.contacts, dtype=np.float64).copy()
         contacts[..., _LOG_FIELDS] = np.arcsinh(contacts[..., _LOG_FIELDS] / _LOG_SCALE_VALUES)
         contacts = contacts.reshape(*coarse, NUTS, -1)
         static = np.asarray(self.static, dtype=np.float64).reshape(*coarse[2:], NUTS, -1)
         for axis in (1, 2, 3):
-            torque, contacts = pad_axis(torque, axis), pad_axis(contacts, axis)
+            contacts = pad_axis(contacts, axis)
         for axis in (0, 1):
             static = pad_axis(static, axis)
-        self._padded.update(torque=torque, contacts=contacts, static=static)
+        self._prepared.update(torque=torque, contacts=contacts, static=static)
         object.__setattr__(self, "_coarse", c)
         object.__setattr__(self, "_any_filled", bool(self.filled.any()))
         # [sign, s, t, p]: whether filled[sign, s:s+4, t:t+4, p:p+4] holds a filled node.
@@ -284,20 +291,24 @@ class SteadyMap:
             g.speed_max / g.speed_min
         )
         u = np.clip(u * (g.speed_nodes - 1), 0.0, g.speed_nodes - 1.0)
-        cell = np.minimum(u.astype(np.int64), g.speed_nodes - 2)
-        ws = catmull_rom_rows(u - cell)
-        t_cell, t_fraction = axis_cell(temperature_node(g, temperature), g.temperature_nodes)
-        wt = catmull_rom_weights(t_fraction)
+        cells = np.minimum(u.astype(np.int64), g.speed_nodes - 2)
+        starts, ws = folded_rows(cells, u - cells, g.speed_nodes)
+        temperature_pos = folded_position(
+            axis_cell(temperature_node(g, temperature), g.temperature_nodes), g.temperature_nodes
+        )
         total = np.zeros(len(speeds))
         sign = (speeds < 0.0).astype(np.int64)
         offsets = np.arange(4)
+        t0 = temperature_pos.start
         for nut, preload in enumerate(preloads):
-            p_cell, p_fraction = axis_cell(preload_node(g, preload), g.preload_nodes)
-            wp = catmull_rom_weights(p_fraction)
-            # (S, T, P) columns of asinh(nut torque) around the temperature and preload cells.
-            table = self._padded["torque"][:, :, t_cell : t_cell + 4, p_cell : p_cell + 4, nut, 0]
-            plane = np.einsum("abjk,j,k->ab", table, wt, wp)  # (sign, speed node)
-            rows = plane[sign[:, None], cell[:, None] + offsets[None, :]]  # (N, 4)
+            cell = axis_cell(preload_node(g, preload), g.preload_nodes)
+            pos = folded_position(cell, g.preload_nodes)
+            p0 = pos.start
+            # (sign, S, 4, 4) nut torques around the temperature and preload cells.
+            table = self._prepared["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
+            lines = np.arcsinh(np.einsum("abjk,k->abj", table, pos.weights) / TORQUE_SCALE)
+            plane = np.einsum("abj,j->ab", lines, temperature_pos.weights)  # (sign, speed node)
+            rows = plane[sign[:, None], starts[:, None] + offsets[None, :]]  # (N, 4)
             total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))
         blend = np.minimum(magnitude / g.speed_min, 1.0)
         return np.asarray(total * blend)
@@ -308,15 +319,17 @@ class SteadyMap:
         """(2, 6) torques [N m] and (2, 4, F) contact states, or None without ``coarse``, of
         speed ``sign`` (0: >= 0) at the query's cells on the fine (torque) and coarse
         (contact) grids, with the standstill ``blend`` [-]: the readable numpy reference."""
-        torque_table = self._padded["torque"][sign]
-        speed, temperature = stencil_position(fine.speed), stencil_position(fine.temperature)
+        g = self.grid
+        torque_table = self._prepared["torque"][sign]
+        speed = folded_position(fine.speed, g.speed_nodes)
+        temperature = folded_position(fine.temperature, g.temperature_nodes)
         values = np.empty((NUTS, len(MECHANISMS) + 1))
         if coarse is None:
             stencils: dict[AxisCell, FloatArray] = {}
             for nut, cell in enumerate(fine.preloads):
                 if cell not in stencils:  # one stencil when the nuts' loads agree
-                    pos = Positions(speed, temperature, stencil_position(cell))
-                    stencils[cell] = stencil(torque_table, pos)
+                    pos = Positions(speed, temperature, folded_position(cell, g.preload_nodes))
+                    stencils[cell] = torque_stencil(torque_table, pos)
                 values[nut] = stencils[cell][nut]
             return _nut_torques(values, blend), None
         coarse_speed = stencil_position(coarse.speed)
@@ -326,12 +339,12 @@ class SteadyMap:
         solved: dict[tuple[AxisCell, AxisCell], _NutStencils] = {}
         for nut, cells in enumerate(zip(fine.preloads, coarse.preloads, strict=True)):
             if cells not in solved:  # both nuts at once; one stencil when the loads agree
-                pos = Positions(speed, temperature, stencil_position(cells[0]))
+                pos = Positions(speed, temperature, folded_position(cells[0], g.preload_nodes))
                 coarse_pos = Positions(coarse_speed, coarse_temperature, stencil_position(cells[1]))
                 solved[cells] = (
-                    stencil(torque_table, pos),
-                    stencil(self._padded["contacts"][sign], coarse_pos),
-                    stencil_2d(self._padded["static"], coarse_pos) if blend < 1.0 else None,
+                    torque_stencil(torque_table, pos),
+                    stencil(self._prepared["contacts"][sign], coarse_pos),
+                    stencil_2d(self._prepared["static"], coarse_pos) if blend < 1.0 else None,
                 )
             nut_values, nut_rows, nut_still = solved[cells]
             values[nut], rows[nut] = nut_values[nut], nut_rows[nut]
@@ -354,7 +367,7 @@ class SteadyMap:
         cells = np.array([cell for cell, _ in fine.preloads], dtype=np.int64)
         fractions = np.array([fraction for _, fraction in fine.preloads])
         torque = map_sample.nut_torques(
-            self._padded["torque"][sign],
+            self._prepared["torque"][sign],
             fine.speed,
             fine.temperature,
             cells,
@@ -367,8 +380,8 @@ class SteadyMap:
         cells = np.array([cell for cell, _ in coarse.preloads], dtype=np.int64)
         fractions = np.array([fraction for _, fraction in coarse.preloads])
         states = map_sample.contact_states(
-            self._padded["contacts"][sign],
-            self._padded["static"],
+            self._prepared["contacts"][sign],
+            self._prepared["static"],
             coarse.speed,
             coarse.temperature,
             cells,

@@ -94,10 +94,12 @@ class ReadableNewton:
         state: SteadyState,
         loads: FloatArray,
         max_iterations: int,
+        tolerance: float | None = None,
     ) -> tuple[SteadyState, ContactEvaluation, int, float]:
         """Newton iteration from ``state`` with a central-difference Jacobian: (converged
         state, its contacts, iterations, worst scaled residual); SolverError when it does not
-        converge in ``max_iterations``."""
+        converge in ``max_iterations`` to ``tolerance`` (None: :attr:`tolerance`)."""
+        limit = self.tolerance if tolerance is None else tolerance
         count = len(balls.nut)
         mask = self.unknown_mask(scene, count)
         ball_res, _, nut_res, ev = self.residual(scene, balls, state, loads)
@@ -119,7 +121,7 @@ class ReadableNewton:
         for iteration in range(1, max_iterations + 1):
             res_b = np.where(mask, ball_res, 0.0)
             worst = float(max(np.max(np.abs(res_b)), np.max(np.abs(nut_res))))
-            if worst < self.tolerance:
+            if worst < limit:
                 return unpack(z, e), ev, iteration - 1, worst
             # Finite-difference Jacobian: spheres are independent given their nut's offset.
             jac = np.zeros((count, 6, 6))
@@ -170,11 +172,11 @@ class ReadableNewton:
             z, e = z + step * dz, e + step * de
             ball_res, nut_res, ev = rb, rn, ev_t
         worst = float(max(np.max(np.abs(np.where(mask, ball_res, 0.0))), np.max(np.abs(nut_res))))
-        if worst < self.tolerance:  # the last update converged
+        if worst < limit:  # the last update converged
             return unpack(z, e), ev, max_iterations, worst
         raise SolverError(
             f"steady state did not converge in {max_iterations} iterations "
-            f"(scaled residual {worst:.3g} > {self.tolerance:.1g})"
+            f"(scaled residual {worst:.3g} > {limit:.1g})"
         )
 
     @staticmethod

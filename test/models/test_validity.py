@@ -218,7 +218,7 @@ def _band_error(preload: float) -> float:
 
 def _band_bound(preload: float) -> str:
     """The measured bound of ``preload``'s band as the note prints it."""
-    return f"{100 * _band_error(preload):.2g} %"
+    return f"{100 * _band_error(preload):.3g} %"
 
 
 @pytest.mark.parametrize("preload", [0.0, 12.0, 20.0, 60.0, 120.0])
