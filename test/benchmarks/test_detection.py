@@ -60,6 +60,7 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     assert "by the fault's effect on the torque" in first
     assert "Fault runs not detected within 5 s" in first
     assert all("effect_compared" in r for r in faulty)
+    assert all(r["window_error"] is None or r["window_error"] > 0.0 for r in faulty)
 
 
 def _arguments(*argv: str) -> argparse.Namespace:
@@ -183,17 +184,43 @@ def test_the_compared_samples_are_those_of_blocks_with_a_verdict() -> None:
 
 def test_the_runs_not_detected_in_time_are_listed_with_both_effects() -> None:
     runs = [
-        replace(_run("preload_loss", 0.02, math.nan), effect_compared=0.001, unit=7),
-        replace(_run("jam_onset", 0.05, 6.5, window_gated=0.4), effect_compared=0.03, unit=8),
+        replace(
+            _run("preload_loss", 0.02, math.nan), effect_compared=0.001, window_error=0.03, unit=7
+        ),
+        replace(
+            _run("jam_onset", 0.05, 6.5, window_gated=0.4),
+            effect_compared=0.03,
+            window_error=0.007,
+            unit=8,
+        ),
         _run("jam_onset", 0.05, 1.0),
     ]
     table = detection._late_table(runs)
     assert table[0].startswith("Fault runs not detected within 5 s (2 of 3)")
     rows = [line for line in table if line.startswith("| ") and line[2].isdigit()]
     assert rows == [
-        "| 8 | jam_onset | 0.1 | step | 6.50 | 5.00 | 3.00 | 40% |",
-        "| 7 | preload_loss | 0.1 | step | never | 2.00 | 0.10 | 0% |",
+        "| 8 | jam_onset | 0.1 | step | 6.50 | 5.00 | 3.00 | 0.70 | 40% |",
+        "| 7 | preload_loss | 0.1 | step | never | 2.00 | 0.10 | 3.00 | 0% |",
     ]
+
+
+def test_the_twin_error_of_a_window_is_the_rms_over_its_compared_blocks() -> None:
+    """Four blocks after an onset at 10 s: two compared at 2 % and 1 % error, one gated and
+    one past the window; the error is their RMS, sqrt((4 + 1) / 2) %, and nan with none."""
+    start = detection.START_NS * 1e-9
+    by_speed = {10.0: 0.02, 20.0: 0.01, 30.0: 0.5, 40.0: 0.5}
+    baseline = SimpleNamespace(error_at=lambda speed, temperature: by_speed[speed])
+
+    def block(at: float, speed: float, verdict: int) -> SimpleNamespace:
+        point = SimpleNamespace(screw_speed=speed, temperature=300.0)
+        return SimpleNamespace(time=start + at, verdict=verdict, operating_point=point)
+
+    samples = [block(10.5, 10.0, OK), block(11.5, 20.0, FAULT), block(12.5, 30.0, UNKNOWN)]
+    samples.append(block(10.0 + detection.DELAY_GOAL + 0.5, 40.0, OK))
+    monitor = SimpleNamespace(baseline=baseline, samples=samples)
+    error = detection._window_error(monitor, start, 10.0)  # type: ignore[arg-type]
+    assert error == pytest.approx(math.sqrt((0.02**2 + 0.01**2) / 2.0), rel=1e-12)
+    assert math.isnan(detection._window_error(monitor, start, 100.0))  # type: ignore[arg-type]
 
 
 def _run(true_class: str, effect: float, delay: float, window_gated: float = 0.0) -> Run:
