@@ -10,7 +10,10 @@ import argparse
 import math
 from pathlib import Path
 
+import numpy as np
+
 from ..health.commission import ERROR_SCALE, commission
+from ..health.correction import MIN_SUPPORT
 from ..health.offline import recording_channels
 from ..params import load_config
 from ..plots.commissioning import plot_commissioning
@@ -55,6 +58,14 @@ def run(args: argparse.Namespace) -> int:
         f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
         f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
     )
+    if b.surface is not None:
+        taught = int(np.count_nonzero(b.surface.support >= MIN_SUPPORT))
+        print(
+            f"residual surface taught at {taught} of {b.surface.support.size} nodes of speed and "
+            f"temperature (support >= {MIN_SUPPORT:g} blocks; hatched elsewhere in --plot); "
+            f"where it is not taught the twin's error is taken as {b.unseen_error:.2%} (1 sigma): "
+            "commission over the speeds and temperatures the unit will run at"
+        )
     print(f"wrote {b.save(args.out)}")
     if args.plot:
         print(f"wrote {plot_commissioning(result, args.plot)}")

@@ -128,12 +128,22 @@ def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> Non
         commission(still, load_config(None))
 
 
-def test_commission_command_writes_baseline_and_plot(tmp_path: Path) -> None:
+def test_commission_command_writes_baseline_and_plot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out, png = tmp_path / "unit.yaml", tmp_path / "fit.png"
     bag = SAMPLE_DIR / "healthy"
     assert main(["commission", str(bag), "--out", str(out), "--plot", str(png)]) == 0
     baseline = load_baseline(out)
     assert baseline.source == "healthy" and baseline.blocks > 100
+    # it says where the residual surface was taught, and the error taken elsewhere
+    assert baseline.surface is not None
+    taught = int(np.sum(baseline.surface.support >= MIN_SUPPORT))
+    nodes = baseline.surface.support.size
+    assert 0 < taught < nodes
+    printed = capsys.readouterr().out
+    assert f"taught at {taught} of {nodes} nodes" in printed
+    assert f"taken as {baseline.unseen_error:.2%} (1 sigma)" in printed
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
