@@ -47,7 +47,7 @@ from ..physics.contact_types import ContactScene
 from .base import MECHANISMS, OperatingPoint, TwinOutput
 from .contact_forces import evaluate_contacts, make_scene
 from .steady_compiled import newton_compiled, predicted_start
-from .steady_continuation import StartupPath, cold_solve
+from .steady_continuation import StartupPath, StaticFailure, cold_solve
 from .steady_output import assemble
 from .steady_problem import (
     averaged_ball_set,
@@ -174,6 +174,10 @@ class SteadyStateModel:
         # The last start-up path a cold solve followed, which the next one resumes where both
         # share it (steady_continuation.StartupPath).
         self.startup_path: StartupPath | None = None
+        # Static equilibria the Newton iteration missed, by (temperature [K], loads [N] as
+        # bytes, spheres, tolerance), with the spheres solved (steady_continuation.static_solve).
+        self.failed_statics: dict[tuple[float, bytes, int, float], tuple[BallSet, StaticFailure]]
+        self.failed_statics = {}
         self._scenes: dict[float, ContactScene] = {}
         # The scenes at a temperature and a speed (the last ones used), as scene() returns them.
         self._moving_scenes: dict[tuple[float, float], ContactScene] = {}
