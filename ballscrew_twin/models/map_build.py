@@ -38,14 +38,6 @@ FloatArray = NDArray[np.float64]
 MAP_TOLERANCE = 1e-10
 #: Niceness of the worker processes of a build (the real-time ticks of a node go first).
 WORKER_NICENESS = 10
-#: A table line whose nodes fail this many times in a row, each even cold with every fallback of
-#: the steady solver, is not solved further up: its faster nodes are flagged as failed and
-#: filled (:func:`fill_failed`) without a solve. Measured on the 32 mm screw (8 temperatures,
-#: one sign, every preload node, 16 072 nodes): 7 lines stop, all at 9.0 N (the preload about
-#: balances the nut's weight, whose standstill never converges) from 0 C up; they skip 222
-#: failing nodes (each 10-20 ms: the preload continuation) and lose 13 solved ones, sporadic
-#: among failed ones.
-LINE_GIVE_UP = 10
 
 
 @dataclass(frozen=True)
@@ -128,8 +120,7 @@ def _solve_line(line: _Line) -> _LineResult:
     A node the warm-started solve misses is solved cold by the steady model itself (its
     start-up path and fallbacks, a function of the node alone: docs/model.md 7a); if that
     fails too the node stays NaN and is flagged (not solved cold a second time, which would
-    repeat the same path). After :data:`LINE_GIVE_UP` such nodes in a row the faster ones are
-    flagged without a solve.
+    repeat the same path).
     """
     model, grid = _WORKER["model"], _WORKER["grid"]
     assert isinstance(model, SteadyStateModel) and isinstance(grid, MapGrid)
@@ -149,20 +140,14 @@ def _solve_line(line: _Line) -> _LineResult:
         # equals the nut's weight (8.3 N), at every temperature.
         model.forget_warm_start()
         static = np.full((NUTS, HALF_GROOVES, len(CONTACT_FIELDS)), np.nan)
-    in_a_row = 0  # nodes failed since the last solved one
     for i, speed in enumerate(speeds):
-        if in_a_row == LINE_GIVE_UP:
-            failed[i:] = True
-            break
         op = OperatingPoint(screw_speed=sign * speed, temperature=temperature, preload=preload)
         try:
             values = node_values(model, op)
         except SolverError:
             model.forget_warm_start()
             failed[i] = True
-            in_a_row += 1
             continue
-        in_a_row = 0
         torque[i], contacts[i] = values.torque, values.contacts
     return _LineResult(line, torque, contacts, failed, static)
 

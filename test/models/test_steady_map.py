@@ -228,44 +228,6 @@ def test_a_standstill_the_solver_misses_does_not_stop_the_build() -> None:
     assert np.isfinite(table.static[:, 1]).all()
 
 
-class _FailingAt(SteadyStateModel):
-    """The symmetric steady model, made to fail at the speed nodes ``failing`` (indices into
-    ``speeds``), recording the node index of every solve at a speed."""
-
-    def __init__(self, speeds: np.ndarray, failing: set[int]) -> None:
-        super().__init__(load_config(None), mode="symmetric", tolerance=map_build.MAP_TOLERANCE)
-        self.speeds, self.failing = speeds, failing
-        self.solved_at: list[int] = []
-
-    def solve(self, op: OperatingPoint, warm_start: object = None) -> object:  # type: ignore[override]
-        if op.screw_speed != 0.0:
-            node = int(np.argmin(np.abs(self.speeds - abs(op.screw_speed))))
-            self.solved_at.append(node)
-            if node in self.failing:
-                raise SolverError("made to fail")
-        return super().solve(op)
-
-
-def test_a_line_stops_after_its_nodes_fail_so_many_times_in_a_row() -> None:
-    """Nodes 1-3 fail (fewer than LINE_GIVE_UP in a row: the line goes on), node 4 solves, then
-    LINE_GIVE_UP nodes fail in a row: the faster nodes are flagged failed without a solve."""
-    give_up = map_build.LINE_GIVE_UP
-    grid = replace(GRID, speed_nodes=give_up + 11)
-    first = 5
-    failing = {1, 2, 3, *range(first, first + give_up)}
-    map_build._worker_init(load_config(None), grid)
-    model = _FailingAt(grid.speeds, failing)
-    map_build._WORKER["model"] = model
-    result = map_build._solve_line(map_build._Line(0, 2, 2))
-    assert model.solved_at == list(range(first + give_up))
-    expected = np.zeros(grid.speed_nodes, dtype=bool)
-    expected[sorted(failing)] = True
-    expected[first + give_up :] = True
-    assert np.array_equal(result.failed, expected)
-    assert np.isfinite(result.torque[[0, 4]]).all()
-    assert np.isnan(result.torque[expected]).all()
-
-
 def test_nuts_are_independent_given_their_equivalent_preload() -> None:
     """The premise of the map: a nut's state depends on its own load only, so the master
     nut under (preload F, axial load A) is the master nut under preload F + A."""
