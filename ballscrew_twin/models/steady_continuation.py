@@ -6,8 +6,9 @@ raised from :data:`STARTUP_SPEED` in steps that stay on one state), where it fai
 equilibrium and then the speed (:func:`speed_continuation`), where that fails too the preload
 lowered from a heavier point (:func:`preload_continuation`). With the compiled solver and more
 than one sphere per nut, the averaged two-sphere problem is solved first and spread over the
-spheres (:func:`solve_from_averaged`). Each function takes the model whose Newton iteration,
-scenes and warm-start rescaling it uses. Units: SI (rad/s, N).
+spheres (:func:`solve_from_averaged`). A static equilibrium that does not converge is kept
+on the model and raised again without a solve (:func:`static_solve`). Each function takes the
+model whose Newton iteration, scenes and warm-start rescaling it uses. Units: SI (rad/s, N).
 """
 
 from __future__ import annotations
