@@ -46,8 +46,8 @@ from ..params import TwinConfig
 from ..physics.contact_types import ContactScene
 from .base import MECHANISMS, OperatingPoint, TwinOutput
 from .contact_forces import evaluate_contacts, make_scene
-from .steady_compiled import newton_compiled, predicted_start
-from .steady_continuation import StartupPath, cold_solve
+from .steady_compiled import KernelInputs, newton_compiled, predicted_start
+from .steady_continuation import StartupPath, StaticFailure, cold_solve
 from .steady_output import assemble
 from .steady_problem import (
     averaged_ball_set,
@@ -174,11 +174,17 @@ class SteadyStateModel:
         # The last start-up path a cold solve followed, which the next one resumes where both
         # share it (steady_continuation.StartupPath).
         self.startup_path: StartupPath | None = None
+        # Static equilibria the Newton iteration missed, by (temperature [K], loads [N] as
+        # bytes, spheres, tolerance), with the spheres solved (steady_continuation.static_solve).
+        self.failed_statics: dict[tuple[float, bytes, int, float], tuple[BallSet, StaticFailure]]
+        self.failed_statics = {}
         self._scenes: dict[float, ContactScene] = {}
         # The scenes at a temperature and a speed (the last ones used), as scene() returns them.
         self._moving_scenes: dict[tuple[float, float], ContactScene] = {}
         self._ball_sets: dict[str, BallSet] = {}
         self._parameters: dict[tuple[float, float], FloatArray] = {}
+        # steady_compiled.kernel_inputs per (id(scene), id(loads)).
+        self._kernel_inputs: dict[tuple[int, int], KernelInputs] = {}
         # nut_axial_loads per (preload [N], axial load [N]) for the solves (never written to).
         self._loads: dict[tuple[float, float], FloatArray] = {}
         self.scene_cache_hits = 0  # solves that reused the lubricant state of their temperature
@@ -309,17 +315,33 @@ class SteadyStateModel:
         count = len(balls.nut)
         if previous is not None and previous.ball_nb.shape[0] == count:
             predicted = predicted_start(self, op, count) if warm_start is None else None
-            # A point among the last two solved starts from its own solution (polished or not).
-            own = predicted is not None and any([predicted is s for _, s in self._history])
+            # A point among the last two solved starts from its own solution (polished or not):
+            # predicted_start returns that very solution (the history holds two when it returns
+            # any).
+            own = predicted is not None and (
+                predicted is self._history[0][1] or predicted is self._history[1][1]
+            )
             start = previous
             if predicted is not None:
                 start = predicted
             elif start.screw_speed != op.screw_speed:
                 start = self._rescaled(start, scene, balls, op.screw_speed)
+            ev: ContactSource
             try:
-                state, ev, iterations, residual = self._newton(
-                    scene, balls, start, loads, warm=True, polished=own and start.polished
-                )
+                if self.backend == "compiled":  # its Newton call without _newton's defaults
+                    state, ev, iterations, residual = newton_compiled(
+                        self,
+                        scene,
+                        balls,
+                        start,
+                        loads,
+                        True,
+                        own and start.polished,
+                        NEWTON_MAX_ITER,
+                        self.tolerance,
+                    )
+                else:
+                    state, ev, iterations, residual = self._newton(scene, balls, start, loads)
             except SolverError:
                 state = previous  # not a solution of op: solved cold below
             # One branch (docs/model.md): a warm solve that failed or left the model's branch

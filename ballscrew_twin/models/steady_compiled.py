@@ -2,13 +2,15 @@
 
 :func:`newton_compiled` runs :func:`ballscrew_twin.kernels.steady_solver.solve_compiled` from a
 state, keeping the sphere Jacobian blocks of the last solve on the model for the next warm solve
-(chord steps) and the kernel's scene parameters per temperature and speed
-(:func:`kernel_parameters`); :func:`predicted_start` extrapolates a warm start from the model's
+(chord steps) and the kernel's inputs per scene and loads (:func:`kernel_inputs`: residual
+scales and the scene parameters, those per temperature and speed, :func:`kernel_parameters`);
+:func:`predicted_start` extrapolates a warm start from the model's
 last two solutions. Units: SI (m, rad/s, N, K).
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -57,8 +59,8 @@ def newton_compiled(
     count = len(balls.nut)
     z = np.concatenate([state.ball_nb, state.kinematics], axis=1)
     nut_offset = state.nut_offset.copy()
-    force_scale, moment_scale = residual_scales(model.config, scene, loads)
-    scales = (force_scale, moment_scale, force_scale * model.config.screw.balls_per_nut)
+    inputs = kernel_inputs(model, scene, loads)
+    scales = inputs.scales
     stored = model._jacobian
     reuse = warm and stored is not None and stored[0].shape[0] == count
     if reuse and stored is not None:
@@ -79,7 +81,7 @@ def newton_compiled(
         scales,
         model.inertial_terms,
         tolerance,
-        kernel_parameters(model, scene),
+        inputs.parameters,
         max_iterations,
     )
     model._jacobian = (jacobian, scales) if solved.linearisations or reuse else None
@@ -98,6 +100,44 @@ def newton_compiled(
         )
     solved_state = SteadyState(z[:, :2], z[:, 2:], nut_offset, scene.screw_speed, reuse)
     return solved_state, solved, iterations, worst
+
+
+@dataclass(frozen=True)
+class KernelInputs:
+    """What the kernel takes for one scene and pair of nut loads besides the state
+    (:func:`kernel_inputs`).
+
+    Attributes:
+        scene: the contact scene; loads: (2,) force the spheres must exert on each nut [N].
+        scales: residual row scales (force [N], moment [N m], nut row [N]) of
+            :func:`~.steady_problem.residual_scales`, the nut row the force times the spheres
+            per nut.
+        parameters: ``scene_arrays(scene)`` as a float64 array.
+    """
+
+    scene: ContactScene
+    loads: FloatArray
+    scales: tuple[float, float, float]
+    parameters: FloatArray
+
+
+def kernel_inputs(model: SteadyStateModel, scene: ContactScene, loads: FloatArray) -> KernelInputs:
+    """:class:`KernelInputs` of ``scene`` and ``loads``, kept on the model per pair of objects
+    (the model's scenes and loads are kept objects, never written to; the entry holds both, so
+    neither identity can pass to another object while it is kept): a warm solve at a point
+    solved before computes none of them again. The scene parameters are kept per temperature
+    and speed (:func:`kernel_parameters`)."""
+    key = (id(scene), id(loads))
+    known = model._kernel_inputs.get(key)
+    if known is not None and known.scene is scene and known.loads is loads:
+        return known
+    force_scale, moment_scale = residual_scales(model.config, scene, loads)
+    scales = (force_scale, moment_scale, force_scale * model.config.screw.balls_per_nut)
+    inputs = KernelInputs(scene, loads, scales, kernel_parameters(model, scene))
+    if len(model._kernel_inputs) >= SCENE_CACHE_SIZE:
+        model._kernel_inputs.pop(next(iter(model._kernel_inputs)))
+    model._kernel_inputs[key] = inputs
+    return inputs
 
 
 def kernel_parameters(model: SteadyStateModel, scene: ContactScene) -> FloatArray:

@@ -33,7 +33,7 @@ from ballscrew_twin.kernels.steady_sphere import linearise, residuals
 from ballscrew_twin.models import steady
 from ballscrew_twin.models.base import MECHANISMS, ContactStates, OperatingPoint
 from ballscrew_twin.models.steady import SteadySolution, SteadyState, SteadyStateModel
-from ballscrew_twin.models.steady_compiled import predicted_start
+from ballscrew_twin.models.steady_compiled import kernel_inputs, predicted_start
 from ballscrew_twin.models.steady_output import assemble
 from ballscrew_twin.models.steady_problem import initial_state, residual_scales
 from ballscrew_twin.params import TwinConfig, load_config
@@ -341,6 +341,32 @@ def test_predicted_start_lies_on_the_last_two_solutions(config: TwinConfig) -> N
     expected = per_speed + 0.5 * (per_speed - a.kinematics / first.screw_speed)
     np.testing.assert_allclose(beyond.kinematics, expected * 230.0 * RPM, rtol=1e-12)
     assert predicted_start(model, operating_point(-220.0, 22.0, 1100.0), 2) is None  # reversed
+
+
+def test_kept_kernel_inputs_are_those_of_their_scene_and_loads(config: TwinConfig) -> None:
+    """The residual scales and scene parameters kept per scene and loads object: those of
+    residual_scales and scene_arrays; equal loads in another array are another entry, and a
+    warm solve with kept inputs is the solve with fresh ones, to the last bit."""
+    point = operating_point(150.0, 30.0, 900.0)
+    model = SteadyStateModel(config, mode="symmetric")
+    model.solve(point)
+    scene = model.scene(point.temperature, point.screw_speed)
+    loads = model._loads[(point.preload, point.axial_load)]
+    kept = kernel_inputs(model, scene, loads)
+    force, moment = residual_scales(config, scene, loads)
+    assert kept.scales == (force, moment, force * config.screw.balls_per_nut)
+    assert np.array_equal(kept.parameters, np.array(scene_arrays(scene), dtype=np.float64))
+    assert kernel_inputs(model, scene, loads) is kept
+    copy = loads.copy()
+    other = kernel_inputs(model, scene, copy)
+    assert other is not kept and other.loads is copy and other.scales == kept.scales
+    again = model.solve(point)  # from its own solution, with the kept inputs
+    fresh = SteadyStateModel(config, mode="symmetric")
+    fresh.solve(point)
+    fresh._kernel_inputs.clear()
+    expected = fresh.solve(point)
+    assert again.output.drag_torque == expected.output.drag_torque
+    assert np.array_equal(again.state.kinematics, expected.state.kinematics)
 
 
 def test_the_compiled_extrapolation_is_the_readable_line(config: TwinConfig) -> None:
