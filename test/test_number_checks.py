@@ -6,6 +6,7 @@ through them."""
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ from ballscrew_twin.commands.sweep import parse_dimension
 from ballscrew_twin.errors import ConfigError, FidelityError, SweepError
 from ballscrew_twin.fidelity import load_bounds
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
 from ballscrew_twin.models.faults import SphereJam, faults_from_mapping
 from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
@@ -219,3 +221,43 @@ def test_from_mapping_builds_a_dataclass_naming_every_refusal() -> None:
         with pytest.raises(ConfigError) as err:
             from_mapping(Part, data, "p", **{"kind": "k", **extra})
         assert message in str(err.value)
+
+
+def test_an_open_upper_end_refuses_the_end_and_shows_it_open() -> None:
+    fraction = limits("-", 0.0, 1.0, lo_open=True, hi_open=True)
+    assert check_number(0.999, fraction, "w") == 0.999
+    for end in (0.0, 1.0):
+        with pytest.raises(ConfigError) as err:
+            check_number(end, fraction, "w")
+        assert str(err.value) == f"w = {end!r} is outside the allowed range (0, 1) -"
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ({"warmup": -1.0}, "warmup = -1.0 is outside the allowed range (0, inf] s (must not"),
+        ({"spectral_period": 0.0}, "spectral_period = 0.0 is outside the allowed range (0, inf] s"),
+        ({"cusum_shift": math.inf}, "cusum_shift: inf is not a finite number"),
+        ({"drift_error_time": math.nan}, "drift_error_time: nan is not a finite number"),
+        ({"min_revolutions": 0}, "min_revolutions = 0 is outside the allowed range (0, inf] -"),
+        ({"confident_class": 1.5}, "confident_class = 1.5 is outside the allowed range (0, 1] -"),
+        ({"warn_fraction": 1.0}, "warn_fraction = 1.0 is outside the allowed range (0, 1) -"),
+        ({"chi_square_window": 1}, "chi_square_window = 1 is outside the allowed range [2, inf] -"),
+        ({"chi_square_window": 2.5}, "chi_square_window: expected a whole number, got 2.5"),
+        ({"inertia_gate": -2.0}, "inertia_gate = -2.0 is outside the allowed range (0, inf] -"),
+    ],
+)
+def test_a_health_setting_out_of_range_is_refused_naming_it_its_unit_and_range(
+    setting: dict[str, float], message: str
+) -> None:
+    with pytest.raises(ConfigError) as err:
+        MonitorSettings(**setting)  # type: ignore[arg-type]
+    assert str(err.value).startswith(f"health settings: {message}"), str(err.value)
+
+
+def test_health_settings_at_their_ends_are_accepted() -> None:
+    settings = MonitorSettings(
+        confident_class=1.0, chi_square_window=2, warn_fraction=0.99, bin_agreement=math.inf
+    )
+    assert (settings.confident_class, settings.chi_square_window) == (1.0, 2)
+    assert MonitorSettings(warmup=1e-9).warmup == 1e-9
