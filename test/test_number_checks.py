@@ -1,8 +1,8 @@
 """The package's one check of a number against its field metadata (params.check_number) and of a
 mapping against a dataclass (params.from_mapping): every error names the field, the unit and the
 allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes,
-faults, the fidelity bounds, sweep dimensions) and the ROS nodes' parameters and inputs answer
-through them."""
+faults, the fidelity bounds with their grid and rows, sweep dimensions), the health settings
+and the ROS nodes' parameters and inputs answer through them."""
 
 from __future__ import annotations
 
@@ -261,3 +261,40 @@ def test_health_settings_at_their_ends_are_accepted() -> None:
     )
     assert (settings.confident_class, settings.chi_square_window) == (1.0, 2)
     assert MonitorSettings(warmup=1e-9).warmup == 1e-9
+
+
+def test_the_bounds_grid_and_rows_answer_through_the_one_check(tmp_path: Path) -> None:
+    """A grid node or a row's number that is no number >= 0 is refused naming the file, the
+    row and the column with the column's unit; a null cell (not measured) is kept as NaN."""
+    text = (
+        "command: c\ngrid: {preload_N: [0], speed_rad_s: [1], temperature_K: [293]}\n"
+        "columns: [preload_N, speed_rad_s, temperature_K, catalog_vertical.drag_torque]\n"
+        "rows: [[0, 1, 293, null], [0, 1, 293, 0.25]]\nreference: {drag_torque: 0.1}\n"
+        "dynamic: {step_cost_s: 1e-6}\ncost: {catalog: 1e-6}\n"
+    )
+    good = tmp_path / "good.yaml"
+    good.write_text(text)
+    bounds = load_bounds(good)
+    assert bounds.grid == {"preload_N": (0.0,), "speed_rad_s": (1.0,), "temperature_K": (293.0,)}
+    drag = bounds.column("catalog_vertical.drag_torque")
+    assert math.isnan(drag[0]) and drag[1] == 0.25
+    refusals = [
+        ("[0, 1, 293, 0.25]]", "[0, -1, 293, 0.25]]", "rows[1].speed_rad_s = -1 is outside "
+         "the allowed range [0, inf] rad/s (must not be negative)"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, 293, much]]", "rows[1].catalog_vertical.drag_torque: "
+         "expected a number in - within [0, inf], got 'much'"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, .nan, 0.25]]", "rows[1].temperature_K: nan is not a "
+         "finite number (allowed range [0, inf] K)"),
+        ("temperature_K: [293]", "temperature_K: [-20]", "grid.temperature_K[0] = -20 is "
+         "outside the allowed range [0, inf] K"),
+        ("preload_N: [0]", "preload_N: [0, -5]", "grid.preload_N[1] = -5 is outside the "
+         "allowed range [0, inf] N (must not be negative)"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, 293]]", "every row must have 4 values"),
+        ("rows: [[0, 1, 293, null], [0, 1, 293, 0.25]]", "rows: []", "every row must have 4"),
+    ]  # fmt: skip
+    for old, new, message in refusals:
+        bad = tmp_path / "bad.yaml"
+        bad.write_text(text.replace(old, new))
+        with pytest.raises(FidelityError) as err:
+            load_bounds(bad)
+        assert str(err.value).startswith(f"{bad}: {message}"), str(err.value)
