@@ -141,32 +141,35 @@ class Bounds:
         return float(values.max()), f"max over {int(mask.sum())} grid points"
 
 
-#: Unit of a bounds-file number by the end of its key (relative errors otherwise).
-_KEY_UNITS = (("_Nm", "N m"), ("_s", "s"))
+#: Unit of a bounds-file number by the end of its key or column (relative errors otherwise).
+_KEY_UNITS = (("_Nm", "N m"), ("_rad_s", "rad/s"), ("_s", "s"), ("_N", "N"), ("_K", "K"))
+
+
+def _number(value: Any, where: str, name: str, unit: str | None = None) -> float:
+    """``value`` of the bounds file's key or column ``name`` as a number >= 0 (the package's
+    one number check, :func:`~ballscrew_twin.params.check_number`, its unit ``unit`` or named
+    by ``name``'s end, else ``-``), its refusal a FidelityError naming ``where``; an infinite
+    error (of a reference of 0, :func:`~ballscrew_twin.benchmarks.skips.relative`) is kept: it
+    rules its model out."""
+    if value == math.inf:
+        return math.inf
+    given = unit or next((u for end, u in _KEY_UNITS if name.endswith(end)), "-")
+    try:
+        return float(check_number(value, limits(given, 0.0, math.inf), where))
+    except ConfigError as err:
+        raise FidelityError(str(err)) from None
 
 
 def _floats(data: Any, where: str, unit: str | None = None) -> dict[str, float]:
-    """The numbers of one section of the bounds file, each >= 0 (the package's one number
-    check, :func:`~ballscrew_twin.params.check_number`, its unit ``unit`` or named by its key's
-    end, else ``-``); text and null entries (descriptions) are left out, and an infinite error
-    (of a reference of 0, :func:`~ballscrew_twin.benchmarks.skips.relative`) is kept: it rules
-    its model out."""
+    """The numbers of one section of the bounds file (:func:`_number`, ``unit`` for all of
+    them if given); text and null entries (descriptions) are left out."""
     if not isinstance(data, dict):
         raise FidelityError(f"{where}: expected a mapping of numbers")
-    out = {}
-    for key, value in data.items():
-        if isinstance(value, str | type(None)):  # descriptive entries (scenario file, ...)
-            continue
-        name = str(key)
-        if value == math.inf:
-            out[name] = math.inf
-            continue
-        given = unit or next((u for end, u in _KEY_UNITS if name.endswith(end)), "-")
-        try:
-            out[name] = float(check_number(value, limits(given, 0.0, math.inf), f"{where}.{name}"))
-        except ConfigError as err:
-            raise FidelityError(str(err)) from None
-    return out
+    return {
+        str(key): _number(value, f"{where}.{key}", str(key), unit)
+        for key, value in data.items()
+        if not isinstance(value, str | type(None))  # descriptive entries (scenario file, ...)
+    }
 
 
 def load_bounds(path: str | Path | None = None) -> Bounds:
@@ -186,19 +189,33 @@ def load_bounds(path: str | Path | None = None) -> Bounds:
     if not isinstance(grid, dict) or set(grid) != set(AXES):
         raise FidelityError(f"{where}: grid must have exactly {list(AXES)}")
     columns = tuple(str(c) for c in data["columns"])
+    listed = data["rows"]
+    if not (isinstance(listed, list) and listed) or not all(
+        isinstance(row, list) and len(row) == len(columns) for row in listed
+    ):
+        raise FidelityError(f"{where}: every row must have {len(columns)} values")
     rows = np.array(
-        [[math.nan if v is None else float(v) for v in row] for row in data["rows"]],
+        [
+            [
+                math.nan if v is None else _number(v, f"{where}: rows[{i}].{name}", name)
+                for name, v in zip(columns, row, strict=True)
+            ]
+            for i, row in enumerate(listed)
+        ],
         dtype=np.float64,
     )
-    if rows.ndim != 2 or rows.shape[1] != len(columns):
-        raise FidelityError(f"{where}: every row must have {len(columns)} values")
     realtime = data.get("realtime")
     if realtime is not None and not {"cost_s", "step_s"} <= set(realtime):
         raise FidelityError(f"{where}: realtime needs cost_s and step_s")
     return Bounds(
         source=where,
         command=str(data["command"]),
-        grid={axis: tuple(float(v) for v in grid[axis]) for axis in AXES},
+        grid={
+            axis: tuple(
+                _number(v, f"{where}: grid.{axis}[{k}]", axis) for k, v in enumerate(grid[axis])
+            )
+            for axis in AXES
+        },
         columns=columns,
         rows=rows,
         reference=_floats(data["reference"], f"{where}: reference"),

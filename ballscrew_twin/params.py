@@ -54,18 +54,21 @@ def limits(
     hi: float,
     *,
     lo_open: bool = False,
+    hi_open: bool = False,
     integer: bool = False,
     hint: str | None = "",
 ) -> dict[str, Any]:
     """What :func:`check_number` checks a value against (the metadata of a :func:`quantity`):
-    its SI ``unit``, the range [lo, hi] ((lo, hi] when ``lo_open``; an end may be infinite),
-    whole numbers only when ``integer``; ``hint`` replaces the unit-slip hints of an
-    out-of-range value (:func:`range_hint`), None: no hint at all."""
+    its SI ``unit``, the range [lo, hi] (without lo when ``lo_open``, without hi when
+    ``hi_open``; an end may be infinite), whole numbers only when ``integer``; ``hint``
+    replaces the unit-slip hints of an out-of-range value (:func:`range_hint`), None: no hint
+    at all."""
     return {
         "unit": unit,
         "min": lo,
         "max": hi,
         "min_open": lo_open,
+        "max_open": hi_open,
         "integer": integer,
         "hint": hint,
     }
@@ -96,8 +99,8 @@ def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = T
     ``210.0e9`` without an exponent sign as a string, and users write exponents that way.
     """
     unit, lo, hi = meta["unit"], meta["min"], meta["max"]
-    lo_open = meta.get("min_open", False)
-    span = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+    lo_open, hi_open = meta.get("min_open", False), meta.get("max_open", False)
+    span = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
     if (
         isinstance(raw, bool)
         or not isinstance(raw, int | float | str)
@@ -121,7 +124,7 @@ def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = T
         raise ConfigError(
             f"{path}: expected a whole number, got {raw!r} (allowed range {span} {unit})"
         )
-    if (value <= lo if lo_open else value < lo) or value > hi:
+    if (value <= lo if lo_open else value < lo) or (value >= hi if hi_open else value > hi):
         raise ConfigError(
             f"{path} = {raw!r} is outside the allowed range {span} {unit}" + range_hint(value, meta)
         )

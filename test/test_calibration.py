@@ -188,6 +188,15 @@ def test_calibrates_from_a_bench_bag_with_plot_and_targets(
     )
 
 
+def test_a_steady_window_not_above_zero_is_refused_naming_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    args = ["--data", str(SAMPLES / "healthy"), "--steady-window", "0"]
+    assert main(["calibrate", *args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--steady-window = 0.0 is outside the allowed range (0, inf] s" in err
+
+
 def test_a_bag_without_steady_running_is_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

@@ -1,11 +1,12 @@
 """The package's one check of a number against its field metadata (params.check_number) and of a
 mapping against a dataclass (params.from_mapping): every error names the field, the unit and the
 allowed range, and each loader (parameter sets, scenarios, scenes, sensors, bench scenes,
-faults, the fidelity bounds, sweep dimensions) and the ROS nodes' parameters and inputs answer
-through them."""
+faults, the fidelity bounds with their grid and rows, sweep dimensions), the health settings
+and the ROS nodes' parameters and inputs answer through them."""
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -17,6 +18,7 @@ from ballscrew_twin.commands.sweep import parse_dimension
 from ballscrew_twin.errors import ConfigError, FidelityError, SweepError
 from ballscrew_twin.fidelity import load_bounds
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
+from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
 from ballscrew_twin.models.faults import SphereJam, faults_from_mapping
 from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
@@ -219,3 +221,80 @@ def test_from_mapping_builds_a_dataclass_naming_every_refusal() -> None:
         with pytest.raises(ConfigError) as err:
             from_mapping(Part, data, "p", **{"kind": "k", **extra})
         assert message in str(err.value)
+
+
+def test_an_open_upper_end_refuses_the_end_and_shows_it_open() -> None:
+    fraction = limits("-", 0.0, 1.0, lo_open=True, hi_open=True)
+    assert check_number(0.999, fraction, "w") == 0.999
+    for end in (0.0, 1.0):
+        with pytest.raises(ConfigError) as err:
+            check_number(end, fraction, "w")
+        assert str(err.value) == f"w = {end!r} is outside the allowed range (0, 1) -"
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ({"warmup": -1.0}, "warmup = -1.0 is outside the allowed range (0, inf] s (must not"),
+        ({"spectral_period": 0.0}, "spectral_period = 0.0 is outside the allowed range (0, inf] s"),
+        ({"cusum_shift": math.inf}, "cusum_shift: inf is not a finite number"),
+        ({"drift_error_time": math.nan}, "drift_error_time: nan is not a finite number"),
+        ({"min_revolutions": 0}, "min_revolutions = 0 is outside the allowed range (0, inf] -"),
+        ({"confident_class": 1.5}, "confident_class = 1.5 is outside the allowed range (0, 1] -"),
+        ({"warn_fraction": 1.0}, "warn_fraction = 1.0 is outside the allowed range (0, 1) -"),
+        ({"chi_square_window": 1}, "chi_square_window = 1 is outside the allowed range [2, inf] -"),
+        ({"chi_square_window": 2.5}, "chi_square_window: expected a whole number, got 2.5"),
+        ({"inertia_gate": -2.0}, "inertia_gate = -2.0 is outside the allowed range (0, inf] -"),
+    ],
+)
+def test_a_health_setting_out_of_range_is_refused_naming_it_its_unit_and_range(
+    setting: dict[str, float], message: str
+) -> None:
+    with pytest.raises(ConfigError) as err:
+        MonitorSettings(**setting)  # type: ignore[arg-type]
+    assert str(err.value).startswith(f"health settings: {message}"), str(err.value)
+
+
+def test_health_settings_at_their_ends_are_accepted() -> None:
+    settings = MonitorSettings(
+        confident_class=1.0, chi_square_window=2, warn_fraction=0.99, bin_agreement=math.inf
+    )
+    assert (settings.confident_class, settings.chi_square_window) == (1.0, 2)
+    assert MonitorSettings(warmup=1e-9).warmup == 1e-9
+
+
+def test_the_bounds_grid_and_rows_answer_through_the_one_check(tmp_path: Path) -> None:
+    """A grid node or a row's number that is no number >= 0 is refused naming the file, the
+    row and the column with the column's unit; a null cell (not measured) is kept as NaN."""
+    text = (
+        "command: c\ngrid: {preload_N: [0], speed_rad_s: [1], temperature_K: [293]}\n"
+        "columns: [preload_N, speed_rad_s, temperature_K, catalog_vertical.drag_torque]\n"
+        "rows: [[0, 1, 293, null], [0, 1, 293, 0.25]]\nreference: {drag_torque: 0.1}\n"
+        "dynamic: {step_cost_s: 1e-6}\ncost: {catalog: 1e-6}\n"
+    )
+    good = tmp_path / "good.yaml"
+    good.write_text(text)
+    bounds = load_bounds(good)
+    assert bounds.grid == {"preload_N": (0.0,), "speed_rad_s": (1.0,), "temperature_K": (293.0,)}
+    drag = bounds.column("catalog_vertical.drag_torque")
+    assert math.isnan(drag[0]) and drag[1] == 0.25
+    refusals = [
+        ("[0, 1, 293, 0.25]]", "[0, -1, 293, 0.25]]", "rows[1].speed_rad_s = -1 is outside "
+         "the allowed range [0, inf] rad/s (must not be negative)"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, 293, much]]", "rows[1].catalog_vertical.drag_torque: "
+         "expected a number in - within [0, inf], got 'much'"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, .nan, 0.25]]", "rows[1].temperature_K: nan is not a "
+         "finite number (allowed range [0, inf] K)"),
+        ("temperature_K: [293]", "temperature_K: [-20]", "grid.temperature_K[0] = -20 is "
+         "outside the allowed range [0, inf] K"),
+        ("preload_N: [0]", "preload_N: [0, -5]", "grid.preload_N[1] = -5 is outside the "
+         "allowed range [0, inf] N (must not be negative)"),
+        ("[0, 1, 293, 0.25]]", "[0, 1, 293]]", "every row must have 4 values"),
+        ("rows: [[0, 1, 293, null], [0, 1, 293, 0.25]]", "rows: []", "every row must have 4"),
+    ]  # fmt: skip
+    for old, new, message in refusals:
+        bad = tmp_path / "bad.yaml"
+        bad.write_text(text.replace(old, new))
+        with pytest.raises(FidelityError) as err:
+            load_bounds(bad)
+        assert str(err.value).startswith(f"{bad}: {message}"), str(err.value)

@@ -20,6 +20,7 @@ from ballscrew_twin.commands.sweep import (
     parameter_unit,
     parse_dimension,
     random_points,
+    run_sweep,
     with_overrides,
 )
 from ballscrew_twin.errors import ConfigError, SweepError
@@ -97,6 +98,23 @@ def test_random_points_seeded_and_within_bounds() -> None:
     # standard error is 0.58 / sqrt(400) = 0.029).
     assert np.mean(np.log10(tau)) == pytest.approx(6.0, abs=0.12)
     assert {p["axial_load"] for p in first} == {0.0, 500.0}
+
+
+def test_a_count_below_one_is_refused_naming_the_option(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    dims = [parse_dimension("preload", "uniform:100:3000", "N")]
+    with pytest.raises(SweepError) as err:
+        random_points(dims, 0, seed=3)
+    assert str(err.value) == "--samples = 0 is outside the allowed range [1, inf] -"
+    task = SweepTask(model="zhou", mode="auto", config=load_config(None))
+    with pytest.raises(SweepError) as err:
+        run_sweep(task, dims, [], chunk_size=0)
+    assert str(err.value) == "--chunk-size = 0 is outside the allowed range [1, inf] -"
+    args = ["sweep", "--model", "zhou", "--speed", "100", "--workers", "0", "--quiet"]
+    assert main([*args, "--out", str(tmp_path / "sweep.csv")]) == 2
+    err_text = capsys.readouterr().err
+    assert "--workers = 0 is outside the allowed range [1, inf] -" in err_text
 
 
 def test_parameter_paths() -> None:

@@ -137,6 +137,19 @@ class Dimension:
         return [float(v) for v in rng.uniform(self.low, self.high, count)]
 
 
+#: Allowed counts of the command line (--samples, --chunk-size, --workers) [-].
+COUNT_LIMITS = limits("-", 1, math.inf, integer=True)
+
+
+def _check_count(value: int, option: str) -> None:
+    """Refuse a count ``value`` of the command-line ``option`` below 1 (the package's one
+    number check, :func:`~ballscrew_twin.params.check_number`) with a SweepError naming it."""
+    try:
+        check_number(value, COUNT_LIMITS, option, text=False)
+    except ConfigError as err:
+        raise SweepError(str(err)) from None
+
+
 def _number(
     text: str, where: str, unit: str, *, lo: float = -math.inf, whole: bool = False
 ) -> float:
@@ -336,8 +349,7 @@ def random_points(
     dimensions: Sequence[Dimension], samples: int, seed: int
 ) -> list[dict[str, float]]:
     """``samples`` points drawn with ``numpy.random.default_rng(seed)``, dimension by dimension."""
-    if samples < 1:
-        raise SweepError(f"--samples = {samples} must be >= 1")
+    _check_count(samples, "--samples")
     rng = np.random.default_rng(seed)
     columns = {d.name: d.draw(rng, samples) for d in dimensions}
     return [{name: columns[name][i] for name in columns} for i in range(samples)]
@@ -420,8 +432,7 @@ def run_sweep(
     """
     from tqdm import tqdm
 
-    if chunk_size < 1:
-        raise SweepError(f"--chunk-size = {chunk_size} must be >= 1")
+    _check_count(chunk_size, "--chunk-size")
     names = [d.name for d in dimensions]
     missing = [n for n in OPERATING_DIMENSIONS if n not in names]
     if missing:
@@ -582,8 +593,7 @@ def run(args: argparse.Namespace) -> int:
         points = grid_points(dims)
     else:
         points = random_points(dims, args.samples, args.seed)
-    if args.workers < 1:
-        raise SweepError(f"--workers = {args.workers} must be >= 1")
+    _check_count(args.workers, "--workers")
     task = SweepTask(model=args.model, mode=args.mode, config=config)
     result = run_sweep(
         task,

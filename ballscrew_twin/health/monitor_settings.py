@@ -8,12 +8,18 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from ..errors import ConfigError
+from ..params import limits, validate_fields
 from .detectors import check_rate
 from .residuals import ResidualSettings
 from .tracker import TrackerSettings
 
 #: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
 DETECTORS: tuple[str, ...] = ("cusum", "local", "chi_square", "spectral")
+
+#: The range of a time setting that must be finite and > 0 [s].
+_POSITIVE_S = limits("s", 0.0, math.inf, lo_open=True)
+#: The range of a dimensionless setting that must be finite and > 0 [-].
+_POSITIVE = limits("-", 0.0, math.inf, lo_open=True)
 
 
 def check_detectors(names: Iterable[str]) -> tuple[str, ...]:
@@ -71,58 +77,34 @@ class MonitorSettings:
     residual: ResidualSettings = field(default_factory=ResidualSettings)
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
     false_alarm_rate: float = 0.01
-    warmup: float = 5.0
-    cusum_shift: float = 5.0
-    chi_square_window: int = 20
-    spectral_window: float = 4.0
-    spectral_period: float = 1.0
-    min_revolutions: float = 1.0
-    spectral_noise_time: float = 0.05
-    classification_window: float = 8.0
-    classification_patience: float = 30.0
-    confident_class: float = 0.9
-    warn_fraction: float = 0.5
-    error_correlation_time: float = 1.0
-    drift_error_time: float = 10.0
+    warmup: float = field(default=5.0, metadata=_POSITIVE_S)
+    cusum_shift: float = field(default=5.0, metadata=_POSITIVE)
+    chi_square_window: int = field(default=20, metadata=limits("-", 2, math.inf, integer=True))
+    spectral_window: float = field(default=4.0, metadata=_POSITIVE_S)
+    spectral_period: float = field(default=1.0, metadata=_POSITIVE_S)
+    min_revolutions: float = field(default=1.0, metadata=_POSITIVE)
+    spectral_noise_time: float = field(default=0.05, metadata=_POSITIVE_S)
+    classification_window: float = field(default=8.0, metadata=_POSITIVE_S)
+    classification_patience: float = field(default=30.0, metadata=_POSITIVE_S)
+    confident_class: float = field(default=0.9, metadata=limits("-", 0.0, 1.0, lo_open=True))
+    warn_fraction: float = field(
+        default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True, hi_open=True)
+    )
+    error_correlation_time: float = field(default=1.0, metadata=_POSITIVE_S)
+    drift_error_time: float = field(default=10.0, metadata=_POSITIVE_S)
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
-    inertia_gate: float = 1.0
+    inertia_gate: float = field(default=1.0, metadata=_POSITIVE)
     bin_agreement: float = 3.0
 
     def __post_init__(self) -> None:
-        """Reject values outside their meaning."""
+        """Reject values outside their meaning: the fields with limits through the package's
+        one number check (:func:`~ballscrew_twin.params.validate_fields`: the message names
+        the setting, its value, its unit and its range), the false-alarm rate, the detectors
+        and ``bin_agreement``, which may be infinite."""
         check_rate(self.false_alarm_rate, 1.0 / self.residual.block_duration)
-        for name, unit in (
-            ("warmup", "s"),
-            ("cusum_shift", "-"),
-            ("spectral_window", "s"),
-            ("spectral_period", "s"),
-            ("min_revolutions", "-"),
-            ("spectral_noise_time", "s"),
-            ("classification_window", "s"),
-            ("classification_patience", "s"),
-            ("confident_class", "-"),
-            ("error_correlation_time", "s"),
-            ("drift_error_time", "s"),
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ConfigError(f"health settings: {name} = {value!r} {unit} must be > 0")
-        if self.confident_class > 1.0:
-            raise ConfigError(
-                f"health settings: confident_class = {self.confident_class!r} must be <= 1"
-            )
+        validate_fields(self, "health settings", ": ")
         check_detectors(self.detectors)
         if not self.bin_agreement > 0.0:
             raise ConfigError(
                 f"health settings: bin_agreement = {self.bin_agreement!r} sigma must be > 0"
-            )
-        if not (math.isfinite(self.inertia_gate) and self.inertia_gate > 0.0):
-            raise ConfigError(f"health settings: inertia_gate = {self.inertia_gate!r} must be > 0")
-        if self.chi_square_window < 2:
-            raise ConfigError(
-                f"health settings: chi_square_window = {self.chi_square_window!r} must be >= 2"
-            )
-        if not 0.0 < self.warn_fraction < 1.0:
-            raise ConfigError(
-                f"health settings: warn_fraction = {self.warn_fraction!r} must be in (0, 1)"
             )

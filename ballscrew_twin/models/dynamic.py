@@ -56,7 +56,7 @@ from ..kernels.solver_settings import (
     STEP_TOLERANCE,
     VELOCITY_STEP,
 )
-from ..params import TwinConfig
+from ..params import TwinConfig, check_number, limits
 from ..physics import geometry
 from ..physics.contact_types import ContactEvaluation
 from .base import DISSIPATION_KEYS, OperatingPoint
@@ -72,6 +72,20 @@ ContactFunction = Callable[..., ContactEvaluation]
 
 #: Extrapolation u_n, u_{n-1}, ... -> u_{n+1} of each order (kernels/dynamic_step.py has a copy).
 PREDICTOR_COEFFICIENTS = ((1.0,), (2.0, -1.0), (3.0, -3.0, 1.0), (4.0, -6.0, 4.0, -1.0))
+#: Allowed integration steps [s] (a scenario's ``time_step`` has the same range).
+TIME_STEP_LIMITS = limits("s", 0.0, 1e-4, lo_open=True)
+#: Allowed steps between two refreshes of the velocity Jacobian [-].
+JACOBIAN_INTERVAL_LIMITS = limits("-", 1, math.inf, integer=True)
+
+
+def _check_integrator(name: str, value: float, meta: dict[str, object]) -> None:
+    """Refuse ``value`` of the integrator setting ``name`` outside ``meta`` (the package's one
+    number check, :func:`~ballscrew_twin.params.check_number`: the message names the setting,
+    its unit and its range) with an OperatingPointError."""
+    try:
+        check_number(value, meta, name, text=False)
+    except ConfigError as err:
+        raise OperatingPointError(str(err)) from None
 
 
 @dataclass
@@ -115,10 +129,8 @@ class DynamicModel:
 
     def __post_init__(self) -> None:
         OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=0.0).validate()
-        if not (0.0 < self.time_step <= 1e-4):
-            raise OperatingPointError(f"time_step = {self.time_step} s must be in (0, 1e-4]")
-        if self.jacobian_interval < 1:
-            raise OperatingPointError("jacobian_interval must be >= 1")
+        _check_integrator("time_step", self.time_step, TIME_STEP_LIMITS)
+        _check_integrator("jacobian_interval", self.jacobian_interval, JACOBIAN_INTERVAL_LIMITS)
         self._scene = make_scene(self.config, self.temperature, 0.0)
         geom = self._scene.geometry
         self.geometry = geom
@@ -173,8 +185,7 @@ class DynamicModel:
         """Change the step [s] and the treatment of the sphere positions between two steps (a
         scenario's start phase, simulation.py). The kept Jacobian (it holds dt) and the
         predictor's history (equal steps) are dropped."""
-        if not (0.0 < time_step <= 1e-4):
-            raise OperatingPointError(f"time_step = {time_step} s must be in (0, 1e-4]")
+        _check_integrator("time_step", time_step, TIME_STEP_LIMITS)
         self.time_step = time_step
         self.implicit_positions = implicit_positions
         self._jacobian = None

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import MISSING, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from ..errors import ConfigError, NonFiniteOutputError, OperatingPointError
-from ..params import TwinConfig
+from ..params import TwinConfig, quantity, validate_fields
 from ..units import CELSIUS_ZERO, celsius_to_kelvin
 from .base import OperatingPoint, SteadyStateModel, TimeSteppingModel, TwinOutput
 
@@ -65,11 +65,10 @@ REALTIME_MODEL_NAME = "realtime_map"
 
 
 def _bound(unit: str, doc: str, *, default: float | None = None) -> Any:
-    """A float field with its unit and description as metadata (``default`` None: required)."""
-    meta = {"unit": unit, "doc": doc}
-    if default is None:
-        return field(metadata=meta)
-    return field(default=default, metadata=meta)
+    """A float field > 0 with its unit, range and description as metadata
+    (:func:`~ballscrew_twin.params.quantity`; ``default`` None: required)."""
+    given = MISSING if default is None else default
+    return quantity(unit, 0.0, math.inf, doc, default=given, lo_open=True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,15 +92,7 @@ class ValidityEnvelope:
     max_axial_load: float = _bound("N", "largest |axial load|", default=DEFAULT_MAX_AXIAL_LOAD)
 
     def __post_init__(self) -> None:
-        for fld in fields(self):
-            value = getattr(self, fld.name)
-            unit = fld.metadata["unit"]
-            if isinstance(value, bool) or not isinstance(value, int | float):
-                raise ConfigError(f"validity envelope: {fld.name} = {value!r} is not a number")
-            if not math.isfinite(value) or value <= 0.0:
-                raise ConfigError(
-                    f"validity envelope: {fld.name} = {value!r} {unit} must be finite and > 0"
-                )
+        validate_fields(self, "validity envelope", ": ")
         if self.min_temperature <= 138.0:
             raise ConfigError(
                 f"validity envelope: min_temperature = {self.min_temperature} K must be above "

@@ -8,6 +8,10 @@ Each such command accepts ``--ros-args ...`` (last; passed to ROS unchanged: ``-
 from __future__ import annotations
 
 import argparse
+import math
+
+from ..errors import ConfigError
+from ..params import check_number, limits
 
 
 def add_ros_arguments(parser: argparse.ArgumentParser, params_example: str | None = None) -> None:
@@ -34,3 +38,13 @@ def ros_argv(program: str, args: argparse.Namespace) -> list[str]:
         ros += ["--params-file", args.params_file]
     ros += list(args.ros_args)
     return [program, "--ros-args", *ros] if ros else [program]
+
+
+def check_duration(parser: argparse.ArgumentParser, duration: float) -> None:
+    """Refuse a ``--duration`` [s] that is not a finite number > 0 through ``parser.error``
+    (exit status 2), with the package's one number check's words: the option, the value, the
+    unit and the range."""
+    try:
+        check_number(duration, limits("s", 0.0, math.inf, lo_open=True), "--duration", text=False)
+    except ConfigError as err:
+        parser.error(str(err))

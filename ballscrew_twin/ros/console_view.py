@@ -34,6 +34,7 @@ from rclpy.node import Node
 from rclpy.utilities import remove_ros_args
 
 from ..units import RPM, stamp_to_seconds
+from .command_args import check_duration
 from .diagnostics import LEVEL_NAMES, level_of
 from .executors import make_executor, spin
 
@@ -270,8 +271,7 @@ def main(args: list[str] | None = None) -> None:
     parser.add_argument("--torque-topic", default="drag_torque")
     parser.add_argument("--health-topic", default="health", help="HealthResidual topic")
     opts = parser.parse_args(remove_ros_args(argv)[1:])
-    if not opts.duration > 0.0:
-        parser.error("--duration must be > 0")
+    check_duration(parser, opts.duration)
     rclpy.init(args=argv)
     node: ConsoleView | None = None
     executor: Executor | None = None

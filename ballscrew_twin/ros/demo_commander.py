@@ -29,6 +29,7 @@ from sensor_msgs.msg import Temperature
 from std_msgs.msg import Float64
 
 from ..units import RPM
+from .command_args import check_duration
 from .executors import spin_once
 
 #: Longest wait for the twin node to subscribe [s].
@@ -188,8 +189,7 @@ def main(args: list[str] | None = None) -> None:
         help="drag_torque subscribers (this one included) to wait for before starting",
     )
     opts = parser.parse_args(remove_ros_args(argv)[1:])
-    if not opts.duration > 0.0:
-        parser.error("--duration must be > 0")
+    check_duration(parser, opts.duration)
 
     rclpy.init(args=argv)
     node: DemoCommander | None = None

@@ -71,6 +71,7 @@ from .command_args import add_ros_arguments, ros_argv
 from .diagnostics import Check, to_message
 from .health_diagnostics import ClockWatch
 from .health_parameters import HEALTH_PARAMETERS, NODE_NAME
+from .inputs import check_sample
 from .node_parameters import TableNode
 from .node_process import run_node_process
 from .throttle import Throttle
@@ -210,9 +211,10 @@ class HealthNode(TableNode):
     def _feed(self, channel: str, stamp: float, value: float) -> None:
         """Give one sample to the monitor and publish what comes out."""
         self.received[channel] += 1
-        if not (math.isfinite(stamp) and math.isfinite(value)):
+        refusal = check_sample(channel, stamp, value)
+        if refusal is not None:
             self.dropped += 1
-            self._warn(channel, f"{channel}: dropped a non-finite sample ({value!r} at {stamp!r})")
+            self._warn(channel, f"dropped: {refusal}")
             return
         recent = self._recent[channel]
         recent.append((stamp, value))

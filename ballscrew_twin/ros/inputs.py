@@ -1,9 +1,11 @@
-"""Validation, unit conversion and book-keeping of the twin node's inputs (no rclpy here).
+"""Validation, unit conversion and book-keeping of the twin node's inputs, and the health
+node's check of a bench sample (no rclpy here).
 
-The node keeps the last good value of every input; a command that fails these checks is
+The twin node keeps the last good value of every input; a command that fails these checks is
 rejected with a reason that the node logs and reports on ``/diagnostics``: the package's one
 number check (:func:`~ballscrew_twin.params.check_number`) names the input, its unit and its
-range. All values are SI: rad/s, K, N; times are integer nanoseconds of the node's clock.
+range. All values are SI: rad/s, K, N; times are integer nanoseconds of the node's clock. The
+health node drops a sample that :func:`check_sample` refuses (the same check: finite numbers).
 """
 
 from __future__ import annotations
@@ -106,6 +108,24 @@ def check_axial_load(value: float, limits: InputLimits) -> str | None:
     """Return why a commanded external axial load [N] is rejected, or None if accepted."""
     top = limits.max_axial_load
     return _refusal(value, "axial load", "N", -top, top, None)
+
+
+#: Unit of the values of each of the health node's sample channels (converted to SI).
+SAMPLE_UNITS = {"torque": "N m", "speed": "rad/s", "temperature": "K", "preload": "N"}
+
+
+def check_sample(channel: str, stamp: float, value: float) -> str | None:
+    """Return why a health-node sample of ``channel`` (a key of :data:`SAMPLE_UNITS`) at
+    ``stamp`` [s] with ``value`` [its unit] is dropped, or None when both are finite numbers
+    (the package's one number check: the reason names the channel, the unit and the value)."""
+    what = f"{channel} sample at {stamp!r} s"
+    try:
+        check_number(stamp, limits("s", -math.inf, math.inf), f"{what}: stamp", text=False)
+        unit = SAMPLE_UNITS[channel]
+        check_number(value, limits(unit, -math.inf, math.inf), f"{what}: value", text=False)
+    except ConfigError as err:
+        return str(err)
+    return None
 
 
 def check_stamp(

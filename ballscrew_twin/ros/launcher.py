@@ -41,10 +41,12 @@ from types import FrameType
 from typing import IO, Any
 
 from ..errors import ConfigError
-from ..params import read_yaml
+from ..params import check_number, limits, read_yaml
 
 #: Default time a process gets to exit after SIGINT before it is killed [s].
 STOP_TIMEOUT = 5.0
+#: Allowed stop timeouts [s].
+STOP_TIMEOUT_LIMITS = limits("s", 0.0, 600.0, lo_open=True)
 #: Polling interval of the supervising loop [s].
 POLL = 0.05
 #: Exit codes of a process that stopped because it was asked to (SIGINT/SIGTERM).
@@ -183,9 +185,12 @@ def load_launch_file(path: str | Path, env: Mapping[str, str] | None = None) -> 
     unknown = set(data) - {"nodes", "stop_timeout"}
     if unknown:
         raise ConfigError(f"{file}: unknown keys {sorted(unknown)}")
-    timeout = data.get("stop_timeout", STOP_TIMEOUT)
-    if not isinstance(timeout, int | float) or not 0.0 < timeout <= 600.0:
-        raise ConfigError(f"{file}: stop_timeout = {timeout!r} s must be in (0, 600]")
+    timeout = check_number(
+        data.get("stop_timeout", STOP_TIMEOUT),
+        STOP_TIMEOUT_LIMITS,
+        f"{file}: stop_timeout",
+        text=False,
+    )
     base = file.resolve().parent
     nodes = tuple(
         _node(entry, f"{file}: nodes[{i}]", base, environment)
@@ -320,8 +325,7 @@ def run(args: argparse.Namespace) -> int:
     """Run the launch file until it ends or Ctrl-C/SIGTERM; 0 clean, 1 a process failed."""
     launch = load_launch_file(args.file)
     if args.stop_timeout is not None:
-        if not 0.0 < args.stop_timeout <= 600.0:
-            raise ConfigError(f"--stop-timeout {args.stop_timeout!r} s must be in (0, 600]")
+        check_number(args.stop_timeout, STOP_TIMEOUT_LIMITS, "--stop-timeout", text=False)
         launch = LaunchFile(nodes=launch.nodes, stop_timeout=args.stop_timeout)
     launcher = Launcher(launch)
     previous = {s: signal.signal(s, launcher.request_stop) for s in (signal.SIGINT, signal.SIGTERM)}

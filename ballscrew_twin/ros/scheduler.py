@@ -13,9 +13,10 @@ seek, and nothing was missed.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
-from ..errors import ConfigError
+from ..params import check_number, limits
 
 #: A forward jump of the clock larger than this is a jump (replay seek), not a stall [ns].
 FORWARD_JUMP_NS = 1_000_000_000
@@ -38,6 +39,12 @@ class TickPlan(NamedTuple):
     jumped_forward: bool = False
 
 
+#: Allowed simulation steps [ns] (whole numbers, > 0).
+PERIOD_LIMITS = limits("ns", 0, math.inf, lo_open=True, integer=True)
+#: Allowed most ticks run in one wake-up [-].
+CATCH_UP_LIMITS = limits("-", 1, math.inf, integer=True)
+
+
 class TickScheduler:
     """Fixed simulation step locked to a clock.
 
@@ -48,10 +55,8 @@ class TickScheduler:
     """
 
     def __init__(self, period_ns: int, max_catch_up: int, *, wall_clock: bool = False) -> None:
-        if period_ns <= 0:
-            raise ConfigError(f"period_ns = {period_ns} must be > 0")
-        if max_catch_up < 1:
-            raise ConfigError(f"max_catch_up = {max_catch_up} must be >= 1")
+        check_number(period_ns, PERIOD_LIMITS, "period_ns", text=False)
+        check_number(max_catch_up, CATCH_UP_LIMITS, "max_catch_up", text=False)
         self.period_ns = period_ns
         self.max_catch_up = max_catch_up
         self.wall_clock = wall_clock

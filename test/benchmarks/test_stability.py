@@ -9,9 +9,20 @@ from pathlib import Path
 
 import pytest
 
-from ballscrew_twin.benchmarks.stability import QUICK, cases, dynamic_cases, model_registry
+from ballscrew_twin.benchmarks.stability import (
+    QUICK,
+    Case,
+    Entry,
+    cases,
+    dynamic_cases,
+    model_registry,
+    run_case,
+)
 from ballscrew_twin.cli import main
-from ballscrew_twin.models.base import OperatingPoint
+from ballscrew_twin.errors import NonFiniteOutputError, SolverError
+from ballscrew_twin.models.base import OperatingPoint, TwinOutput
+from ballscrew_twin.models.registry import ModelName, as_stepping, build
+from ballscrew_twin.models.validity import ValidityEnvelope
 from ballscrew_twin.params import load_config
 
 CONFIG = load_config()
@@ -100,3 +111,45 @@ def test_memoryless_models_do_not_drift(report: tuple[list[dict[str, str]], Path
             row["status"] == "finished" and row["ticks"] == f"{QUICK.long_ticks}/{QUICK.long_ticks}"
         )
         assert float(row["drift_rel"]) == 0.0, row["model"]
+
+
+class _Failing:
+    """The catalogue model stepped quasi-statically, whose first ticks raise the given errors
+    (a model failing the way a stress case can make it fail)."""
+
+    def __init__(self, errors: list[Exception]) -> None:
+        self.model = as_stepping(build(ModelName.CATALOG_ZHOU, CONFIG))
+        self.name = "failing"
+        self.errors = errors
+
+    def reset(self, op: OperatingPoint) -> None:
+        self.model.reset(op)
+
+    def step(self, op: OperatingPoint, dt: float) -> TwinOutput:
+        if self.errors:
+            raise self.errors.pop(0)
+        return self.model.step(op, dt)
+
+
+def test_a_failing_tick_is_counted_by_kind_and_the_case_runs_on() -> None:
+    """Each failure is counted by its kind, the first one's message is kept, the ticks after
+    it still run, and the status is the worst kind (nan > exception > error)."""
+    op = OperatingPoint(screw_speed=100.0, temperature=293.15, preload=1500.0)
+    case = Case(name="hold", description="a hold", commands=[op] * 5)
+    envelope = ValidityEnvelope.for_config(CONFIG)
+    errors: list[Exception] = [
+        SolverError("no convergence"),
+        NonFiniteOutputError("drag torque is nan"),
+        RuntimeError("boom"),
+    ]
+    result = run_case(Entry("failing", _Failing(errors)), case, CONFIG, envelope, 1.0)
+    assert (result.failed, result.non_finite, result.other) == (1, 1, 1)
+    assert result.done == 5 and result.first_message == "no convergence"
+    assert result.max_torque > 0.0  # the two ticks after the failures ran
+    assert result.status == "nan"
+    result.non_finite = 0
+    assert result.status == "exception"
+    result.other = 0
+    assert result.status == "error"
+    result.failed = 0
+    assert result.status == "finished"

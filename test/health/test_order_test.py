@@ -165,3 +165,8 @@ def test_the_acceleration_is_the_centred_slope_of_the_speed() -> None:
     slope = centred_acceleration(t, ramp, 0.05)
     assert np.allclose(slope[t <= 0.07], 190.0, atol=1e-9)
     assert np.allclose(slope[(t >= 0.1255) & (t < 0.27)], 0.0, atol=1e-9)
+    # Two samples: the slope of the line through them at both; fewer: no slope, no error.
+    two = centred_acceleration(t[:2], np.array([1.0, 1.5]), 0.05)
+    assert np.allclose(two, 0.5 / 1e-3, rtol=1e-12)
+    assert centred_acceleration(t[:1], w[:1], 0.05).tolist() == [0.0]
+    assert centred_acceleration(t[:0], w[:0], 0.05).tolist() == []

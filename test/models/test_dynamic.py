@@ -7,11 +7,13 @@ the order of convergence in the time step, and finite states at the envelope cor
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
 from physics.hertz_oracle import exact_hertz  # test/ is on sys.path (pytest prepend mode)
 
+from ballscrew_twin.errors import OperatingPointError
 from ballscrew_twin.models.dynamic import DynamicModel
 from ballscrew_twin.models.dynamic_state import Commands, SpeedController
 from ballscrew_twin.params import TwinConfig, load_config
@@ -248,3 +250,30 @@ def test_implicit_positions_converge_to_the_semi_implicit_solution() -> None:
     orders = [math.log2(errors[k] / errors[k + 1]) for k in range(2)]
     assert all(p > 0.9 for p in orders), (errors, orders)
     assert errors[0] < 1e-3 * abs(reference), (errors, reference)
+
+
+@pytest.mark.parametrize(
+    ("setting", "message"),
+    [
+        ({"time_step": 0.0}, "time_step = 0.0 is outside the allowed range (0, 0.0001] s"),
+        ({"time_step": 2e-4}, "time_step = 0.0002 is outside the allowed range (0, 0.0001] s"),
+        ({"time_step": math.nan}, "time_step: nan is not a finite number"),
+        ({"jacobian_interval": 0}, "jacobian_interval = 0 is outside the allowed range [1, inf] -"),
+        ({"jacobian_interval": 1.5}, "jacobian_interval: expected a whole number, got 1.5"),
+    ],
+)
+def test_an_integrator_setting_out_of_range_is_refused_naming_it(
+    setting: dict[str, float], message: str
+) -> None:
+    with pytest.raises(OperatingPointError) as err:
+        DynamicModel(small(BASE), 293.15, backend="reference", **setting)  # type: ignore[arg-type]
+    assert message in str(err.value)
+
+
+def test_a_step_change_out_of_range_is_refused_and_the_step_kept() -> None:
+    model = DynamicModel(small(BASE), 293.15, time_step=1e-6, backend="reference")
+    with pytest.raises(OperatingPointError, match=re.escape("time_step = -1e-06 is outside")):
+        model.set_integrator(-1e-6, implicit_positions=True)
+    assert model.time_step == 1e-6 and not model.implicit_positions
+    model.set_integrator(1e-4, implicit_positions=True)  # the closed end
+    assert model.time_step == 1e-4 and model.implicit_positions

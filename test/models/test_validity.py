@@ -44,11 +44,15 @@ def test_default_envelope_from_the_screw() -> None:
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"max_speed": math.nan}, "max_speed"),
-        ({"max_preload": -1.0}, "max_preload"),
+        ({"max_speed": math.nan}, "max_speed: nan is not a finite number"),
+        (
+            {"max_preload": -1.0},
+            r"max_preload = -1.0 is outside the allowed range \(0, inf\] N \(must not be",
+        ),
+        ({"max_preload": 0.0}, r"max_preload = 0.0 is outside the allowed range \(0, inf\] N"),
         ({"min_temperature": 20.0, "max_temperature": 60.0}, "kelvin"),
         ({"min_temperature": 400.0}, "must be below"),
-        ({"max_axial_load": "5000"}, "not a number"),
+        ({"max_axial_load": "5000"}, "max_axial_load: expected a number in N"),
     ],
 )
 def test_invalid_envelope_is_named(changes: dict[str, object], message: str) -> None:

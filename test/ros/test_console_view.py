@@ -1,16 +1,19 @@
 """Console view of the demo: health shown when published, "n/a" otherwise; summary and plot
-(per-nut split, rejected commands marked, units)."""
+(per-nut split, rejected commands marked, units); its and the demo commander's --duration."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 from ballscrew_twin_msgs.msg import DragTorque, HealthResidual
 from conftest import SavedFigures
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.executors import SingleThreadedExecutor
 
+from ballscrew_twin.ros import console_view, demo_commander
 from ballscrew_twin.ros.console_view import ConsoleView
 
 
@@ -72,3 +75,24 @@ def test_health_summary_and_plot(
     marks = [list(line.get_xdata()) for line in torque_ax.lines if line.get_color() == "r"]
     assert [1.0, 1.0] in marks  # the rejection, at the diagnostic that reported it
     assert "rejected: preload nan" in torque_ax.texts[0].get_text()
+
+
+@pytest.mark.parametrize("main", [console_view.main, demo_commander.main])
+@pytest.mark.parametrize(
+    ("duration", "words"),
+    [
+        ("0", "--duration = 0.0 is outside the allowed range (0, inf] s"),
+        ("-3", "--duration = -3.0 is outside the allowed range (0, inf] s (must not be negative)"),
+        ("nan", "--duration: nan is not a finite number (allowed range (0, inf] s)"),
+    ],
+)
+def test_a_duration_not_above_zero_is_refused_naming_it(
+    main: Callable[[list[str] | None], None],
+    duration: str,
+    words: str,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["program", "--duration", duration])
+    assert exit_.value.code == 2
+    assert words in capsys.readouterr().err

@@ -1,4 +1,5 @@
-"""Input validation and unit conversion of the twin node (pure Python)."""
+"""Input validation and unit conversion of the twin node, and the health node's sample check
+(pure Python)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from ballscrew_twin.ros.inputs import (
     InputLimits,
     check_axial_load,
     check_preload,
+    check_sample,
     check_screw_speed,
     check_stamp,
     check_temperature,
@@ -144,3 +146,31 @@ def test_the_node_accepts_its_own_lower_temperature_limit_in_celsius() -> None:
     limits = InputLimits()
     assert check_temperature(celsius_to_kelvin(-40.0), limits) is None
     assert check_temperature(-40.0 + 273.15, limits) is not None  # the old conversion failed
+
+
+@pytest.mark.parametrize(
+    ("channel", "stamp", "value", "reason"),
+    [
+        ("torque", 1.5, math.nan, "torque sample at 1.5 s: value: nan is not a finite number "
+         "(allowed range [-inf, inf] N m)"),
+        ("speed", 2.0, -math.inf, "speed sample at 2.0 s: value: -inf is not a finite number "
+         "(allowed range [-inf, inf] rad/s)"),
+        ("temperature", math.inf, 300.0, "temperature sample at inf s: stamp: inf is not a "
+         "finite number (allowed range [-inf, inf] s)"),
+        ("preload", math.nan, 1500.0, "preload sample at nan s: stamp: nan is not a finite"),
+    ],
+)  # fmt: skip
+def test_a_non_finite_health_sample_is_refused_naming_its_channel_unit_and_value(
+    channel: str, stamp: float, value: float, reason: str
+) -> None:
+    refusal = check_sample(channel, stamp, value)
+    assert refusal is not None and refusal.startswith(reason), refusal
+
+
+@given(
+    st.sampled_from(["torque", "speed", "temperature", "preload"]),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.floats(allow_nan=False, allow_infinity=False),
+)
+def test_every_finite_health_sample_is_kept(channel: str, stamp: float, value: float) -> None:
+    assert check_sample(channel, stamp, value) is None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import io
 import os
 import signal
@@ -15,7 +16,14 @@ from pathlib import Path
 import pytest
 
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.ros.launcher import Launcher, LaunchFile, LaunchNode, expand, load_launch_file
+from ballscrew_twin.ros.launcher import (
+    Launcher,
+    LaunchFile,
+    LaunchNode,
+    expand,
+    load_launch_file,
+    run,
+)
 
 #: A process that prints "ready", then waits; on SIGINT it prints "bye" and exits 0 (or the
 #: code given as its argument, or never, with "stubborn"). With a second argument, a file: a
@@ -167,6 +175,36 @@ def test_bad_launch_files_name_the_problem(tmp_path: Path, body: str, message: s
     with pytest.raises(ConfigError, match=message) as err:
         load_launch_file(file, env={})
     assert str(file) in str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("timeout", "message"),
+    [
+        ("-1", "stop_timeout = -1 is outside the allowed range (0, 600] s (must not be negative)"),
+        ("0", "stop_timeout = 0 is outside the allowed range (0, 600] s"),
+        ("900", "stop_timeout = 900 is outside the allowed range (0, 600] s"),
+        (".nan", "stop_timeout: nan is not a finite number (allowed range (0, 600] s)"),
+        ("'5'", "stop_timeout: expected a number in s within (0, 600], got '5'"),
+        ("true", "stop_timeout: expected a number in s within (0, 600], got True"),
+    ],
+)
+def test_a_stop_timeout_out_of_range_is_refused_naming_it(
+    tmp_path: Path, timeout: str, message: str
+) -> None:
+    """The launch file's and the command line's stop timeout go through the package's one
+    number check: the refusal names the entry or option, the value, the unit and the range."""
+    file = tmp_path / "launch.yaml"
+    file.write_text(f"stop_timeout: {timeout}\nnodes: [{{name: a, module: m}}]\n")
+    with pytest.raises(ConfigError) as err:
+        load_launch_file(file, env={})
+    assert str(err.value).startswith(f"{file}: {message}"), str(err.value)
+    file.write_text("nodes: [{name: a, module: m}]\n")
+    assert load_launch_file(file, env={}).stop_timeout == 5.0  # the default
+    with pytest.raises(ConfigError) as err:
+        run(argparse.Namespace(file=str(file), stop_timeout=-2.0))
+    assert str(err.value) == (
+        "--stop-timeout = -2.0 is outside the allowed range (0, 600] s (must not be negative)"
+    )
 
 
 def test_expand() -> None:

@@ -81,6 +81,7 @@ def test_python_package_manifest() -> None:
     assert {d.name for d in pkg.test_depends} >= {
         "python3-pytest",
         "python3-pytest-xdist",
+        "python3-pytest-cov",
         "python3-hypothesis",
     }
     assert pkg.get_build_type() == "ament_python"

@@ -86,10 +86,19 @@ def test_first_call_without_start_begins_there() -> None:
     assert s.time_of(0) == 123
 
 
-@pytest.mark.parametrize(("period", "catch_up"), [(0, 1), (-5, 1), (PERIOD, 0)])
-def test_bad_arguments(period: int, catch_up: int) -> None:
-    with pytest.raises(ConfigError):
+@pytest.mark.parametrize(
+    ("period", "catch_up", "message"),
+    [
+        (0, 1, "period_ns = 0 is outside the allowed range (0, inf] ns"),
+        (-5, 1, "period_ns = -5 is outside the allowed range (0, inf] ns (must not be negative)"),
+        (1.5, 1, "period_ns: expected a whole number, got 1.5"),
+        (PERIOD, 0, "max_catch_up = 0 is outside the allowed range [1, inf] -"),
+    ],
+)
+def test_bad_arguments(period: int, catch_up: int, message: str) -> None:
+    with pytest.raises(ConfigError) as err:
         TickScheduler(period, catch_up)
+    assert str(err.value).startswith(message), str(err.value)
 
 
 @given(
