@@ -246,27 +246,34 @@ def _floor_process(rate: float, measure: float, priority: int, conn: Connection)
     period_ns = round(1e9 / rate)
     latencies: list[int] = []
     done = threading.Event()
-    grid = {"origin": time.time_ns(), "k": 0}
+    origin = time.time_ns()
+    grid = {"k": 0}
+    # The measured grid points: those due in [WARMUP, WARMUP + measure) s after the origin,
+    # each counted once however late the thread wakes around the window's edges (a wake-up
+    # 180 ms late at a loaded edge once counted 36 points outside a 2 s window).
+    first = math.ceil(WARMUP * 1e9 / period_ns)
+    last = math.ceil((WARMUP + measure) * 1e9 / period_ns) - 1
     # Process CPU time and wall time when the measurement began [s] (empty: not yet).
     mark: list[float] = []
-    end = time.monotonic() + WARMUP + measure
 
     def run_due() -> float | None:
         now = time.time_ns()
-        due_index = (now - grid["origin"]) // period_ns
-        if grid["k"] and time.monotonic() > end - measure:
+        due_index = (now - origin) // period_ns
+        if due_index >= first:
             if not mark:
                 mark.extend((time.process_time(), time.monotonic()))
                 conn.send(MEASURING)  # the parent measures the machine from here
-            # Every grid point passed since the last wake-up, as the node would run it late.
+            # Every grid point of the window passed since the last wake-up, as the node would
+            # run it late.
             latencies.extend(
-                now - (grid["origin"] + k * period_ns) for k in range(grid["k"], due_index + 1)
+                now - (origin + k * period_ns)
+                for k in range(max(grid["k"], first), min(due_index, last) + 1)
             )
-        if time.monotonic() > end:
+        if due_index >= last:
             done.set()
             return None
         grid["k"] = due_index + 1
-        return (grid["origin"] + grid["k"] * period_ns - time.time_ns()) / 1e9
+        return (origin + grid["k"] * period_ns - time.time_ns()) / 1e9
 
     thread = TickThread(run_due, lambda err: None, priority=priority)
     thread.start()

@@ -49,7 +49,8 @@ def test_short_run_accounts_for_every_tick_and_message(
     out = capfd.readouterr().out
     floor = re.search(r"sleep loop +(\d+) ticks, 0 skipped; on time \(<= 1 ms\) ([\d.]+)%", out)
     assert floor is not None, out
-    assert 2 * 200 * 0.9 <= int(floor.group(1)) <= 2 * 200 * 1.1  # every grid point of 2 s
+    # every grid point of the 2 s window once, however late the thread woke at its edges
+    assert int(floor.group(1)) == 2 * 200
     assert out.count("round 2/2") == 2
     # Every variant reports the steal share of its measured time.
     assert len(re.findall(r"([\d.]+) % of all cores' time stolen", out)) == 2
