@@ -145,6 +145,10 @@ class Run:
             residual surface was not taught) over the blocks of that window the monitor
             compared [-] (nan for healthy runs and when it compared none): an effect where
             compared well below about 2.5 times it cannot move the CUSUM.
+        window_sigma: RMS of the monitor's whole 1-sigma over those blocks, relative to their
+            predicted torque [-]: the steady error, the sensor noise and the transient terms
+            (inertia, lag, near standstill: :meth:`.HealthMonitor.block_sigma`), read as
+            residual / normalised residual (nan as ``window_error``).
     """
 
     unit: int
@@ -166,6 +170,7 @@ class Run:
     window_gated: float = math.nan
     effect_compared: float = math.nan
     window_error: float = math.nan
+    window_sigma: float = math.nan
 
     @property
     def delay(self) -> float:
@@ -259,6 +264,21 @@ def _window_error(monitor: HealthMonitor, start: float, onset: float) -> float:
     return math.sqrt(float(np.mean(np.square(errors)))) if errors else math.nan
 
 
+def _window_sigma(monitor: HealthMonitor, start: float, onset: float) -> float:
+    """RMS of the monitor's 1-sigma relative to the predicted torque over the blocks compared
+    in the DELAY_GOAL s after ``onset`` [s since ``start``] [-] (nan when none was)."""
+    sigmas = [
+        abs(s.residual / s.normalized_residual / s.predicted)
+        for s in monitor.samples
+        if onset <= s.time - start < onset + DELAY_GOAL
+        and s.verdict != UNKNOWN
+        and s.normalized_residual != 0.0
+        and s.predicted != 0.0
+        and math.isfinite(s.residual / s.normalized_residual / s.predicted)
+    ]
+    return math.sqrt(float(np.mean(np.square(sigmas)))) if sigmas else math.nan
+
+
 def score(
     data: BenchData,
     monitor: HealthMonitor,
@@ -309,6 +329,7 @@ def score(
         window_gated=_window_gated(monitor, start, onset) if faults else math.nan,
         effect_compared=effect_compared,
         window_error=_window_error(monitor, start, onset) if faults else math.nan,
+        window_sigma=_window_sigma(monitor, start, onset) if faults else math.nan,
     )
 
 
@@ -567,24 +588,26 @@ def _late_table(faulty: list[Run]) -> list[str]:
     lines = [
         f"Fault runs not detected within {DELAY_GOAL:g} s ({len(late)} of {len(faulty)}); "
         f"effect over the {DELAY_GOAL:g} s after the onset, and over the samples of it the "
-        "monitor compared, and the twin's 1-sigma error there after commissioning (RMS over "
+        "monitor compared; the twin's steady 1-sigma error there after commissioning (RMS over "
         "the compared blocks; it rises towards the unseen error where the commissioning did "
-        "not teach the residual surface):",
+        "not teach the residual surface), and the monitor's whole 1-sigma there (with the "
+        "sensor noise and the transient and near-standstill terms):",
     ]
     if not late:
         return lines
     lines += [
         "",
         "| unit | fault class | severity | growth | delay [s] | effect [%] "
-        "| effect where compared [%] | twin error there [%] | window gated |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| effect where compared [%] | twin error there [%] | sigma there [%] | window gated |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for r in sorted(late, key=lambda r: (r.true_class, r.severity, r.unit)):
         delay = "never" if math.isnan(r.alarm) else f"{r.delay:.2f}"
         lines.append(
             f"| {r.unit} | {r.true_class} | {r.severity:g} | {r.growth} | {delay} | "
             f"{100.0 * r.effect:.2f} | {100.0 * r.effect_compared:.2f} | "
-            f"{100.0 * r.window_error:.2f} | {r.window_gated:.0%} |"
+            f"{100.0 * r.window_error:.2f} | {100.0 * r.window_sigma:.2f} | "
+            f"{r.window_gated:.0%} |"
         )
     return lines
 

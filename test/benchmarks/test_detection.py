@@ -61,6 +61,7 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     assert "Fault runs not detected within 5 s" in first
     assert all("effect_compared" in r for r in faulty)
     assert all(r["window_error"] is None or r["window_error"] > 0.0 for r in faulty)
+    assert all(r["window_sigma"] is None or r["window_sigma"] > 0.0 for r in faulty)
 
 
 def _arguments(*argv: str) -> argparse.Namespace:
@@ -185,12 +186,17 @@ def test_the_compared_samples_are_those_of_blocks_with_a_verdict() -> None:
 def test_the_runs_not_detected_in_time_are_listed_with_both_effects() -> None:
     runs = [
         replace(
-            _run("preload_loss", 0.02, math.nan), effect_compared=0.001, window_error=0.03, unit=7
+            _run("preload_loss", 0.02, math.nan),
+            effect_compared=0.001,
+            window_error=0.03,
+            window_sigma=0.05,
+            unit=7,
         ),
         replace(
             _run("jam_onset", 0.05, 6.5, window_gated=0.4),
             effect_compared=0.03,
             window_error=0.007,
+            window_sigma=0.0125,
             unit=8,
         ),
         _run("jam_onset", 0.05, 1.0),
@@ -199,8 +205,8 @@ def test_the_runs_not_detected_in_time_are_listed_with_both_effects() -> None:
     assert table[0].startswith("Fault runs not detected within 5 s (2 of 3)")
     rows = [line for line in table if line.startswith("| ") and line[2].isdigit()]
     assert rows == [
-        "| 8 | jam_onset | 0.1 | step | 6.50 | 5.00 | 3.00 | 0.70 | 40% |",
-        "| 7 | preload_loss | 0.1 | step | never | 2.00 | 0.10 | 3.00 | 0% |",
+        "| 8 | jam_onset | 0.1 | step | 6.50 | 5.00 | 3.00 | 0.70 | 1.25 | 40% |",
+        "| 7 | preload_loss | 0.1 | step | never | 2.00 | 0.10 | 3.00 | 5.00 | 0% |",
     ]
 
 
@@ -221,6 +227,34 @@ def test_the_twin_error_of_a_window_is_the_rms_over_its_compared_blocks() -> Non
     error = detection._window_error(monitor, start, 10.0)  # type: ignore[arg-type]
     assert error == pytest.approx(math.sqrt((0.02**2 + 0.01**2) / 2.0), rel=1e-12)
     assert math.isnan(detection._window_error(monitor, start, 100.0))  # type: ignore[arg-type]
+
+
+def test_the_sigma_of_a_window_is_residual_over_normalised_residual_on_the_prediction() -> None:
+    """Blocks after an onset at 10 s: a residual of 2 and 1 mN m at 4 and 2 sigma on a
+    predicted 0.1 N m (sigmas 0.5 %), one of -3 mN m at -1 sigma on 0.1 N m (3 %), one gated
+    and one with a zero normalised residual (left out); the RMS of 0.5, 0.5 and 3 %."""
+    start = detection.START_NS * 1e-9
+
+    def block(at: float, residual: float, normalised: float, verdict: int) -> SimpleNamespace:
+        return SimpleNamespace(
+            time=start + at,
+            verdict=verdict,
+            residual=residual,
+            normalized_residual=normalised,
+            predicted=0.1,
+        )
+
+    samples = [
+        block(10.5, 2e-3, 4.0, OK),
+        block(11.0, 1e-3, 2.0, OK),
+        block(11.5, -3e-3, -1.0, FAULT),
+        block(12.0, 5e-3, 0.5, UNKNOWN),
+        block(12.5, 0.0, 0.0, OK),
+    ]
+    monitor = SimpleNamespace(samples=samples)
+    sigma = detection._window_sigma(monitor, start, 10.0)  # type: ignore[arg-type]
+    assert sigma == pytest.approx(math.sqrt((0.005**2 * 2 + 0.03**2) / 3.0), rel=1e-12)
+    assert math.isnan(detection._window_sigma(monitor, start, 100.0))  # type: ignore[arg-type]
 
 
 def _run(true_class: str, effect: float, delay: float, window_gated: float = 0.0) -> Run:
