@@ -188,28 +188,20 @@ def test_calibrates_from_a_bench_bag_with_plot_and_targets(
     )
 
 
-def test_a_steady_window_not_above_zero_is_refused_naming_it(
-    capsys: pytest.CaptureFixture[str],
+@pytest.mark.parametrize(
+    ("extra", "expected"),
+    [
+        # a steady window not above zero, named with its range and unit
+        (["--steady-window", "0"], "--steady-window = 0.0 is outside the allowed range (0, inf] s"),
+        # a bag without steady running at that window
+        (["--steady-window", "100"], "no steady segment"),
+        # a bag without a needed topic, named
+        (["--preload-topic", "/bench/no_load_cell"], "/bench/no_load_cell"),
+    ],
+)
+def test_calibrate_refuses_bad_input_in_one_line_naming_it(
+    extra: list[str], expected: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    args = ["--data", str(SAMPLES / "healthy"), "--steady-window", "0"]
-    assert main(["calibrate", *args]) == 2
+    assert main(["calibrate", "--data", str(SAMPLES / "healthy"), *extra]) == 2
     err = capsys.readouterr().err.strip()
-    assert "--steady-window = 0.0 is outside the allowed range (0, inf] s" in err
-
-
-def test_a_bag_without_steady_running_is_refused(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    args = ["--data", str(SAMPLES / "healthy"), "--steady-window", "100"]
-    assert main(["calibrate", *args]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "no steady segment" in err and len(err.splitlines()) == 1
-
-
-def test_a_bag_without_a_needed_topic_is_refused_naming_it(
-    capsys: pytest.CaptureFixture[str],
-) -> None:
-    args = ["--data", str(SAMPLES / "healthy"), "--preload-topic", "/bench/no_load_cell"]
-    assert main(["calibrate", *args]) == 2
-    err = capsys.readouterr().err.strip()
-    assert "/bench/no_load_cell" in err and len(err.splitlines()) == 1
+    assert expected in err and len(err.splitlines()) == 1
