@@ -19,7 +19,9 @@ from ballscrew_twin.errors import ConfigError, FidelityError, SweepError
 from ballscrew_twin.fidelity import load_bounds
 from ballscrew_twin.health.bench_scene import bench_scene_from_mapping
 from ballscrew_twin.health.monitor_settings import MonitorSettings
+from ballscrew_twin.health.residuals import ResidualSettings
 from ballscrew_twin.health.sensors import TorqueMeter, sensors_from_mapping
+from ballscrew_twin.health.tracker import TrackerSettings
 from ballscrew_twin.models.faults import SphereJam, faults_from_mapping
 from ballscrew_twin.models.scenario import Scenario, scenario_from_mapping
 from ballscrew_twin.params import (
@@ -253,6 +255,52 @@ def test_a_health_setting_out_of_range_is_refused_naming_it_its_unit_and_range(
     with pytest.raises(ConfigError) as err:
         MonitorSettings(**setting)  # type: ignore[arg-type]
     assert str(err.value).startswith(f"health settings: {message}"), str(err.value)
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (
+            lambda: ResidualSettings(block_duration=0.0),
+            "health settings: block_duration = 0.0 is outside the allowed range (0, inf] s",
+        ),
+        (
+            lambda: ResidualSettings(gate_angle=-1.0),
+            "health settings: gate_angle = -1.0 is outside the allowed range [0, inf] rad",
+        ),
+        (
+            lambda: ResidualSettings(sensor_noise=0.0),
+            "health settings: sensor_noise = 0.0 is outside the allowed range (0, inf] N m",
+        ),
+        (
+            lambda: ResidualSettings(temperature_step=math.nan),
+            "health settings: temperature_step: nan is not a finite number",
+        ),
+        (
+            lambda: TrackerSettings(scale_drift=-1.0),
+            "tracker settings: scale_drift = -1.0 is outside the allowed range (0, inf] 1/sqrt(s)",
+        ),
+        (
+            lambda: TrackerSettings(preload_prior=math.inf),
+            "tracker settings: preload_prior: inf is not a finite number",
+        ),
+    ],
+)
+def test_residual_and_tracker_settings_are_refused_naming_the_setting_unit_and_range(
+    make: Any, message: str
+) -> None:
+    with pytest.raises(ConfigError) as err:
+        make()
+    assert str(err.value).startswith(message), str(err.value)
+
+
+def test_residual_settings_at_their_ends_are_accepted() -> None:
+    """Zero where a setting may be zero (no wait, no gate, no model error floor); None for a
+    sensor noise to be learnt."""
+    settings = ResidualSettings(
+        max_wait=0.0, gate_speed=0.0, gate_angle=0.0, model_error_absolute=0.0, sensor_noise=None
+    )
+    assert (settings.max_wait, settings.gate_angle, settings.sensor_noise) == (0.0, 0.0, None)
 
 
 def test_health_settings_at_their_ends_are_accepted() -> None:

@@ -33,13 +33,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import (
-    ConfigError,
     OperatingPointError,
     SampleError,
     StampOrderError,
 )
 from ..models.base import OperatingPoint, SteadyStateModel
-from ..params import TwinConfig
+from ..params import TwinConfig, limits, validate_fields
 
 FloatArray = NDArray[np.float64]
 
@@ -104,14 +103,6 @@ FAULT_CHANGES: dict[str, tuple[Any, tuple[float, ...]]] = {
 }
 
 
-def _positive(value: float, name: str, unit: str, *, allow_zero: bool = False) -> None:
-    """Raise ConfigError unless ``value`` is finite and > 0 (>= 0 with ``allow_zero``)."""
-    ok = math.isfinite(value) and (value >= 0.0 if allow_zero else value > 0.0)
-    if not ok:
-        bound = ">= 0" if allow_zero else "> 0"
-        raise ConfigError(f"health settings: {name} = {value!r} {unit} must be finite and {bound}")
-
-
 @dataclass(frozen=True, kw_only=True)
 class ResidualSettings:
     """How torque samples are grouped, aligned and normalised.
@@ -140,36 +131,27 @@ class ResidualSettings:
             slowly, their sensor noise would otherwise go into the prediction.
     """
 
-    block_duration: float = 0.1
-    max_wait: float = 0.25
-    sensor_noise: float | None = None
-    model_error_relative: float = 0.03
-    model_error_absolute: float = 1.0e-4
-    model_noise_relative: float = 0.002
-    speed_step: float = 0.01
-    temperature_step: float = 0.5
-    preload_step: float = 10.0
-    min_speed: float = 0.5
-    gate_speed: float = 2.0
-    gate_angle: float = 2.0
-    slow_smoothing: float = 1.0
+    block_duration: float = field(default=0.1, metadata=limits("s", 0.0, math.inf, lo_open=True))
+    max_wait: float = field(default=0.25, metadata=limits("s", 0.0, math.inf))
+    sensor_noise: float | None = field(
+        default=None, metadata=limits("N m", 0.0, math.inf, lo_open=True)
+    )
+    model_error_relative: float = field(default=0.03, metadata=limits("-", 0.0, math.inf))
+    model_error_absolute: float = field(default=1.0e-4, metadata=limits("N m", 0.0, math.inf))
+    model_noise_relative: float = field(default=0.002, metadata=limits("-", 0.0, math.inf))
+    speed_step: float = field(default=0.01, metadata=limits("-", 0.0, math.inf, lo_open=True))
+    temperature_step: float = field(default=0.5, metadata=limits("K", 0.0, math.inf, lo_open=True))
+    preload_step: float = field(default=10.0, metadata=limits("N", 0.0, math.inf, lo_open=True))
+    min_speed: float = field(default=0.5, metadata=limits("rad/s", 0.0, math.inf))
+    gate_speed: float = field(default=2.0, metadata=limits("rad/s", 0.0, math.inf))
+    gate_angle: float = field(default=2.0, metadata=limits("rad", 0.0, math.inf))
+    slow_smoothing: float = field(default=1.0, metadata=limits("s", 0.0, math.inf))
 
     def __post_init__(self) -> None:
-        """Reject non-finite, negative or zero values where they make no sense."""
-        _positive(self.block_duration, "block_duration", "s")
-        _positive(self.max_wait, "max_wait", "s", allow_zero=True)
-        if self.sensor_noise is not None:
-            _positive(self.sensor_noise, "sensor_noise", "N m")
-        _positive(self.model_error_relative, "model_error_relative", "-", allow_zero=True)
-        _positive(self.model_error_absolute, "model_error_absolute", "N m", allow_zero=True)
-        _positive(self.model_noise_relative, "model_noise_relative", "-", allow_zero=True)
-        _positive(self.speed_step, "speed_step", "-")
-        _positive(self.temperature_step, "temperature_step", "K")
-        _positive(self.preload_step, "preload_step", "N")
-        _positive(self.min_speed, "min_speed", "rad/s", allow_zero=True)
-        _positive(self.gate_speed, "gate_speed", "rad/s", allow_zero=True)
-        _positive(self.gate_angle, "gate_angle", "rad", allow_zero=True)
-        _positive(self.slow_smoothing, "slow_smoothing", "s", allow_zero=True)
+        """Reject non-finite, negative or zero values where they make no sense, through the
+        package's one number check (:func:`~ballscrew_twin.params.validate_fields`: the
+        message names the setting, its value, its unit and its range)."""
+        validate_fields(self, "health settings", ": ")
 
     def model_error(self, predicted: float) -> float:
         """1-sigma model error at a predicted torque [N m]."""

@@ -32,16 +32,22 @@ change in different proportions); at one constant operating point only their sum
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ..errors import ConfigError
+from ..params import limits, validate_fields
 from .residuals import FloatArray
 
 STATE_NAMES: tuple[str, ...] = ("bias", "friction_scale", "preload_change")
 STATE_UNITS: tuple[str, ...] = ("N m", "-", "N")
+
+
+def _positive(unit: str) -> dict[str, object]:
+    """The :func:`~ballscrew_twin.params.limits` of a finite setting > 0 in ``unit``."""
+    return limits(unit, 0.0, math.inf, lo_open=True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -57,26 +63,17 @@ class TrackerSettings:
         preload_drift: random-walk density of the preload change [N / sqrt(s)].
     """
 
-    bias_prior: float = 2.0e-3
-    scale_prior: float = 0.05
-    preload_prior: float = 20.0
-    bias_drift: float = 2.0e-6
-    scale_drift: float = 2.0e-4
-    preload_drift: float = 0.05
+    bias_prior: float = field(default=2.0e-3, metadata=_positive("N m"))
+    scale_prior: float = field(default=0.05, metadata=_positive("-"))
+    preload_prior: float = field(default=20.0, metadata=_positive("N"))
+    bias_drift: float = field(default=2.0e-6, metadata=_positive("N m/sqrt(s)"))
+    scale_drift: float = field(default=2.0e-4, metadata=_positive("1/sqrt(s)"))
+    preload_drift: float = field(default=0.05, metadata=_positive("N/sqrt(s)"))
 
     def __post_init__(self) -> None:
-        """All values finite and > 0."""
-        for name in (
-            "bias_prior",
-            "scale_prior",
-            "preload_prior",
-            "bias_drift",
-            "scale_drift",
-            "preload_drift",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ConfigError(f"tracker settings: {name} = {value!r} must be finite and > 0")
+        """All values finite and > 0, through the package's one number check
+        (:func:`~ballscrew_twin.params.validate_fields`)."""
+        validate_fields(self, "tracker settings", ": ")
 
 
 @dataclass(frozen=True)
