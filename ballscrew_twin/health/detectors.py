@@ -43,6 +43,7 @@ from scipy.optimize import brentq
 from scipy.stats import chi2, f
 
 from ..errors import ConfigError
+from ..params import check_number, limits
 from .residuals import FloatArray
 
 #: Siegmund's correction of the CUSUM threshold for the overshoot of a normal increment [-].
@@ -53,12 +54,18 @@ SECONDS_PER_HOUR = 3600.0
 LOUD_VARIANCE = 4.0
 
 
+#: The ranges of the detectors' arguments (:func:`~ballscrew_twin.params.check_number`).
+_POSITIVE_RATE = limits("1/h", 0.0, math.inf, lo_open=True)
+_POSITIVE_FREQUENCY = limits("Hz", 0.0, math.inf, lo_open=True)
+_POSITIVE = limits("-", 0.0, math.inf, lo_open=True)
+_POSITIVE_SIGMA = limits("sigma", 0.0, math.inf, lo_open=True)
+_COUNT = limits("samples", 1, math.inf, integer=True)
+
+
 def check_rate(false_alarm_rate: float, sample_rate: float) -> None:
     """Raise ConfigError unless 0 < false_alarm_rate [1/h] and 0 < sample_rate [Hz]."""
-    if not (math.isfinite(false_alarm_rate) and false_alarm_rate > 0.0):
-        raise ConfigError(f"false_alarm_rate = {false_alarm_rate!r} 1/h must be finite and > 0")
-    if not (math.isfinite(sample_rate) and sample_rate > 0.0):
-        raise ConfigError(f"detector sample rate = {sample_rate!r} Hz must be finite and > 0")
+    check_number(false_alarm_rate, _POSITIVE_RATE, "false_alarm_rate", text=False)
+    check_number(sample_rate, _POSITIVE_FREQUENCY, "detector sample rate", text=False)
 
 
 def arl0_from_rate(false_alarm_rate: float, sample_rate: float) -> float:
@@ -78,8 +85,7 @@ def siegmund_arl0(k: float, h: float) -> float:
 def cusum_threshold(k: float, arl0: float) -> float:
     """Threshold h [-] of a one-sided CUSUM with reference ``k`` [-] and in-control ARL
     ``arl0`` [samples] (inverse of :func:`siegmund_arl0`)."""
-    if not (math.isfinite(k) and k > 0.0):
-        raise ConfigError(f"CUSUM reference k = {k!r} must be finite and > 0")
+    check_number(k, _POSITIVE, "CUSUM reference k", text=False)
     if not (math.isfinite(arl0) and arl0 > 1.0):
         raise ConfigError(f"CUSUM ARL0 = {arl0!r} samples must be > 1")
     high = 1.0
@@ -124,8 +130,7 @@ class Cusum:
     """
 
     def __init__(self, shift: float, false_alarm_rate: float, sample_rate: float) -> None:
-        if not (math.isfinite(shift) and shift > 0.0):
-            raise ConfigError(f"CUSUM shift = {shift!r} sigma must be finite and > 0")
+        check_number(shift, _POSITIVE_SIGMA, "CUSUM shift", text=False)
         self.k = 0.5 * shift
         self.threshold = cusum_threshold(
             self.k, 2.0 * arl0_from_rate(false_alarm_rate, sample_rate)
@@ -168,8 +173,7 @@ class WindowChiSquare:
     """
 
     def __init__(self, window: int, false_alarm_rate: float, sample_rate: float) -> None:
-        if window < 1:
-            raise ConfigError(f"chi-square window = {window!r} samples must be >= 1")
+        check_number(window, _COUNT, "chi-square window", text=False)
         self.window = window
         p = 1.0 / arl0_from_rate(false_alarm_rate, sample_rate)
         self.threshold = float(chi2.isf(p, window))
@@ -223,8 +227,7 @@ def local_noise_variance(x: FloatArray, width: int) -> FloatArray:
     """Local variance of ``x`` at each sample [unit of x squared]: the mean of x^2 over the
     ``width`` samples centred on it (fewer at the ends). ``x`` should have its mean and slow
     trend removed."""
-    if width < 1:
-        raise ConfigError(f"local noise variance: width = {width} samples must be >= 1")
+    check_number(width, _COUNT, "local noise variance: width", text=False)
     return window_means(np.asarray(x, dtype=np.float64) ** 2, width // 2, width)
 
 

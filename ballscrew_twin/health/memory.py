@@ -48,6 +48,7 @@ import statistics
 from dataclasses import dataclass, field
 
 from ..errors import ConfigError
+from ..params import check_number, limits
 
 #: Bin widths: log10 speed [decades], natural-log preload [-].
 SPEED_BIN = 0.1
@@ -155,8 +156,7 @@ class ResidualMemory:
     a reference (inf: its first MIN_COUNT blocks as they come)."""
 
     def __init__(self, floor: float = FLOOR, agreement: float = UPDATE_GATE) -> None:
-        if not (math.isfinite(floor) and floor >= 0.0):
-            raise ConfigError(f"residual memory floor = {floor!r} must be finite and >= 0")
+        check_number(floor, limits("-", 0.0, math.inf), "residual memory floor", text=False)
         if not agreement > 0.0:
             raise ConfigError(f"residual memory agreement = {agreement!r} sigma must be > 0")
         self.floor = floor

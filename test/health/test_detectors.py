@@ -149,7 +149,7 @@ def test_local_noise_variance_follows_a_loud_stretch() -> None:
     variance = local_noise_variance(x, 50)
     assert np.median(variance[:1900]) == pytest.approx(1.0, rel=0.1)
     assert np.median(variance[2050:2350]) == pytest.approx(100.0, rel=0.15)
-    with pytest.raises(ConfigError, match="width"):
+    with pytest.raises(ConfigError, match=r"width = 0 is outside the allowed range \[1, inf\]"):
         local_noise_variance(x, 0)
 
 
@@ -210,17 +210,35 @@ def test_weighted_order_test_finds_a_ripple_a_slow_stretch_hid() -> None:
 
 
 @pytest.mark.parametrize(
-    ("factory", "match"),
+    ("factory", "message"),
     [
-        (lambda: Cusum(shift=0.0, false_alarm_rate=1.0, sample_rate=1.0), "shift"),
-        (lambda: Cusum(shift=1.0, false_alarm_rate=-1.0, sample_rate=1.0), "false_alarm_rate"),
-        (lambda: Cusum(shift=1.0, false_alarm_rate=1.0, sample_rate=math.nan), "sample rate"),
-        (lambda: WindowChiSquare(window=0, false_alarm_rate=1.0, sample_rate=1.0), "window"),
+        (
+            lambda: Cusum(shift=0.0, false_alarm_rate=1.0, sample_rate=1.0),
+            "CUSUM shift = 0.0 is outside the allowed range (0, inf] sigma",
+        ),
+        (
+            lambda: Cusum(shift=1.0, false_alarm_rate=-1.0, sample_rate=1.0),
+            "false_alarm_rate = -1.0 is outside the allowed range (0, inf] 1/h",
+        ),
+        (
+            lambda: Cusum(shift=1.0, false_alarm_rate=1.0, sample_rate=math.nan),
+            "detector sample rate: nan is not a finite number",
+        ),
+        (
+            lambda: WindowChiSquare(window=0, false_alarm_rate=1.0, sample_rate=1.0),
+            "chi-square window = 0 is outside the allowed range [1, inf] samples",
+        ),
+        (
+            lambda: WindowChiSquare(window=2.5, false_alarm_rate=1.0, sample_rate=1.0),  # type: ignore[arg-type]
+            "chi-square window: expected a whole number, got 2.5",
+        ),
     ],
 )
-def test_bad_detector_settings_are_named(factory: object, match: str) -> None:
-    with pytest.raises(ConfigError, match=match):
+def test_bad_detector_settings_are_named(factory: object, message: str) -> None:
+    """Through the package's one number check: the argument, its value, unit and range."""
+    with pytest.raises(ConfigError) as err:
         factory()  # type: ignore[operator]
+    assert str(err.value).startswith(message), str(err.value)
 
 
 def test_one_outlying_block_cannot_raise_the_cusum_but_two_can() -> None:

@@ -218,3 +218,15 @@ def test_a_small_change_is_seen_at_a_revisited_operating_point() -> None:
     assert monitor.alarm is not None and monitor.alarm.detector == "local"
     assert 60.0 <= monitor.alarm.time < 62.0
     assert 59.0 <= monitor.alarm.onset <= monitor.alarm.time
+
+
+def test_the_floor_must_be_finite_and_not_negative() -> None:
+    """Through the one number check: named with its value and range; zero is allowed."""
+    assert ResidualMemory(floor=0.0).floor == 0.0
+    with pytest.raises(ConfigError) as err:
+        ResidualMemory(floor=-0.01)
+    assert str(err.value).startswith(
+        "residual memory floor = -0.01 is outside the allowed range [0, inf] -"
+    )
+    with pytest.raises(ConfigError, match="residual memory floor: inf is not a finite number"):
+        ResidualMemory(floor=math.inf)
