@@ -32,7 +32,7 @@ benchmark. Saved as YAML (SI units, every field documented in the file).
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,7 +42,7 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig, config_fingerprint, read_yaml
+from ..params import TwinConfig, config_fingerprint, limits, read_yaml, validate_fields
 from .correction import ResidualSurface
 
 FloatArray = NDArray[np.float64]
@@ -57,6 +57,11 @@ ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
 #: to a temperature outside it counts as its 1-sigma error there (:meth:`Baseline.
 #: extrapolation_error`); the production spread of the shift (commissioning prior).
 SHIFT_EXTRAPOLATION = 5.0
+#: The ranges of the baseline's ratios (:func:`~ballscrew_twin.params.limits`): a gain or a
+#: scale > 0, an error >= 0 [-].
+_POSITIVE_RATIO = limits("-", 0.0, math.inf, lo_open=True)
+_NOT_NEGATIVE_RATIO = limits("-", 0.0, math.inf)
+
 #: Fields that hold one number per speed band (lists in the file).
 TUPLE_FIELDS = ("error_bands", "band_temperature_min", "band_temperature_max")
 
@@ -101,48 +106,40 @@ class Baseline:
     config: str
     fingerprint: str
     source: str = "nominal"
-    torque_gain: float = 1.0
-    torque_bias: float = 0.0
-    preload_scale: float = 1.0
-    temperature_shift: float = 0.0
-    inertia: float
-    shape_slope: float = 0.0
-    shape_curvature: float = 0.0
-    sensor_noise: float | None = None
-    error_relative: float = 0.03
+    torque_gain: float = field(default=1.0, metadata=_POSITIVE_RATIO)
+    torque_bias: float = field(default=0.0, metadata=limits("N m", -math.inf, math.inf))
+    preload_scale: float = field(default=1.0, metadata=_POSITIVE_RATIO)
+    temperature_shift: float = field(default=0.0, metadata=limits("K", -math.inf, math.inf))
+    inertia: float = field(metadata=limits("kg m^2", 0.0, math.inf, lo_open=True))
+    shape_slope: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
+    shape_curvature: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
+    sensor_noise: float | None = field(
+        default=None, metadata=limits("N m", 0.0, math.inf, lo_open=True)
+    )
+    error_relative: float = field(default=0.03, metadata=_NOT_NEGATIVE_RATIO)
     error_bands: tuple[float, ...] = ()
-    error_absolute: float = 1.0e-4
-    inertia_error: float = 0.15
-    temperature_error: float = 0.0
-    unseen_error: float = 0.03
-    temperature_min: float = 0.0
-    temperature_max: float = 1.0e4
+    error_absolute: float = field(default=1.0e-4, metadata=limits("N m", 0.0, math.inf))
+    inertia_error: float = field(default=0.15, metadata=_NOT_NEGATIVE_RATIO)
+    temperature_error: float = field(default=0.0, metadata=limits("1/K", 0.0, math.inf))
+    unseen_error: float = field(default=0.03, metadata=_NOT_NEGATIVE_RATIO)
+    temperature_min: float = field(default=0.0, metadata=limits("K", 0.0, math.inf))
+    temperature_max: float = field(default=1.0e4, metadata=limits("K", 0.0, math.inf))
     band_temperature_min: tuple[float, ...] = ()
     band_temperature_max: tuple[float, ...] = ()
     fit_rms: float = math.nan
     blocks: int = 0
     surface: ResidualSurface | None = None
-    settling_angle: float | None = None
+    settling_angle: float | None = field(
+        default=None, metadata=limits("rad", 0.0, math.inf, lo_open=True)
+    )
 
     def __post_init__(self) -> None:
-        positive = ("torque_gain", "preload_scale", "inertia")
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if isinstance(value, float) and f.name != "fit_rms" and not math.isfinite(value):
-                raise ConfigError(f"baseline: {f.name} = {value!r} is not finite")
-            if f.name in positive and not value > 0.0:
-                raise ConfigError(f"baseline: {f.name} = {value!r} must be > 0")
+        """Every number through the package's one number check
+        (:func:`~ballscrew_twin.params.validate_fields`: the message names the field, its
+        value, its unit and its range), then the per-band lists and the temperature order."""
+        validate_fields(self, "baseline", ": ")
         if any(not (math.isfinite(e) and e >= 0.0) for e in self.error_bands):
             raise ConfigError(f"baseline: error_bands = {self.error_bands!r} must be >= 0")
-        for name in ("error_relative", "error_absolute", "inertia_error", "temperature_error"):
-            if getattr(self, name) < 0.0:
-                raise ConfigError(f"baseline: {name} = {getattr(self, name)!r} must be >= 0")
-        if self.settling_angle is not None and not (
-            math.isfinite(self.settling_angle) and self.settling_angle > 0.0
-        ):
-            raise ConfigError(f"baseline: settling_angle = {self.settling_angle!r} rad must be > 0")
-        if self.sensor_noise is not None and not self.sensor_noise > 0.0:
-            raise ConfigError(f"baseline: sensor_noise = {self.sensor_noise!r} N m must be > 0")
         if self.temperature_min > self.temperature_max:
             raise ConfigError("baseline: temperature_min is above temperature_max")
         low, high = self.band_temperature_min, self.band_temperature_max

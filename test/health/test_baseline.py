@@ -176,3 +176,22 @@ def test_the_shift_extrapolation_error_follows_its_definition() -> None:
     assert banded.nearest_commissioned(293.0, 5.0) == 293.0
     assert b.extrapolation_error(-0.004) == pytest.approx(1.5 / SHIFT_EXTRAPOLATION * 0.004)
     assert replace(b, temperature_shift=0.0).extrapolation_error(0.004) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"inertia": 0.0}, "baseline: inertia = 0.0 is outside the allowed range (0, inf] kg m^2"),
+        ({"unseen_error": -0.01}, "baseline: unseen_error = -0.01 is outside the allowed range"),
+        ({"sensor_noise": math.nan}, "baseline: sensor_noise: nan is not a finite number"),
+        ({"torque_bias": math.inf}, "baseline: torque_bias: inf is not a finite number"),
+        ({"settling_angle": -1.0}, "baseline: settling_angle = -1.0 is outside the allowed range"),
+    ],
+)
+def test_a_baseline_number_out_of_range_is_refused_naming_it(
+    change: dict[str, float], message: str
+) -> None:
+    """Through the package's one number check: the field, its value, unit and range."""
+    with pytest.raises(ConfigError) as err:
+        replace(_fitted(), **change)  # type: ignore[arg-type]
+    assert str(err.value).startswith(message), str(err.value)
