@@ -42,7 +42,7 @@ from .params import (
     check_number,
     config_fingerprint,
     default_config_path,
-    limits,
+    not_negative,
     read_yaml,
 )
 from .scene import QUANTITIES, Scene
@@ -155,7 +155,7 @@ def _number(value: Any, where: str, name: str, unit: str | None = None) -> float
         return math.inf
     given = unit or next((u for end, u in _KEY_UNITS if name.endswith(end)), "-")
     try:
-        return float(check_number(value, limits(given, 0.0, math.inf), where))
+        return float(check_number(value, not_negative(given), where))
     except ConfigError as err:
         raise FidelityError(str(err)) from None
 

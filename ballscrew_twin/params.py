@@ -74,6 +74,16 @@ def limits(
     }
 
 
+def positive(unit: str) -> dict[str, Any]:
+    """The :func:`limits` of a finite number > 0 in ``unit``."""
+    return limits(unit, 0.0, math.inf, lo_open=True)
+
+
+def not_negative(unit: str) -> dict[str, Any]:
+    """The :func:`limits` of a finite number >= 0 in ``unit``."""
+    return limits(unit, 0.0, math.inf)
+
+
 def quantity(
     unit: str,
     lo: float,

@@ -72,7 +72,7 @@ from ..health.monitor import HealthMonitor, feed
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
-from ..health.verdicts import UNKNOWN
+from ..health.verdicts import UNKNOWN, HealthSample
 from ..params import TwinConfig, load_config
 
 #: One-line help of this benchmark.
@@ -250,33 +250,43 @@ def _window_gated(monitor: HealthMonitor, start: float, onset: float) -> float:
     return min(gated / DELAY_GOAL, 1.0)
 
 
+def _compared_in_window(monitor: HealthMonitor, start: float, onset: float) -> list[HealthSample]:
+    """The monitor's samples of the blocks it compared (a verdict other than UNKNOWN) in the
+    DELAY_GOAL s after ``onset`` [s since ``start``]."""
+    return [
+        s
+        for s in monitor.samples
+        if onset <= s.time - start < onset + DELAY_GOAL and s.verdict != UNKNOWN
+    ]
+
+
+def _rms(values: list[float]) -> float:
+    """Root mean square of ``values`` (nan when there are none)."""
+    return math.sqrt(float(np.mean(np.square(values)))) if values else math.nan
+
+
 def _window_error(monitor: HealthMonitor, start: float, onset: float) -> float:
     """RMS of the baseline's 1-sigma relative twin error over the blocks compared in the
     DELAY_GOAL s after ``onset`` [s since ``start``] [-] (nan when none was compared)."""
     baseline = monitor.baseline
-    errors = [
-        baseline.error_at(s.operating_point.screw_speed, s.operating_point.temperature)
-        for s in monitor.samples
-        if onset <= s.time - start < onset + DELAY_GOAL
-        and s.verdict != UNKNOWN
-        and s.operating_point is not None
-    ]
-    return math.sqrt(float(np.mean(np.square(errors)))) if errors else math.nan
+    return _rms(
+        [
+            baseline.error_at(s.operating_point.screw_speed, s.operating_point.temperature)
+            for s in _compared_in_window(monitor, start, onset)
+            if s.operating_point is not None
+        ]
+    )
 
 
 def _window_sigma(monitor: HealthMonitor, start: float, onset: float) -> float:
     """RMS of the monitor's 1-sigma relative to the predicted torque over the blocks compared
     in the DELAY_GOAL s after ``onset`` [s since ``start``] [-] (nan when none was)."""
-    sigmas = [
+    relative = [
         abs(s.residual / s.normalized_residual / s.predicted)
-        for s in monitor.samples
-        if onset <= s.time - start < onset + DELAY_GOAL
-        and s.verdict != UNKNOWN
-        and s.normalized_residual != 0.0
-        and s.predicted != 0.0
-        and math.isfinite(s.residual / s.normalized_residual / s.predicted)
+        for s in _compared_in_window(monitor, start, onset)
+        if s.normalized_residual != 0.0 and s.predicted != 0.0
     ]
-    return math.sqrt(float(np.mean(np.square(sigmas)))) if sigmas else math.nan
+    return _rms([r for r in relative if math.isfinite(r)])
 
 
 def score(

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 
 from ..calibration import (
@@ -23,7 +22,7 @@ from ..calibration import (
     write_config,
     write_targets,
 )
-from ..params import check_number, limits, load_config
+from ..params import check_number, load_config, positive
 from ..units import CELSIUS_ZERO, RPM
 from .detect import add_topic_arguments, bench_topics
 
@@ -66,8 +65,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit, print the misfit; optionally write the YAML, the targets and the plot."""
-    window = limits("s", 0.0, math.inf, lo_open=True)
-    check_number(args.steady_window, window, "--steady-window", text=False)
+    check_number(args.steady_window, positive("s"), "--steady-window", text=False)
     config = load_config(args.config)
 
     def log(line: str) -> None:  # with --json, stdout carries the JSON only

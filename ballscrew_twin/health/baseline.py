@@ -42,7 +42,15 @@ from numpy.typing import NDArray
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig, config_fingerprint, limits, read_yaml, validate_fields
+from ..params import (
+    TwinConfig,
+    config_fingerprint,
+    limits,
+    not_negative,
+    positive,
+    read_yaml,
+    validate_fields,
+)
 from .correction import ResidualSurface
 
 FloatArray = NDArray[np.float64]
@@ -57,11 +65,6 @@ ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
 #: to a temperature outside it counts as its 1-sigma error there (:meth:`Baseline.
 #: extrapolation_error`); the production spread of the shift (commissioning prior).
 SHIFT_EXTRAPOLATION = 5.0
-#: The ranges of the baseline's ratios (:func:`~ballscrew_twin.params.limits`): a gain or a
-#: scale > 0, an error >= 0 [-].
-_POSITIVE_RATIO = limits("-", 0.0, math.inf, lo_open=True)
-_NOT_NEGATIVE_RATIO = limits("-", 0.0, math.inf)
-
 #: Fields that hold one number per speed band (lists in the file).
 TUPLE_FIELDS = ("error_bands", "band_temperature_min", "band_temperature_max")
 
@@ -106,32 +109,28 @@ class Baseline:
     config: str
     fingerprint: str
     source: str = "nominal"
-    torque_gain: float = field(default=1.0, metadata=_POSITIVE_RATIO)
+    torque_gain: float = field(default=1.0, metadata=positive("-"))
     torque_bias: float = field(default=0.0, metadata=limits("N m", -math.inf, math.inf))
-    preload_scale: float = field(default=1.0, metadata=_POSITIVE_RATIO)
+    preload_scale: float = field(default=1.0, metadata=positive("-"))
     temperature_shift: float = field(default=0.0, metadata=limits("K", -math.inf, math.inf))
-    inertia: float = field(metadata=limits("kg m^2", 0.0, math.inf, lo_open=True))
+    inertia: float = field(metadata=positive("kg m^2"))
     shape_slope: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
     shape_curvature: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
-    sensor_noise: float | None = field(
-        default=None, metadata=limits("N m", 0.0, math.inf, lo_open=True)
-    )
-    error_relative: float = field(default=0.03, metadata=_NOT_NEGATIVE_RATIO)
+    sensor_noise: float | None = field(default=None, metadata=positive("N m"))
+    error_relative: float = field(default=0.03, metadata=not_negative("-"))
     error_bands: tuple[float, ...] = ()
-    error_absolute: float = field(default=1.0e-4, metadata=limits("N m", 0.0, math.inf))
-    inertia_error: float = field(default=0.15, metadata=_NOT_NEGATIVE_RATIO)
-    temperature_error: float = field(default=0.0, metadata=limits("1/K", 0.0, math.inf))
-    unseen_error: float = field(default=0.03, metadata=_NOT_NEGATIVE_RATIO)
-    temperature_min: float = field(default=0.0, metadata=limits("K", 0.0, math.inf))
-    temperature_max: float = field(default=1.0e4, metadata=limits("K", 0.0, math.inf))
+    error_absolute: float = field(default=1.0e-4, metadata=not_negative("N m"))
+    inertia_error: float = field(default=0.15, metadata=not_negative("-"))
+    temperature_error: float = field(default=0.0, metadata=not_negative("1/K"))
+    unseen_error: float = field(default=0.03, metadata=not_negative("-"))
+    temperature_min: float = field(default=0.0, metadata=not_negative("K"))
+    temperature_max: float = field(default=1.0e4, metadata=not_negative("K"))
     band_temperature_min: tuple[float, ...] = ()
     band_temperature_max: tuple[float, ...] = ()
     fit_rms: float = math.nan
     blocks: int = 0
     surface: ResidualSurface | None = None
-    settling_angle: float | None = field(
-        default=None, metadata=limits("rad", 0.0, math.inf, lo_open=True)
-    )
+    settling_angle: float | None = field(default=None, metadata=positive("rad"))
 
     def __post_init__(self) -> None:
         """Every number through the package's one number check

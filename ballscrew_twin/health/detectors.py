@@ -43,7 +43,7 @@ from scipy.optimize import brentq
 from scipy.stats import chi2, f
 
 from ..errors import ConfigError
-from ..params import check_number, limits
+from ..params import check_number, limits, positive
 from .residuals import FloatArray
 
 #: Siegmund's correction of the CUSUM threshold for the overshoot of a normal increment [-].
@@ -54,18 +54,14 @@ SECONDS_PER_HOUR = 3600.0
 LOUD_VARIANCE = 4.0
 
 
-#: The ranges of the detectors' arguments (:func:`~ballscrew_twin.params.check_number`).
-_POSITIVE_RATE = limits("1/h", 0.0, math.inf, lo_open=True)
-_POSITIVE_FREQUENCY = limits("Hz", 0.0, math.inf, lo_open=True)
-_POSITIVE = limits("-", 0.0, math.inf, lo_open=True)
-_POSITIVE_SIGMA = limits("sigma", 0.0, math.inf, lo_open=True)
+#: The range of the detectors' counts (:func:`~ballscrew_twin.params.check_number`).
 _COUNT = limits("samples", 1, math.inf, integer=True)
 
 
 def check_rate(false_alarm_rate: float, sample_rate: float) -> None:
     """Raise ConfigError unless 0 < false_alarm_rate [1/h] and 0 < sample_rate [Hz]."""
-    check_number(false_alarm_rate, _POSITIVE_RATE, "false_alarm_rate", text=False)
-    check_number(sample_rate, _POSITIVE_FREQUENCY, "detector sample rate", text=False)
+    check_number(false_alarm_rate, positive("1/h"), "false_alarm_rate", text=False)
+    check_number(sample_rate, positive("Hz"), "detector sample rate", text=False)
 
 
 def arl0_from_rate(false_alarm_rate: float, sample_rate: float) -> float:
@@ -85,7 +81,7 @@ def siegmund_arl0(k: float, h: float) -> float:
 def cusum_threshold(k: float, arl0: float) -> float:
     """Threshold h [-] of a one-sided CUSUM with reference ``k`` [-] and in-control ARL
     ``arl0`` [samples] (inverse of :func:`siegmund_arl0`)."""
-    check_number(k, _POSITIVE, "CUSUM reference k", text=False)
+    check_number(k, positive("-"), "CUSUM reference k", text=False)
     if not (math.isfinite(arl0) and arl0 > 1.0):
         raise ConfigError(f"CUSUM ARL0 = {arl0!r} samples must be > 1")
     high = 1.0
@@ -130,7 +126,7 @@ class Cusum:
     """
 
     def __init__(self, shift: float, false_alarm_rate: float, sample_rate: float) -> None:
-        check_number(shift, _POSITIVE_SIGMA, "CUSUM shift", text=False)
+        check_number(shift, positive("sigma"), "CUSUM shift", text=False)
         self.k = 0.5 * shift
         self.threshold = cusum_threshold(
             self.k, 2.0 * arl0_from_rate(false_alarm_rate, sample_rate)

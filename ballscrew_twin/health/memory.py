@@ -48,7 +48,7 @@ import statistics
 from dataclasses import dataclass, field
 
 from ..errors import ConfigError
-from ..params import check_number, limits
+from ..params import check_number, not_negative
 
 #: Bin widths: log10 speed [decades], natural-log preload [-].
 SPEED_BIN = 0.1
@@ -156,7 +156,7 @@ class ResidualMemory:
     a reference (inf: its first MIN_COUNT blocks as they come)."""
 
     def __init__(self, floor: float = FLOOR, agreement: float = UPDATE_GATE) -> None:
-        check_number(floor, limits("-", 0.0, math.inf), "residual memory floor", text=False)
+        check_number(floor, not_negative("-"), "residual memory floor", text=False)
         if not agreement > 0.0:
             raise ConfigError(f"residual memory agreement = {agreement!r} sigma must be > 0")
         self.floor = floor

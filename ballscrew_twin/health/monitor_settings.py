@@ -8,18 +8,13 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from ..errors import ConfigError
-from ..params import limits, validate_fields
+from ..params import limits, positive, validate_fields
 from .detectors import check_rate
 from .residuals import ResidualSettings
 from .tracker import TrackerSettings
 
 #: Detectors sharing the false-alarm budget (each gets rate / DETECTOR_COUNT).
 DETECTORS: tuple[str, ...] = ("cusum", "local", "chi_square", "spectral")
-
-#: The range of a time setting that must be finite and > 0 [s].
-_POSITIVE_S = limits("s", 0.0, math.inf, lo_open=True)
-#: The range of a dimensionless setting that must be finite and > 0 [-].
-_POSITIVE = limits("-", 0.0, math.inf, lo_open=True)
 
 
 def check_detectors(names: Iterable[str]) -> tuple[str, ...]:
@@ -77,23 +72,23 @@ class MonitorSettings:
     residual: ResidualSettings = field(default_factory=ResidualSettings)
     tracker: TrackerSettings = field(default_factory=TrackerSettings)
     false_alarm_rate: float = 0.01
-    warmup: float = field(default=5.0, metadata=_POSITIVE_S)
-    cusum_shift: float = field(default=5.0, metadata=_POSITIVE)
+    warmup: float = field(default=5.0, metadata=positive("s"))
+    cusum_shift: float = field(default=5.0, metadata=positive("-"))
     chi_square_window: int = field(default=20, metadata=limits("-", 2, math.inf, integer=True))
-    spectral_window: float = field(default=4.0, metadata=_POSITIVE_S)
-    spectral_period: float = field(default=1.0, metadata=_POSITIVE_S)
-    min_revolutions: float = field(default=1.0, metadata=_POSITIVE)
-    spectral_noise_time: float = field(default=0.05, metadata=_POSITIVE_S)
-    classification_window: float = field(default=8.0, metadata=_POSITIVE_S)
-    classification_patience: float = field(default=30.0, metadata=_POSITIVE_S)
+    spectral_window: float = field(default=4.0, metadata=positive("s"))
+    spectral_period: float = field(default=1.0, metadata=positive("s"))
+    min_revolutions: float = field(default=1.0, metadata=positive("-"))
+    spectral_noise_time: float = field(default=0.05, metadata=positive("s"))
+    classification_window: float = field(default=8.0, metadata=positive("s"))
+    classification_patience: float = field(default=30.0, metadata=positive("s"))
     confident_class: float = field(default=0.9, metadata=limits("-", 0.0, 1.0, lo_open=True))
     warn_fraction: float = field(
         default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True, hi_open=True)
     )
-    error_correlation_time: float = field(default=1.0, metadata=_POSITIVE_S)
-    drift_error_time: float = field(default=10.0, metadata=_POSITIVE_S)
+    error_correlation_time: float = field(default=1.0, metadata=positive("s"))
+    drift_error_time: float = field(default=10.0, metadata=positive("s"))
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
-    inertia_gate: float = field(default=1.0, metadata=_POSITIVE)
+    inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
 
     def __post_init__(self) -> None:

@@ -38,7 +38,7 @@ from ..errors import (
     StampOrderError,
 )
 from ..models.base import OperatingPoint, SteadyStateModel
-from ..params import TwinConfig, limits, validate_fields
+from ..params import TwinConfig, not_negative, positive, validate_fields
 
 FloatArray = NDArray[np.float64]
 
@@ -131,21 +131,19 @@ class ResidualSettings:
             slowly, their sensor noise would otherwise go into the prediction.
     """
 
-    block_duration: float = field(default=0.1, metadata=limits("s", 0.0, math.inf, lo_open=True))
-    max_wait: float = field(default=0.25, metadata=limits("s", 0.0, math.inf))
-    sensor_noise: float | None = field(
-        default=None, metadata=limits("N m", 0.0, math.inf, lo_open=True)
-    )
-    model_error_relative: float = field(default=0.03, metadata=limits("-", 0.0, math.inf))
-    model_error_absolute: float = field(default=1.0e-4, metadata=limits("N m", 0.0, math.inf))
-    model_noise_relative: float = field(default=0.002, metadata=limits("-", 0.0, math.inf))
-    speed_step: float = field(default=0.01, metadata=limits("-", 0.0, math.inf, lo_open=True))
-    temperature_step: float = field(default=0.5, metadata=limits("K", 0.0, math.inf, lo_open=True))
-    preload_step: float = field(default=10.0, metadata=limits("N", 0.0, math.inf, lo_open=True))
-    min_speed: float = field(default=0.5, metadata=limits("rad/s", 0.0, math.inf))
-    gate_speed: float = field(default=2.0, metadata=limits("rad/s", 0.0, math.inf))
-    gate_angle: float = field(default=2.0, metadata=limits("rad", 0.0, math.inf))
-    slow_smoothing: float = field(default=1.0, metadata=limits("s", 0.0, math.inf))
+    block_duration: float = field(default=0.1, metadata=positive("s"))
+    max_wait: float = field(default=0.25, metadata=not_negative("s"))
+    sensor_noise: float | None = field(default=None, metadata=positive("N m"))
+    model_error_relative: float = field(default=0.03, metadata=not_negative("-"))
+    model_error_absolute: float = field(default=1.0e-4, metadata=not_negative("N m"))
+    model_noise_relative: float = field(default=0.002, metadata=not_negative("-"))
+    speed_step: float = field(default=0.01, metadata=positive("-"))
+    temperature_step: float = field(default=0.5, metadata=positive("K"))
+    preload_step: float = field(default=10.0, metadata=positive("N"))
+    min_speed: float = field(default=0.5, metadata=not_negative("rad/s"))
+    gate_speed: float = field(default=2.0, metadata=not_negative("rad/s"))
+    gate_angle: float = field(default=2.0, metadata=not_negative("rad"))
+    slow_smoothing: float = field(default=1.0, metadata=not_negative("s"))
 
     def __post_init__(self) -> None:
         """Reject non-finite, negative or zero values where they make no sense, through the

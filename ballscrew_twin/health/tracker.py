@@ -38,16 +38,11 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ..errors import ConfigError
-from ..params import limits, validate_fields
+from ..params import positive, validate_fields
 from .residuals import FloatArray
 
 STATE_NAMES: tuple[str, ...] = ("bias", "friction_scale", "preload_change")
 STATE_UNITS: tuple[str, ...] = ("N m", "-", "N")
-
-
-def _positive(unit: str) -> dict[str, object]:
-    """The :func:`~ballscrew_twin.params.limits` of a finite setting > 0 in ``unit``."""
-    return limits(unit, 0.0, math.inf, lo_open=True)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -63,12 +58,12 @@ class TrackerSettings:
         preload_drift: random-walk density of the preload change [N / sqrt(s)].
     """
 
-    bias_prior: float = field(default=2.0e-3, metadata=_positive("N m"))
-    scale_prior: float = field(default=0.05, metadata=_positive("-"))
-    preload_prior: float = field(default=20.0, metadata=_positive("N"))
-    bias_drift: float = field(default=2.0e-6, metadata=_positive("N m/sqrt(s)"))
-    scale_drift: float = field(default=2.0e-4, metadata=_positive("1/sqrt(s)"))
-    preload_drift: float = field(default=0.05, metadata=_positive("N/sqrt(s)"))
+    bias_prior: float = field(default=2.0e-3, metadata=positive("N m"))
+    scale_prior: float = field(default=0.05, metadata=positive("-"))
+    preload_prior: float = field(default=20.0, metadata=positive("N"))
+    bias_drift: float = field(default=2.0e-6, metadata=positive("N m/sqrt(s)"))
+    scale_drift: float = field(default=2.0e-4, metadata=positive("1/sqrt(s)"))
+    preload_drift: float = field(default=0.05, metadata=positive("N/sqrt(s)"))
 
     def __post_init__(self) -> None:
         """All values finite and > 0, through the package's one number check

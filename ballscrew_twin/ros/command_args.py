@@ -8,10 +8,9 @@ Each such command accepts ``--ros-args ...`` (last; passed to ROS unchanged: ``-
 from __future__ import annotations
 
 import argparse
-import math
 
 from ..errors import ConfigError
-from ..params import check_number, limits
+from ..params import check_number, positive
 
 
 def add_ros_arguments(parser: argparse.ArgumentParser, params_example: str | None = None) -> None:
@@ -45,6 +44,6 @@ def check_duration(parser: argparse.ArgumentParser, duration: float) -> None:
     (exit status 2), with the package's one number check's words: the option, the value, the
     unit and the range."""
     try:
-        check_number(duration, limits("s", 0.0, math.inf, lo_open=True), "--duration", text=False)
+        check_number(duration, positive("s"), "--duration", text=False)
     except ConfigError as err:
         parser.error(str(err))

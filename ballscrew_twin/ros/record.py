@@ -27,7 +27,6 @@ way. Every argument after ``--ros-args`` goes to ROS unchanged.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -36,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import ConfigError, RecordError, ReplayError, ResultsError
-from ..params import check_number, limits
+from ..params import check_number, positive
 from .command_args import add_ros_arguments, ros_argv
 from .executors import spin_once
 from .replay import message_class
@@ -222,7 +221,7 @@ def run(args: argparse.Namespace) -> int:
 
     if args.duration is not None:
         try:
-            check_number(args.duration, limits("s", 0.0, math.inf, lo_open=True), "--duration")
+            check_number(args.duration, positive("s"), "--duration")
         except ConfigError as err:
             raise RecordError(str(err)) from None
     requests = [parse_topic(t) for t in args.topics]

@@ -51,7 +51,7 @@ from typing import Any
 from ..bags.reader import RawBag, open_raw_bag
 from ..bags.records import RawMessage
 from ..errors import ConfigError, ReplayError
-from ..params import check_number, limits
+from ..params import check_number, limits, positive
 from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
 
@@ -146,7 +146,7 @@ class BagPlayer:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         _check(rate, limits("-", 0.0, math.inf, hint="0: no pacing"), "rate")
-        _check(clock_rate, limits("Hz", 0.0, math.inf, lo_open=True), "clock_rate")
+        _check(clock_rate, positive("Hz"), "clock_rate")
         _check(depth, limits("-", 1, math.inf, integer=True), "depth")
         wanted = list(bag.topics) if topics is None else list(topics)
         missing = sorted(set(wanted) - set(bag.topics))
