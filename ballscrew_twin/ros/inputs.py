@@ -112,19 +112,23 @@ def check_axial_load(value: float, limits: InputLimits) -> str | None:
 
 #: Unit of the values of each of the health node's sample channels (converted to SI).
 SAMPLE_UNITS = {"torque": "N m", "speed": "rad/s", "temperature": "K", "preload": "N"}
+#: What a sample's stamp and each channel's value are checked against: any finite number.
+_STAMP_LIMITS = limits("s", -math.inf, math.inf)
+_SAMPLE_LIMITS = {
+    channel: limits(unit, -math.inf, math.inf) for channel, unit in SAMPLE_UNITS.items()
+}
 
 
 def check_sample(channel: str, stamp: float, value: float) -> str | None:
     """Return why a health-node sample of ``channel`` (a key of :data:`SAMPLE_UNITS`) at
     ``stamp`` [s] with ``value`` [its unit] is dropped, or None when both are finite numbers
-    (the package's one number check: the reason names the channel, the unit and the value)."""
-    what = f"{channel} sample at {stamp!r} s"
+    (the package's one number check: the reason names the channel, the unit and the value).
+    Called for every sample: the limits are built once, the reason only for a refusal."""
     try:
-        check_number(stamp, limits("s", -math.inf, math.inf), f"{what}: stamp", text=False)
-        unit = SAMPLE_UNITS[channel]
-        check_number(value, limits(unit, -math.inf, math.inf), f"{what}: value", text=False)
+        check_number(stamp, _STAMP_LIMITS, "stamp", text=False)
+        check_number(value, _SAMPLE_LIMITS[channel], "value", text=False)
     except ConfigError as err:
-        return str(err)
+        return f"{channel} sample at {stamp!r} s: {err}"
     return None
 
 
