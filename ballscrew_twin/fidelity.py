@@ -154,10 +154,7 @@ def _number(value: Any, where: str, name: str, unit: str | None = None) -> float
     if value == math.inf:
         return math.inf
     given = unit or next((u for end, u in _KEY_UNITS if name.endswith(end)), "-")
-    try:
-        return float(check_number(value, not_negative(given), where))
-    except ConfigError as err:
-        raise FidelityError(str(err)) from None
+    return float(check_number(value, not_negative(given), where, error=FidelityError))
 
 
 def _floats(data: Any, where: str, unit: str | None = None) -> dict[str, float]:

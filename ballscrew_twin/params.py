@@ -22,7 +22,7 @@ from typing import Any, Literal, TypeVar, get_args
 
 import yaml
 
-from .errors import ConfigError
+from .errors import BallscrewTwinError, ConfigError
 from .units import CELSIUS_ZERO, RPM
 
 _T = TypeVar("_T")
@@ -101,9 +101,17 @@ def quantity(
     return field(default=default, metadata=meta)
 
 
-def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = True) -> float | int:
+def check_number(
+    raw: Any,
+    meta: Mapping[str, Any],
+    path: str,
+    *,
+    text: bool = True,
+    error: type[BallscrewTwinError] = ConfigError,
+) -> float | int:
     """``raw`` as a number within the :func:`limits` ``meta`` (an int when they want whole
-    numbers), else a ConfigError naming ``path``, the unit and the allowed range.
+    numbers), else an ``error`` (a ConfigError unless the caller's own kind is given) naming
+    ``path``, the unit and the allowed range.
 
     With ``text``, strings that read as numbers are accepted: PyYAML (YAML 1.1) parses
     ``210.0e9`` without an exponent sign as a string, and users write exponents that way.
@@ -116,26 +124,22 @@ def check_number(raw: Any, meta: Mapping[str, Any], path: str, *, text: bool = T
         or not isinstance(raw, int | float | str)
         or (isinstance(raw, str) and not text)
     ):
-        raise ConfigError(
-            f"{path}: expected a number in {unit} within {span}, got {_SHOWN.repr(raw)}"
-        )
+        raise error(f"{path}: expected a number in {unit} within {span}, got {_SHOWN.repr(raw)}")
     try:
         value = float(raw)
     except ValueError:
-        raise ConfigError(
+        raise error(
             f"{path}: expected a number in {unit} within {span}, got {_SHOWN.repr(raw)}"
         ) from None
     if not math.isfinite(value):
-        raise ConfigError(
+        raise error(
             f"{path}: {_SHOWN.repr(raw)} is not a finite number (allowed range {span} {unit})"
         )
     integer = meta.get("integer", False)
     if integer and value != int(value):
-        raise ConfigError(
-            f"{path}: expected a whole number, got {raw!r} (allowed range {span} {unit})"
-        )
+        raise error(f"{path}: expected a whole number, got {raw!r} (allowed range {span} {unit})")
     if (value <= lo if lo_open else value < lo) or (value >= hi if hi_open else value > hi):
-        raise ConfigError(
+        raise error(
             f"{path} = {raw!r} is outside the allowed range {span} {unit}" + range_hint(value, meta)
         )
     return int(value) if integer else value

@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..errors import BallscrewTwinError, ConfigError, SolverError
+from ..errors import BallscrewTwinError, SolverError
 from ..fidelity import bounds_fingerprint
 from ..models import registry
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
@@ -102,14 +102,13 @@ def _floats(text: str, what: str, unit: str) -> list[float]:
     """The sorted distinct numbers [unit] of the comma-separated list ``text`` of ``--what``,
     each by the package's one number check (finite; the refusal names the option, the value
     and the unit)."""
-    try:
-        values = {
-            float(check_number(v, limits(unit, -math.inf, math.inf), f"--{what} {text!r}"))
-            for v in text.split(",")
-            if v.strip()
-        }
-    except ConfigError as err:
-        raise BallscrewTwinError(str(err)) from None
+    meta = limits(unit, -math.inf, math.inf)
+    where = f"--{what} {text!r}"
+    values = {
+        float(check_number(v, meta, where, error=BallscrewTwinError))
+        for v in text.split(",")
+        if v.strip()
+    }
     if not values:
         raise BallscrewTwinError(f"--{what}: {text!r} holds no number")
     return sorted(values)

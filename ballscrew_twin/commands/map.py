@@ -16,7 +16,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..errors import ConfigError, MapError
+from ..errors import MapError
 from ..models import map_build, map_grid, map_store
 from ..params import check_number, limits, load_config
 from .progress import progress_bar
@@ -60,10 +60,8 @@ def run(args: argparse.Namespace) -> int:
             return 1
         print(f"table for {config.source}: {search.path}")
         return 0
-    try:  # the package's one number check, its refusal a MapError
-        check_number(args.workers, limits("-", 1, math.inf, integer=True), "--workers", text=False)
-    except ConfigError as err:
-        raise MapError(str(err)) from None
+    workers = limits("-", 1, math.inf, integer=True)
+    check_number(args.workers, workers, "--workers", text=False, error=MapError)
     grid = map_grid.grid_for(config, preview=args.preview)
     out = Path(args.out) if args.out else map_store.cached_map_path(config, grid)
     if out.is_file() and not args.force and not args.out:

@@ -144,10 +144,7 @@ COUNT_LIMITS = limits("-", 1, math.inf, integer=True)
 def _check_count(value: int, option: str) -> None:
     """Refuse a count ``value`` of the command-line ``option`` below 1 (the package's one
     number check, :func:`~ballscrew_twin.params.check_number`) with a SweepError naming it."""
-    try:
-        check_number(value, COUNT_LIMITS, option, text=False)
-    except ConfigError as err:
-        raise SweepError(str(err)) from None
+    check_number(value, COUNT_LIMITS, option, text=False, error=SweepError)
 
 
 def _number(
@@ -156,10 +153,8 @@ def _number(
     """``text`` as a finite number in ``unit`` from ``lo`` on (a whole one with ``whole``): the
     package's one number check (:func:`~ballscrew_twin.params.check_number`); its refusal as a
     SweepError naming ``where``."""
-    try:
-        return float(check_number(text, limits(unit, lo, math.inf, integer=whole), where))
-    except ConfigError as err:
-        raise SweepError(str(err)) from None
+    meta = limits(unit, lo, math.inf, integer=whole)
+    return float(check_number(text, meta, where, error=SweepError))
 
 
 def parse_dimension(

@@ -78,16 +78,6 @@ TIME_STEP_LIMITS = limits("s", 0.0, 1e-4, lo_open=True)
 JACOBIAN_INTERVAL_LIMITS = limits("-", 1, math.inf, integer=True)
 
 
-def _check_integrator(name: str, value: float, meta: dict[str, object]) -> None:
-    """Refuse ``value`` of the integrator setting ``name`` outside ``meta`` (the package's one
-    number check, :func:`~ballscrew_twin.params.check_number`: the message names the setting,
-    its unit and its range) with an OperatingPointError."""
-    try:
-        check_number(value, meta, name, text=False)
-    except ConfigError as err:
-        raise OperatingPointError(str(err)) from None
-
-
 @dataclass
 class DynamicModel:
     """Multibody model of the double-nut ball screw with all loaded spheres.
@@ -129,8 +119,17 @@ class DynamicModel:
 
     def __post_init__(self) -> None:
         OperatingPoint(screw_speed=0.0, temperature=self.temperature, preload=0.0).validate()
-        _check_integrator("time_step", self.time_step, TIME_STEP_LIMITS)
-        _check_integrator("jacobian_interval", self.jacobian_interval, JACOBIAN_INTERVAL_LIMITS)
+        # the package's one number check: the refusal names the setting, its unit and range
+        check_number(
+            self.time_step, TIME_STEP_LIMITS, "time_step", text=False, error=OperatingPointError
+        )
+        check_number(
+            self.jacobian_interval,
+            JACOBIAN_INTERVAL_LIMITS,
+            "jacobian_interval",
+            text=False,
+            error=OperatingPointError,
+        )
         self._scene = make_scene(self.config, self.temperature, 0.0)
         geom = self._scene.geometry
         self.geometry = geom
@@ -185,7 +184,9 @@ class DynamicModel:
         """Change the step [s] and the treatment of the sphere positions between two steps (a
         scenario's start phase, simulation.py). The kept Jacobian (it holds dt) and the
         predictor's history (equal steps) are dropped."""
-        _check_integrator("time_step", time_step, TIME_STEP_LIMITS)
+        check_number(
+            time_step, TIME_STEP_LIMITS, "time_step", text=False, error=OperatingPointError
+        )
         self.time_step = time_step
         self.implicit_positions = implicit_positions
         self._jacobian = None

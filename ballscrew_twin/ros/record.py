@@ -34,7 +34,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import ConfigError, RecordError, ReplayError, ResultsError
+from ..errors import RecordError, ReplayError, ResultsError
 from ..params import check_number, positive
 from .command_args import add_ros_arguments, ros_argv
 from .executors import spin_once
@@ -220,10 +220,7 @@ def run(args: argparse.Namespace) -> int:
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 
     if args.duration is not None:
-        try:
-            check_number(args.duration, positive("s"), "--duration")
-        except ConfigError as err:
-            raise RecordError(str(err)) from None
+        check_number(args.duration, positive("s"), "--duration", error=RecordError)
     requests = [parse_topic(t) for t in args.topics]
     rclpy.init(args=ros_argv("ballscrew-twin-record", args))
     context = rclpy.get_default_context()

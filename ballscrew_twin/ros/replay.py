@@ -50,7 +50,7 @@ from typing import Any
 
 from ..bags.reader import RawBag, open_raw_bag
 from ..bags.records import RawMessage
-from ..errors import ConfigError, ReplayError
+from ..errors import ReplayError
 from ..params import check_number, limits, positive
 from ..units import ns_to_stamp
 from .command_args import add_ros_arguments, ros_argv
@@ -80,15 +80,6 @@ def message_class(msgtype: str) -> Any:
         return getattr(importlib.import_module(f"{parts[0]}.msg"), parts[2])
     except (ImportError, AttributeError) as err:
         raise ReplayError(f"message type {msgtype} is not installed ({err})") from err
-
-
-def _check(value: float, meta: dict[str, Any], name: str) -> None:
-    """``value`` by the package's one number check (its refusal, naming ``name``, its unit and
-    its range, as a ReplayError)."""
-    try:
-        check_number(value, meta, name, text=False)
-    except ConfigError as err:
-        raise ReplayError(str(err)) from None
 
 
 @dataclass
@@ -145,9 +136,17 @@ class BagPlayer:
     ) -> None:
         from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-        _check(rate, limits("-", 0.0, math.inf, hint="0: no pacing"), "rate")
-        _check(clock_rate, positive("Hz"), "clock_rate")
-        _check(depth, limits("-", 1, math.inf, integer=True), "depth")
+        check_number(
+            rate,
+            limits("-", 0.0, math.inf, hint="0: no pacing"),
+            "rate",
+            text=False,
+            error=ReplayError,
+        )
+        check_number(clock_rate, positive("Hz"), "clock_rate", text=False, error=ReplayError)
+        check_number(
+            depth, limits("-", 1, math.inf, integer=True), "depth", text=False, error=ReplayError
+        )
         wanted = list(bag.topics) if topics is None else list(topics)
         missing = sorted(set(wanted) - set(bag.topics))
         if missing:
@@ -312,7 +311,13 @@ def run(args: argparse.Namespace) -> int:
     import rclpy
     from rclpy.executors import ExternalShutdownException
 
-    _check(args.drain, limits("s", 0.0, math.inf, hint="0: no wait"), "--drain")
+    check_number(
+        args.drain,
+        limits("s", 0.0, math.inf, hint="0: no wait"),
+        "--drain",
+        text=False,
+        error=ReplayError,
+    )
 
     rclpy.init(args=ros_argv("ballscrew-twin-replay", args))
     context = rclpy.get_default_context()
