@@ -268,14 +268,9 @@ def _rms(values: list[float]) -> float:
 def _window_error(monitor: HealthMonitor, start: float, onset: float) -> float:
     """RMS of the baseline's 1-sigma relative twin error over the blocks compared in the
     DELAY_GOAL s after ``onset`` [s since ``start``] [-] (nan when none was compared)."""
-    baseline = monitor.baseline
-    return _rms(
-        [
-            baseline.error_at(s.operating_point.screw_speed, s.operating_point.temperature)
-            for s in _compared_in_window(monitor, start, onset)
-            if s.operating_point is not None
-        ]
-    )
+    points = [s.operating_point for s in _compared_in_window(monitor, start, onset)]
+    error_at = monitor.baseline.error_at
+    return _rms([error_at(p.screw_speed, p.temperature) for p in points if p is not None])
 
 
 def _window_sigma(monitor: HealthMonitor, start: float, onset: float) -> float:
