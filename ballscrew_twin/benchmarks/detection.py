@@ -19,7 +19,9 @@ Per unit: one commissioning recording (``--commission`` s, a cold start warming 
 temperatures the unit will see: commission through a warm-up), one healthy recording
 (``--healthy`` s, a new duty cycle, 1 in 4 a cold start) and ``--faults`` fault recordings
 (``--fault-length`` s, onset uniform in the middle third) of the classes in turn at the
-severities of :data:`SEVERITIES`.
+severities of :data:`SEVERITIES`. ``--service`` s adds a second healthy recording, an ambient
+run of new duty cycles with seeds of its own, commissioned together with the first (every
+other recording stays as it was: the two plans compare on the same runs).
 
 Measured: false alarms per hour on the healthy recordings (95 % upper bound 3 / hours when
 none), the share of time gated; per class x severity: detected within :data:`DELAY_GOAL` s,
@@ -54,7 +56,7 @@ import math
 import multiprocessing
 import sys
 from collections.abc import Iterator
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +76,10 @@ from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
 from ..health.verdicts import UNKNOWN, HealthSample
 from ..params import TwinConfig, load_config
+from .detection_plan import TRAINING_UNITS, Plan
+from .detection_plan import add_arguments as add_arguments
+from .detection_plan import comparison_settings as comparison_settings
+from .detection_plan import requested_plan as requested_plan
 
 #: One-line help of this benchmark.
 DESCRIPTION = "fault detection on drawn units and EMA duty cycles, held-out test units"
@@ -100,9 +106,6 @@ BLIND_SHARE = 0.9
 EFFECT_BANDS = (0.003, 0.01, 0.03)
 #: Confidence from which a named class is counted as a confident call [-].
 CONFIDENT = 0.9
-#: Default unit ranges.
-TEST_UNITS = (2000, 2030)
-TRAINING_UNITS = (0, 30)
 SENSORS = {
     "torque": {"rate": 1000.0, "noise": 2.0e-4, "bias": 0.0, "resolution": 1.0e-5},
     "speed": {"rate": 100.0, "noise": 0.01, "ripple": 0.005, "ripple_order": 1.0},
@@ -338,16 +341,6 @@ def score(
     )
 
 
-@dataclass(frozen=True)
-class Plan:
-    """What one unit goes through (lengths [s])."""
-
-    commission: float
-    healthy: float
-    faults: int
-    fault_length: float
-
-
 def _with_preload(trajectory: Trajectory, preload: float) -> Trajectory:
     return replace(trajectory, preload=np.full_like(trajectory.time, preload))
 
@@ -369,9 +362,11 @@ def _fault(number: int, k: int, length: float, rng: np.random.Generator) -> Faul
 def run_unit(
     number: int, plan: Plan, config: TwinConfig, settings: tuple[MonitorSettings, ...]
 ) -> list[list[Run]]:
-    """Commission unit ``number`` on a recording of its own, then run a monitor of each of
-    ``settings`` over its healthy and fault recordings (the same recordings for each: a side
-    by side comparison); one list of runs per settings."""
+    """Commission unit ``number`` on a recording of its own (and a service recording, see
+    :class:`.detection_plan.Plan`), then run a monitor of each of ``settings`` over its healthy
+    and fault recordings (the same recordings for each: a side by side comparison); one list
+    of runs per settings, and with a service recording one more: the first settings with the
+    unit commissioned on its cold start alone."""
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench detection sensors")
     unit = draw_unit(number)
@@ -384,11 +379,30 @@ def run_unit(
         ),
         set_preload,
     )
-    data = generate_unit_data(
-        config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"
-    )
-    baseline = commission(_channels(data), config, settings[0].residual, twin=twin).baseline
-    runs: list[list[Run]] = [[] for _ in settings]
+    healthy_recordings = [
+        generate_unit_data(
+            config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"
+        )
+    ]
+    if plan.service > 0.0:  # its own seeds: the plan of every other recording stays the same
+        trajectory_seed, noise_seed = np.random.default_rng([number, 0x5E41CE]).integers(
+            0, 2**31, 2
+        )
+        service = _with_preload(
+            draw_trajectory(int(trajectory_seed), plan.service, cold_start=False), set_preload
+        )
+        healthy_recordings.append(
+            generate_unit_data(
+                config, unit, service, sensors=sensors, seed=int(noise_seed), name="service"
+            )
+        )
+    channels = [_channels(data) for data in healthy_recordings]
+    baseline = commission(channels, config, settings[0].residual, twin=twin).baseline
+    monitors = [(each, baseline) for each in settings]
+    if len(channels) > 1:  # beside it, on the same recordings: the cold start alone
+        alone = commission(channels[:1], config, settings[0].residual, twin=twin).baseline
+        monitors.append((settings[0], alone))
+    runs: list[list[Run]] = [[] for _ in monitors]
     healthy = _with_preload(draw_trajectory(int(seeds[2]), plan.healthy), set_preload)
     recordings: list[tuple[Trajectory, tuple[FaultSpec, ...], int]] = [(healthy, (), int(seeds[2]))]
     for k in range(plan.faults):
@@ -409,8 +423,8 @@ def run_unit(
                 config, unit, trajectory, sensors=sensors, seed=seed, name="run"
             )
             effect = fault_effect(data, clean)
-        for k, each in enumerate(settings):
-            monitor = HealthMonitor(config, each, baseline=baseline, twin=twin)
+        for k, (each, used) in enumerate(monitors):
+            monitor = HealthMonitor(config, each, baseline=used, twin=twin)
             feed(monitor, _channels(data))
             visible = math.nan
             if clean is not None:
@@ -461,7 +475,9 @@ def report(runs: list[Run], units: range, plan: Plan, settings: MonitorSettings)
     lines = [
         f"Units {units.start}..{units.stop - 1} ({len(units)} units; tuning used only units "
         f"{TRAINING_UNITS[0]}..{TRAINING_UNITS[1] - 1}); per unit: commissioning "
-        f"{plan.commission:g} s, healthy {plan.healthy:g} s, {plan.faults} fault run(s) of "
+        f"{plan.commission:g} s"
+        + (f" + an ambient service run of {plan.service:g} s" if plan.service else "")
+        + f", healthy {plan.healthy:g} s, {plan.faults} fault run(s) of "
         f"{plan.fault_length:g} s. Target false-alarm rate {settings.false_alarm_rate:g}/h, "
         f"warm-up {settings.warmup:g} s, blocks of {settings.residual.block_duration:g} s.",
         "",
@@ -678,87 +694,6 @@ def _saved(fig: Any, path: Path) -> Path:
     return path
 
 
-def _range(text: str) -> range:
-    try:
-        low, high = (int(v) for v in text.split(":"))
-    except ValueError:
-        raise ConfigError(f"--units {text!r}: expected FIRST:STOP, e.g. 1000:1030") from None
-    if not 0 <= low < high:
-        raise ConfigError(f"--units {text!r}: need 0 <= FIRST < STOP")
-    return range(low, high)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Arguments of ``bench detection``."""
-    parser.add_argument("--out", default=None, help="directory for detection.md, PNGs, JSON")
-    parser.add_argument("--quick", action="store_true", help="smoke test: 2 units, short runs")
-    parser.add_argument(
-        "--units",
-        default=f"{TEST_UNITS[0]}:{TEST_UNITS[1]}",
-        help=f"unit numbers FIRST:STOP (test {TEST_UNITS[0]}:{TEST_UNITS[1]}, training "
-        f"{TRAINING_UNITS[0]}:{TRAINING_UNITS[1]})",
-    )
-    parser.add_argument(
-        "--commission", type=float, default=600.0, help="commissioning warm-up run [s]"
-    )
-    parser.add_argument("--healthy", type=float, default=1200.0, help="healthy run per unit [s]")
-    parser.add_argument("--faults", type=int, default=4, help="fault runs per unit [-]")
-    parser.add_argument("--fault-length", type=float, default=60.0, help="fault run [s]")
-    parser.add_argument("--workers", type=int, default=2, help="processes [-]")
-    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
-    parser.add_argument(
-        "--compare-detectors",
-        default=None,
-        metavar="A,B",
-        help="also run a monitor with only these detectors on the same recordings and report "
-        "it beside the default (e.g. cusum,spectral: the monitor before the local test)",
-    )
-    parser.add_argument(
-        "--compare-setting",
-        action="append",
-        default=[],
-        metavar="NAME=VALUE",
-        help="also run a monitor with this one numeric setting changed, on the same recordings, "
-        "reported beside the default (repeatable: one monitor each; e.g. "
-        "classification_patience=8)",
-    )
-
-
-def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
-    """The units and the plan the arguments ask for (``--quick``: units 0 and 1, commissioning
-    120 s, healthy 60 s, one fault run of 30 s); ConfigError for a plan that cannot run."""
-    if args.quick:
-        return range(2), Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
-    plan = Plan(args.commission, args.healthy, args.faults, args.fault_length)
-    if plan.faults < 0 or min(plan.commission, plan.healthy, plan.fault_length) <= 10.0:
-        raise ConfigError("--faults must be >= 0 and every length > 10 s")
-    return _range(args.units), plan
-
-
-def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSettings], ...]:
-    """The extra monitors ``--compare-detectors`` and ``--compare-setting`` ask for, each
-    with the title of its report; ConfigError naming the numeric settings for a name that is
-    not one, or for a value that is not a number."""
-    extra: list[tuple[str, MonitorSettings]] = []
-    if args.compare_detectors:
-        names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
-        extra.append((f"detectors {', '.join(names)} only", MonitorSettings(detectors=names)))
-    defaults = MonitorSettings()
-    numeric = sorted(f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float)
-    for item in args.compare_setting:
-        name, _, text = item.partition("=")
-        name = name.strip()
-        if name not in numeric:
-            raise ConfigError(f"--compare-setting {item!r}: NAME must be one of {numeric}")
-        try:
-            value = float(text)
-        except ValueError:
-            raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
-        changed: dict[str, Any] = {name: value}
-        extra.append((f"{name} = {value:g}", replace(defaults, **changed)))
-    return tuple(extra)
-
-
 def run(args: argparse.Namespace) -> int:
     """Generate, commission, detect, score; print the markdown report (and write it)."""
     from tqdm import tqdm
@@ -767,7 +702,11 @@ def run(args: argparse.Namespace) -> int:
     extra = comparison_settings(args)
     settings = (MonitorSettings(), *(each for _, each in extra))
     units, plan = requested_plan(args)
-    every: list[list[Run]] = [[] for _ in settings]
+    reported = [(title, each, plan) for title, each in extra]
+    if plan.service:
+        alone = replace(plan, service=0.0)
+        reported.append(("the unit commissioned on its cold start alone", settings[0], alone))
+    every: list[list[Run]] = [[] for _ in range(1 + len(reported))]
     for unit_runs in tqdm(
         run_units(units, plan, config, settings, args.workers),
         total=len(units),
@@ -778,8 +717,8 @@ def run(args: argparse.Namespace) -> int:
             every[k].extend(each)
     runs = every[0]
     text = report(runs, units, plan, settings[0])
-    for (title, each), other in zip(extra, every[1:], strict=True):
-        text += f"\n\n### The same recordings, {title}\n\n" + report(other, units, plan, each)
+    for (title, each, used), other in zip(reported, every[1:], strict=True):
+        text += f"\n\n### The same recordings, {title}\n\n" + report(other, units, used, each)
     print(text)
     if args.out:
         out = Path(args.out)

@@ -1,6 +1,9 @@
-"""``ballscrew-twin commission BAG --out baseline.yaml``: learn the healthy unit from a recording.
+"""``ballscrew-twin commission BAG [BAG ...] --out baseline.yaml``: learn the healthy unit from
+one healthy recording or several of the same unit, fitted together (a cold start and a run at
+the speeds and temperatures it serves at: the monitor is sharpest where the commissioning
+taught it).
 
-The fit and its error model: :mod:`ballscrew_twin.health.commission`. The bag's topics are
+The fit and its error model: :mod:`ballscrew_twin.health.commission`. The bags' topics are
 chosen as for ``detect``.
 """
 
@@ -12,17 +15,23 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bags.bench import read_bench_bag
 from ..health.commission import ERROR_SCALE, commission
 from ..health.correction import MIN_SUPPORT
-from ..health.offline import recording_channels
+from ..health.offline import CHANNELS, recording_channels
 from ..params import load_config
 from ..plots.commissioning import plot_commissioning
-from .detect import add_topic_arguments, read_recording
+from .detect import add_topic_arguments, bench_topics
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Arguments of ``commission``."""
-    parser.add_argument("bag", help="healthy recording: bag folder or file (mcap or sqlite3)")
+    parser.add_argument(
+        "bag",
+        nargs="+",
+        help="healthy recording(s) of the unit: bag folders or files (mcap or sqlite3), fitted "
+        "together",
+    )
     parser.add_argument("--out", required=True, help="baseline YAML file to write")
     parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
     parser.add_argument("--plot", default=None, help="also write a PNG of the fit here")
@@ -37,16 +46,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Fit, write the baseline (and the plot), print the fitted values."""
-    recording = read_recording(args)
+    recordings = [read_bench_bag(bag, bench_topics(args), required=CHANNELS) for bag in args.bag]
     config = load_config(args.config)
     result = commission(
-        recording_channels(recording),
+        [recording_channels(r) for r in recordings],
         config,
-        source=str(Path(args.bag).name),
+        source=" + ".join(Path(bag).name for bag in args.bag),
         error_scale=args.error_scale,
     )
-    for issue in recording.issues:
-        print(f"note: {issue}")
+    for bag, recording in zip(args.bag, recordings, strict=True):
+        where = f"{Path(bag).name}: " if len(recordings) > 1 else ""
+        for issue in recording.issues:
+            print(f"note: {where}{issue}")
     b, u = result.baseline, result.uncertainty
     print(
         f"fitted on {b.blocks} blocks ({result.gated_share:.1%} of the recording gated): "

@@ -2,7 +2,7 @@
 
 What it writes and how: :mod:`ballscrew_twin.health.offline`. Exit status: 0 (OK, WARN or
 UNKNOWN), 1 (FAULT), 2 (the bag or the settings are unusable). :func:`add_topic_arguments` and
-:func:`read_recording` are shared with ``commission`` and ``calibrate``.
+:func:`bench_topics` are shared with ``commission`` and ``calibrate``.
 """
 
 from __future__ import annotations

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -101,6 +101,12 @@ SETTLED_RATIO = 2.0
 SETTLED_MAX = 4.0
 #: Growth of the relative error per kelvin outside the commissioned temperatures [1/K].
 TEMPERATURE_ERROR = 0.005
+#: Time between two recordings fitted together, on the one time line of :func:`one_timeline`
+#: [s] (longer than a block, so that no block spans the seam).
+RECORDING_GAP = 10.0
+
+#: One recording: channel name -> (absolute stamps [s], values [SI]).
+Channels = Mapping[str, tuple[FloatArray, FloatArray]]
 
 
 @dataclass(frozen=True)
@@ -142,9 +148,7 @@ class CommissioningResult:
     gated_share: float
 
 
-def aligned_blocks(
-    channels: Mapping[str, tuple[FloatArray, FloatArray]], settings: ResidualSettings
-) -> list[Block]:
+def aligned_blocks(channels: Channels, settings: ResidualSettings) -> list[Block]:
     """Every block of a recording's channels (absolute stamps [s], SI values), merged in
     stamp order as the monitor sees them (:func:`.monitor.feed`)."""
     aligner = BlockAligner(settings)
@@ -373,8 +377,30 @@ def _settling_angle(
     return min(max(settled_from, lowest, SETTLING_STEP), gate_angle)
 
 
+def one_timeline(recordings: Sequence[Channels]) -> list[Channels]:
+    """The channels of several recordings of one unit [s, SI] on one time line: each recording
+    after the first is moved to start RECORDING_GAP after the one before it ended (the
+    recordings' own clocks may overlap; the folds of :func:`out_of_fold_residuals` alternate
+    along this line). Raises ConfigError for no recording or one without samples."""
+    if not recordings:
+        raise ConfigError("commission: no recording given")
+    placed: list[Channels] = []
+    end = -math.inf
+    for k, channels in enumerate(recordings):
+        stamps = [np.asarray(series[0], float) for series in channels.values()]
+        if not stamps or any(len(t) == 0 for t in stamps):
+            raise ConfigError(f"commission: recording {k + 1} has a channel without samples")
+        first = min(float(t[0]) for t in stamps)
+        offset = 0.0 if k == 0 else end + RECORDING_GAP - first
+        placed.append(
+            {name: (np.asarray(t, float) + offset, v) for name, (t, v) in channels.items()}
+        )
+        end = max(float(t[-1]) for t in stamps) + offset
+    return placed
+
+
 def commission(
-    channels: Mapping[str, tuple[FloatArray, FloatArray]],
+    channels: Channels | Sequence[Channels],
     config: TwinConfig,
     settings: ResidualSettings | None = None,
     *,
@@ -382,7 +408,10 @@ def commission(
     error_scale: float = ERROR_SCALE,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
-    """Fit the baseline of the unit that made ``channels`` (see the module docstring).
+    """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
+    recording's channels, or a sequence of several healthy recordings of the same unit (say a
+    cold start and a warm run at the speeds it serves at), fitted together. Each recording is
+    cut into blocks and gated on its own, so that nothing is compared across the seam.
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -392,18 +421,21 @@ def commission(
     if not (math.isfinite(error_scale) and error_scale > 0.0):
         raise ConfigError(f"commission: error_scale = {error_scale!r} must be > 0")
     twin = twin or UnitTwin(config)
-    gate = ReversalGate(settings)
-    every = aligned_blocks(channels, settings)
+    every: list[Block] = []
     usable: list[Block] = []
     settling: list[tuple[Block, float]] = []  # gated only by the rotation since a reversal
-    for b in every:
-        reason = gate.check(b)
-        if len(b.torque) < 4 or "speed" in b.held:
-            continue
-        if not reason:
-            usable.append(b)
-        elif float(np.min(np.abs(b.speed))) >= settings.gate_speed:
-            settling.append((b, gate.block_travel))
+    for recording in one_timeline([channels] if isinstance(channels, Mapping) else channels):
+        gate = ReversalGate(settings)
+        blocks = aligned_blocks(recording, settings)
+        every.extend(blocks)
+        for b in blocks:
+            reason = gate.check(b)
+            if len(b.torque) < 4 or "speed" in b.held:
+                continue
+            if not reason:
+                usable.append(b)
+            elif float(np.min(np.abs(b.speed))) >= settings.gate_speed:
+                settling.append((b, gate.block_travel))
     if len(usable) < 20:
         raise ConfigError(
             f"commission{(' ' + source) if source else ''}: {len(usable)} of {len(every)} blocks "

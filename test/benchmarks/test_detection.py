@@ -24,6 +24,7 @@ from ballscrew_twin.benchmarks import detection
 from ballscrew_twin.benchmarks.detection import Run
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
+from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.bench_data import BenchData, generate_unit_data
 from ballscrew_twin.health.bench_units import draw_unit
 from ballscrew_twin.health.classify import FAULT_CLASSES
@@ -88,10 +89,20 @@ def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
     assert plan == detection.Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
     units, plan = detection.requested_plan(_arguments(*PLAN))
     assert units == range(0, 2) and plan == detection.Plan(25.0, 20.0, 1, 60.0)
+    _, plan = detection.requested_plan(_arguments(*PLAN, "--service", "300"))
+    assert plan == detection.Plan(25.0, 20.0, 1, 60.0, service=300.0)
 
 
 @pytest.mark.parametrize(
-    "argv", [("--faults", "-1"), ("--healthy", "10"), ("--commission", "5"), ("--units", "3:1")]
+    "argv",
+    [
+        ("--faults", "-1"),
+        ("--healthy", "10"),
+        ("--commission", "5"),
+        ("--units", "3:1"),
+        ("--service", "5"),
+        ("--service", "-20"),
+    ],
 )
 def test_a_plan_that_cannot_run_is_refused_with_its_reason(argv: tuple[str, ...]) -> None:
     with pytest.raises(ConfigError):
@@ -101,6 +112,50 @@ def test_a_plan_that_cannot_run_is_refused_with_its_reason(argv: tuple[str, ...]
 @pytest.fixture(scope="module")
 def paper() -> TwinConfig:
     return load_config(None)
+
+
+def test_a_service_run_joins_the_commissioning_and_leaves_the_other_recordings_alone(
+    paper: TwinConfig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """With ``--service`` the unit is commissioned on two healthy recordings, the second an
+    ambient run with seeds of its own, and beside it on the cold start alone; the healthy and
+    fault recordings are those of the same plan without it (the two compare on the same
+    runs)."""
+    made: list[tuple[str, int, float, float]] = []
+    fitted: list[int] = []
+    generate = detection.generate_unit_data
+
+    def recorded(*args: object, **kwargs: object) -> BenchData:
+        trajectory = args[2]
+        assert isinstance(trajectory, detection.Trajectory)
+        name, seed = str(kwargs["name"]), int(kwargs["seed"])  # type: ignore[call-overload]
+        made.append((name, seed, float(trajectory.time[-1]), float(trajectory.temperature[0])))
+        return generate(*args, **kwargs)  # type: ignore[arg-type]
+
+    def nominal(channels: list[object], config: TwinConfig, *_: object, **__: object) -> object:
+        fitted.append(len(channels))
+        return SimpleNamespace(baseline=Baseline.nominal(config))
+
+    monkeypatch.setattr(detection, "generate_unit_data", recorded)
+    monkeypatch.setattr(detection, "commission", nominal)
+    plan = detection.Plan(commission=25.0, healthy=20.0, faults=1, fault_length=15.0)
+    runs = {}
+    for service in (0.0, 30.0):
+        made.clear()
+        runs[service] = (
+            detection.run_unit(1, replace(plan, service=service), paper, (MonitorSettings(),)),
+            list(made),
+        )
+    assert fitted == [1, 2, 1]  # with the service run, and beside it the cold start alone
+    without, with_service = runs[0.0][1], runs[30.0][1]
+    names = [m[0] for m in with_service]
+    assert names == ["commissioning", "service", "run", "run", "run"]
+    assert with_service[1][2] == pytest.approx(30.0, abs=0.01)  # its length
+    assert with_service[1][3] > 273.15 + 5.0  # ambient (10-35 C), not a cold start from <= 5 C
+    assert [m for m in with_service if m[0] != "service"] == without
+    # the same runs, scored alike by every monitor (each with the nominal baseline here)
+    assert len(runs[0.0][0]) == 1 and len(runs[30.0][0]) == 2
+    assert runs[0.0][0][0] == runs[30.0][0][0] == runs[30.0][0][1]
 
 
 @pytest.mark.parametrize("fault_class", FAULT_CLASSES)

@@ -3,6 +3,8 @@ cannot fit."""
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
 from pathlib import Path
@@ -16,10 +18,13 @@ from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import ERROR_BAND_EDGES, Baseline, load_baseline
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.health.commission import (
+    FIT_BLOCKS,
     FOLD_CHUNK,
+    RECORDING_GAP,
     SurfaceStudy,
     _settling_angle,
     commission,
+    one_timeline,
     validated_support,
 )
 from ballscrew_twin.health.correction import (
@@ -121,6 +126,49 @@ def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
     assert max(fitted.band_temperature_max) == fitted.temperature_max
 
 
+def _halves() -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]:
+    """_recording(1) cut at 140 s into a cooler and a warmer recording, the second on a clock
+    of its own that starts at 0 s, as a second bag's would."""
+    whole = _recording(1)
+    first = {k: (t[t < 140.0], v[t < 140.0]) for k, (t, v) in whole.items()}
+    second = {k: (t[t >= 140.0] - 140.0, v[t >= 140.0]) for k, (t, v) in whole.items()}
+    return first, second
+
+
+def test_two_recordings_on_one_clock_are_put_one_after_the_other() -> None:
+    first, second = _halves()
+    placed = one_timeline([first, second])
+    end = max(float(t[-1]) for t, _ in first.values())
+    start = min(float(t[0]) for t, _ in placed[1].values())
+    assert start == pytest.approx(end + RECORDING_GAP)
+    for name, (t, v) in second.items():
+        assert np.array_equal(placed[1][name][1], v)  # values untouched
+        assert np.allclose(np.diff(placed[1][name][0]), np.diff(t))  # spacing kept
+    assert all(np.array_equal(placed[0][k][0], first[k][0]) for k in first)  # the first stays
+    with pytest.raises(ConfigError, match="no recording"):
+        one_timeline([])
+    empty = {**second, "preload": (np.array([]), np.array([]))}
+    with pytest.raises(ConfigError, match="recording 2 has a channel without samples"):
+        one_timeline([first, empty])
+
+
+def test_two_recordings_of_a_unit_commission_it_together(fitted: Baseline) -> None:
+    # Each half of the recording saw half of its temperatures (15-22.5 C and 22.5-30 C), and
+    # the warmer one comes first on a clock that overlaps the cooler one's; together they
+    # recover the same unit as the whole recording and keep every band's temperatures from
+    # both (the 30-100 rad/s holds run from 40 s to 260 s).
+    first, second = _halves()
+    both = commission([second, first], load_config(None), source="a + b").baseline
+    assert both.source == "a + b"
+    assert both.preload_scale == pytest.approx(TRUTH["preload_scale"], rel=0.03)
+    assert both.temperature_shift == pytest.approx(TRUTH["temperature_shift"], abs=1.0)
+    assert both.torque_bias == pytest.approx(TRUTH["torque_bias"], abs=1e-4)
+    assert both.inertia == pytest.approx(TRUTH["inertia"], rel=0.1)
+    band = ERROR_BAND_EDGES.index(30.0) + 1
+    for edges in ("band_temperature_min", "band_temperature_max"):
+        assert getattr(both, edges)[band] == pytest.approx(getattr(fitted, edges)[band], abs=0.3)
+
+
 def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> None:
     channels = _recording(2)
     still = {k: (t, np.zeros_like(v) if k == "speed" else v) for k, (t, v) in channels.items()}
@@ -128,23 +176,54 @@ def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> Non
         commission(still, load_config(None))
 
 
+@pytest.fixture(scope="module")
+def commissioned_bag(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> tuple[Baseline, str, Path]:
+    """The sample healthy bag commissioned by the command: its baseline, what it printed, and
+    its plot."""
+    folder = tmp_path_factory.mktemp("commissioned")
+    out, png = folder / "unit.yaml", folder / "fit.png"
+    capture = io.StringIO()
+    with contextlib.redirect_stdout(capture):
+        code = main(
+            ["commission", str(SAMPLE_DIR / "healthy"), "--out", str(out), "--plot", str(png)]
+        )
+    assert code == 0
+    return load_baseline(out), capture.getvalue(), png
+
+
 def test_commission_command_writes_baseline_and_plot(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    commissioned_bag: tuple[Baseline, str, Path],
 ) -> None:
-    out, png = tmp_path / "unit.yaml", tmp_path / "fit.png"
-    bag = SAMPLE_DIR / "healthy"
-    assert main(["commission", str(bag), "--out", str(out), "--plot", str(png)]) == 0
-    baseline = load_baseline(out)
+    baseline, printed, png = commissioned_bag
     assert baseline.source == "healthy" and baseline.blocks > 100
     # it says where the residual surface was taught, and the error taken elsewhere
     assert baseline.surface is not None
     taught = int(np.sum(baseline.surface.support >= MIN_SUPPORT))
     nodes = baseline.surface.support.size
     assert 0 < taught < nodes
-    printed = capsys.readouterr().out
     assert f"taught at {taught} of {nodes} nodes" in printed
     assert f"taken as {baseline.unseen_error:.2%} (1 sigma)" in printed
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_commission_command_fits_several_bags_together(
+    tmp_path: Path, commissioned_bag: tuple[Baseline, str, Path]
+) -> None:
+    once = commissioned_bag[0]
+    healthy, out = SAMPLE_DIR / "healthy", tmp_path / "unit.yaml"
+    assert main(["commission", str(healthy), str(healthy), "--out", str(out)]) == 0
+    twice = load_baseline(out)
+    assert twice.source == "healthy + healthy"
+    # the same recording twice: the same unit from twice its blocks (all of them fitted below
+    # 2 x FIT_BLOCKS)
+    assert once.blocks < FIT_BLOCKS
+    assert twice.blocks == 2 * once.blocks
+    assert twice.preload_scale == pytest.approx(once.preload_scale, rel=0.01)
+    assert twice.temperature_shift == pytest.approx(once.temperature_shift, abs=0.2)
+    # a bag that is not there stops it before any fit, naming it
+    assert main(["commission", str(healthy), str(tmp_path / "nowhere"), "--out", str(out)]) == 2
 
 
 def test_a_unit_bag_is_not_the_twin_and_detect_takes_its_baseline(tmp_path: Path) -> None:

@@ -1,0 +1,120 @@
+"""The plan of ``ballscrew-twin bench detection`` (what each unit goes through, which units) and
+its command-line arguments (:mod:`.detection` runs it)."""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from ..errors import ConfigError
+from ..health.monitor_settings import MonitorSettings
+
+#: Default unit ranges: the held-out test units and the training units tuning may use.
+TEST_UNITS = (2000, 2030)
+TRAINING_UNITS = (0, 30)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """What one unit goes through (lengths [s]): a commissioning recording (a cold start), a
+    healthy recording, ``faults`` fault recordings of ``fault_length``, and with ``service`` >
+    0 a second healthy recording, a run of the unit's duty cycles at an ambient temperature,
+    commissioned together with the first (``commission`` on both recordings)."""
+
+    commission: float
+    healthy: float
+    faults: int
+    fault_length: float
+    service: float = 0.0
+
+
+def unit_range(text: str) -> range:
+    """The units of ``--units FIRST:STOP``; ConfigError naming the expected form."""
+    try:
+        low, high = (int(v) for v in text.split(":"))
+    except ValueError:
+        raise ConfigError(f"--units {text!r}: expected FIRST:STOP, e.g. 1000:1030") from None
+    if not 0 <= low < high:
+        raise ConfigError(f"--units {text!r}: need 0 <= FIRST < STOP")
+    return range(low, high)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Arguments of ``bench detection``."""
+    parser.add_argument("--out", default=None, help="directory for detection.md, PNGs, JSON")
+    parser.add_argument("--quick", action="store_true", help="smoke test: 2 units, short runs")
+    parser.add_argument(
+        "--units",
+        default=f"{TEST_UNITS[0]}:{TEST_UNITS[1]}",
+        help=f"unit numbers FIRST:STOP (test {TEST_UNITS[0]}:{TEST_UNITS[1]}, training "
+        f"{TRAINING_UNITS[0]}:{TRAINING_UNITS[1]})",
+    )
+    parser.add_argument(
+        "--commission", type=float, default=600.0, help="commissioning warm-up run [s]"
+    )
+    parser.add_argument(
+        "--service",
+        type=float,
+        default=0.0,
+        help="a second healthy recording commissioned with the first: a run of the unit's duty "
+        "cycles at an ambient temperature [s] (0: none)",
+    )
+    parser.add_argument("--healthy", type=float, default=1200.0, help="healthy run per unit [s]")
+    parser.add_argument("--faults", type=int, default=4, help="fault runs per unit [-]")
+    parser.add_argument("--fault-length", type=float, default=60.0, help="fault run [s]")
+    parser.add_argument("--workers", type=int, default=2, help="processes [-]")
+    parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
+    parser.add_argument(
+        "--compare-detectors",
+        default=None,
+        metavar="A,B",
+        help="also run a monitor with only these detectors on the same recordings and report "
+        "it beside the default (e.g. cusum,spectral: the monitor before the local test)",
+    )
+    parser.add_argument(
+        "--compare-setting",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="also run a monitor with this one numeric setting changed, on the same recordings, "
+        "reported beside the default (repeatable: one monitor each; e.g. "
+        "classification_patience=8)",
+    )
+
+
+def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
+    """The units and the plan the arguments ask for (``--quick``: units 0 and 1, commissioning
+    120 s, healthy 60 s, one fault run of 30 s); ConfigError for a plan that cannot run."""
+    if args.quick:
+        return range(2), Plan(commission=120.0, healthy=60.0, faults=1, fault_length=30.0)
+    plan = Plan(args.commission, args.healthy, args.faults, args.fault_length, args.service)
+    if plan.faults < 0 or min(plan.commission, plan.healthy, plan.fault_length) <= 10.0:
+        raise ConfigError("--faults must be >= 0 and every length > 10 s")
+    if not (plan.service == 0.0 or plan.service > 10.0):
+        raise ConfigError(f"--service {plan.service:g}: 0 (none) or a length > 10 s")
+    return unit_range(args.units), plan
+
+
+def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSettings], ...]:
+    """The extra monitors ``--compare-detectors`` and ``--compare-setting`` ask for, each
+    with the title of its report; ConfigError naming the numeric settings for a name that is
+    not one, or for a value that is not a number."""
+    extra: list[tuple[str, MonitorSettings]] = []
+    if args.compare_detectors:
+        names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
+        extra.append((f"detectors {', '.join(names)} only", MonitorSettings(detectors=names)))
+    defaults = MonitorSettings()
+    numeric = sorted(f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float)
+    for item in args.compare_setting:
+        name, _, text = item.partition("=")
+        name = name.strip()
+        if name not in numeric:
+            raise ConfigError(f"--compare-setting {item!r}: NAME must be one of {numeric}")
+        try:
+            value = float(text)
+        except ValueError:
+            raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
+        changed: dict[str, Any] = {name: value}
+        extra.append((f"{name} = {value:g}", replace(defaults, **changed)))
+    return tuple(extra)
