@@ -147,9 +147,9 @@ def check_number(
 
 def range_hint(value: float, meta: Mapping[str, Any]) -> str:
     """Why the out-of-range ``value`` may have been given (the metadata's own hint, else a
-    likely unit slip: degrees Celsius for K, degrees for rad, rpm for rad/s, milli-units or GPa
-    for dimensioned SI values but rates; a negative value where none is allowed); "" if none
-    fits or the metadata's hint is None."""
+    likely unit slip: degrees Celsius for K, degrees for rad, rpm for rad/s, GPa for Pa,
+    milli-units for dimensioned SI values but rates, nanometres for m; a negative value where
+    none is allowed); "" if none fits or the metadata's hint is None."""
     lo, hi, unit = meta["min"], meta["max"], meta["unit"]
     if meta.get("hint"):
         return f" ({meta['hint']})"
@@ -163,12 +163,14 @@ def range_hint(value: float, meta: Mapping[str, Any]) -> str:
         return " (speeds are in rad/s, not rpm)"
     if value < 0.0 <= lo:
         return " (must not be negative)"
+    if unit == "Pa" and 0.0 < value < lo and lo <= value * 1e9 <= hi:
+        return " (given in GPa? values are SI, Pa)"
     if unit in ("-", "Hz") or not (value > hi > 0):  # no milli-units of a rate
         return ""
     if lo <= value * 1e-3 <= hi:
         return " (given in milli-units? values are SI)"
-    if lo <= value * 1e-9 <= hi:
-        return " (given in GPa? values are SI, Pa)"
+    if unit == "m" and lo <= value * 1e-9 <= hi:  # a roughness or film thickness in nm
+        return " (given in nanometres? lengths are in m)"
     return ""
 
 

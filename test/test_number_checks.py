@@ -70,6 +70,18 @@ COUNT = limits("-", 1, 500, integer=True)
             "(given in milli-units? values are SI)",
         ),
         (0.6, limits("-", 0.0, 0.5, hint="between 0 and 0.5"), "(between 0 and 0.5)"),
+        (
+            210.0,  # GPa: 210e9 Pa
+            limits("Pa", 1e9, 1e12),
+            "w = 210.0 is outside the allowed range [1e+09, 1e+12] Pa "
+            "(given in GPa? values are SI, Pa)",
+        ),
+        (
+            200.0,  # a roughness in nm: 2e-7 m
+            limits("m", 0.0, 5e-6),
+            "w = 200.0 is outside the allowed range [0, 5e-06] m "
+            "(given in nanometres? lengths are in m)",
+        ),
     ],
 )
 def test_each_error_names_the_field_the_unit_and_the_range(
@@ -89,6 +101,10 @@ def test_a_hint_of_none_gives_no_hint_and_rates_get_no_milli_unit_hint() -> None
     assert str(err.value) == "w = 5000.0 is outside the allowed range [1, 100] Hz"
     with pytest.raises(ConfigError, match=re.escape("(given in milli-units? values are SI)")):
         check_number(5000.0, limits("s", 1.0, 100.0), "w")
+    # a time step of 1 s against 1e-4 s at most: no unit slip explains it (it was "GPa?")
+    with pytest.raises(ConfigError) as err:
+        check_number(1.0, STEP, "w")
+    assert str(err.value) == "w = 1.0 is outside the allowed range (0, 0.0001] s"
 
 
 def test_valid_numbers_come_back_as_numbers() -> None:
