@@ -58,13 +58,13 @@ from .steady_problem import (
 )
 from .steady_reference import ReadableNewton
 from .steady_types import (
-    SCENE_CACHE_SIZE,
     BallSet,
     ContactSource,
     SteadySolution,
     SteadyState,
     along_line,
     continues_branch,
+    kept,
     rate_change,
     secant_start,
 )
@@ -201,18 +201,13 @@ class SteadyStateModel:
             return moving
         base = self._scenes.get(temperature)
         if base is None:
-            if len(self._scenes) >= SCENE_CACHE_SIZE:
-                self._scenes.pop(next(iter(self._scenes)))
-            base = make_scene(self.config, temperature, 0.0)
-            self._scenes[temperature] = base
+            base = kept(self._scenes, temperature, make_scene(self.config, temperature, 0.0))
         else:
             self.scene_cache_hits += 1
         if screw_speed == 0.0:
             return base
-        if len(self._moving_scenes) >= SCENE_CACHE_SIZE:
-            self._moving_scenes.pop(next(iter(self._moving_scenes)))
-        moving = self._moving_scenes[(temperature, screw_speed)] = replace(
-            base, screw_speed=screw_speed
+        moving = kept(
+            self._moving_scenes, (temperature, screw_speed), replace(base, screw_speed=screw_speed)
         )
         return moving
 
@@ -308,9 +303,7 @@ class SteadyStateModel:
         balls = self.ball_set(mode)
         loads = self._loads.get((op.preload, op.axial_load))
         if loads is None:
-            if len(self._loads) >= SCENE_CACHE_SIZE:
-                self._loads.pop(next(iter(self._loads)))
-            loads = self._loads[(op.preload, op.axial_load)] = self.nut_axial_loads(op)
+            loads = kept(self._loads, (op.preload, op.axial_load), self.nut_axial_loads(op))
         previous = warm_start if warm_start is not None else self._warm
         count = len(balls.nut)
         if previous is not None and previous.ball_nb.shape[0] == count:

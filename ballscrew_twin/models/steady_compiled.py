@@ -20,7 +20,7 @@ from ..errors import SolverError
 from ..physics.contact_types import ContactScene
 from .base import OperatingPoint
 from .steady_problem import residual_scales
-from .steady_types import SCENE_CACHE_SIZE, BallSet, SteadyState
+from .steady_types import BallSet, SteadyState, kept
 
 if TYPE_CHECKING:
     from ..kernels.steady_solver import KernelSolution
@@ -134,10 +134,7 @@ def kernel_inputs(model: SteadyStateModel, scene: ContactScene, loads: FloatArra
     force_scale, moment_scale = residual_scales(model.config, scene, loads)
     scales = (force_scale, moment_scale, force_scale * model.config.screw.balls_per_nut)
     inputs = KernelInputs(scene, loads, scales, kernel_parameters(model, scene))
-    if len(model._kernel_inputs) >= SCENE_CACHE_SIZE:
-        model._kernel_inputs.pop(next(iter(model._kernel_inputs)))
-    model._kernel_inputs[key] = inputs
-    return inputs
+    return kept(model._kernel_inputs, key, inputs)
 
 
 def kernel_parameters(model: SteadyStateModel, scene: ContactScene) -> FloatArray:
@@ -148,9 +145,7 @@ def kernel_parameters(model: SteadyStateModel, scene: ContactScene) -> FloatArra
     if params is None:
         from ..kernels.contacts import scene_arrays
 
-        if len(model._parameters) >= SCENE_CACHE_SIZE:
-            model._parameters.pop(next(iter(model._parameters)))
-        params = model._parameters[key] = np.array(scene_arrays(scene), dtype=np.float64)
+        params = kept(model._parameters, key, np.array(scene_arrays(scene), dtype=np.float64))
     return params
 
 

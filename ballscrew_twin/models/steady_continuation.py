@@ -27,10 +27,10 @@ from .base import OperatingPoint
 from .steady_problem import initial_state
 from .steady_types import (
     BRANCH_JUMP,
-    SCENE_CACHE_SIZE,
     BallSet,
     ContactSource,
     SteadyState,
+    kept,
     rate_change,
     secant_start,
 )
@@ -251,8 +251,8 @@ class StartupPath:
     def record(self, model: SteadyStateModel, start: PathStart, tried: float) -> None:
         """Keep ``start`` (reached after speeds up to ``tried`` [rad/s]) with a copy of
         ``model``'s Jacobian blocks."""
-        kept = model._jacobian
-        blocks = None if kept is None else (kept[0].copy(), kept[1])
+        jacobian = model._jacobian
+        blocks = None if jacobian is None else (jacobian[0].copy(), jacobian[1])
         self.starts.append((start, tried, blocks))
 
     def resume(self, model: SteadyStateModel, target: float) -> tuple[PathStart, float]:
@@ -482,9 +482,7 @@ def static_solve(
     try:
         return model._newton(scene, balls, state, loads, tolerance=limit)
     except SolverError as err:
-        kept = model._jacobian
-        blocks = None if kept is None else (kept[0].copy(), kept[1])
-        if len(model.failed_statics) >= SCENE_CACHE_SIZE:
-            model.failed_statics.pop(next(iter(model.failed_statics)))
-        model.failed_statics[key] = (balls, StaticFailure(str(err), blocks))
+        jacobian = model._jacobian
+        blocks = None if jacobian is None else (jacobian[0].copy(), jacobian[1])
+        kept(model.failed_statics, key, (balls, StaticFailure(str(err), blocks)))
         raise

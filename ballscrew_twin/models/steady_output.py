@@ -28,7 +28,7 @@ from .base import (
     filled,
 )
 from .steady_problem import nut_gravity_power, potential_energy_rate, spacing_notes
-from .steady_types import SCENE_CACHE_SIZE, BallSet, ContactSource, SteadySolution, SteadyState
+from .steady_types import BallSet, ContactSource, SteadySolution, SteadyState, kept
 
 if TYPE_CHECKING:
     from ..kernels.steady_solver import KernelSolution
@@ -172,15 +172,13 @@ def fixed_notes(
     key = (mode, scene.temperature, scene.screw_speed == 0.0)
     notes = model._notes.get(key)
     if notes is None:
-        if len(model._notes) >= SCENE_CACHE_SIZE:
-            model._notes.pop(next(iter(model._notes)))
         lines = [f"steady state, {mode} mode ({count} spheres solved)"]
         if not model.inertial_terms:
             lines.append("centrifugal force and gyroscopic moment of the spheres dropped")
         if scene.screw_speed == 0.0:
             lines.append("zero speed: nothing slides, drag torque 0 (breakaway not modelled)")
         lines.extend(spacing_notes(model.config, scene))
-        notes = model._notes[key] = tuple(lines)
+        notes = kept(model._notes, key, tuple(lines))
     return notes
 
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING, Union
+from typing import TYPE_CHECKING, TypeVar, Union
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,6 +29,20 @@ FloatArray = NDArray[np.float64]
 #: Temperatures (and speeds, loads, notes) whose derived values a model keeps (oldest dropped
 #: beyond) [-].
 SCENE_CACHE_SIZE = 64
+
+Key = TypeVar("Key")
+Value = TypeVar("Value")
+
+
+def kept(cache: dict[Key, Value], key: Key, value: Value) -> Value:
+    """Keep ``value`` under ``key`` in one of a model's caches and return it; the oldest entry
+    goes first when the cache holds SCENE_CACHE_SIZE (insertion order)."""
+    if key not in cache and len(cache) >= SCENE_CACHE_SIZE:
+        del cache[next(iter(cache))]
+    cache[key] = value
+    return value
+
+
 #: A step of the start-up path is rejected when any rate of a sphere over the screw speed
 #: changes by more than this, relative to 1 + its size (a jump to another branch) [-].
 BRANCH_JUMP = 0.05

@@ -254,6 +254,18 @@ def test_lubricant_state_is_computed_once_per_temperature(config) -> None:  # ty
             assert getattr(cached, f.name) == getattr(fresh, f.name), f.name
 
 
+def test_a_model_cache_drops_its_oldest_entry_at_its_size() -> None:
+    from ballscrew_twin.models.steady_types import SCENE_CACHE_SIZE, kept
+
+    cache: dict[int, str] = {}
+    for k in range(SCENE_CACHE_SIZE):
+        assert kept(cache, k, str(k)) == str(k)
+    assert kept(cache, 0, "again") == "again"  # a key it holds: replaced, nothing dropped
+    assert len(cache) == SCENE_CACHE_SIZE and cache[0] == "again"
+    kept(cache, SCENE_CACHE_SIZE, "new")  # full: the oldest inserted (0) goes
+    assert 0 not in cache and 1 in cache and len(cache) == SCENE_CACHE_SIZE
+
+
 def test_auto_mode_falls_back_to_every_sphere_where_the_reduction_stalls(config) -> None:  # type: ignore[no-untyped-def]
     # Since the smoothed film laws (D16) no point of the envelope is known where the one-sphere
     # reduction stalls (2 N, 3900 rpm, 20 C was one): the stall is imposed here.
