@@ -63,7 +63,7 @@ class BenchScene:
     name: str
     description: str = ""
     config: str | None = None
-    duration: float = quantity("s", 0.0, 36000.0, "length of the recording")
+    duration: float = quantity("s", 0.0, 36000.0, "length of the recording", lo_open=True)
     seed: int = 0
     model_step: float = quantity("s", 1e-3, 10.0, "spacing of the twin evaluations", default=0.1)
     profile: tuple[ProfilePoint, ...] = ()
@@ -76,8 +76,6 @@ class BenchScene:
         if not isinstance(self.name, str) or not self.name.strip():
             raise ConfigError(f"{where}: name must be a non-empty string, got {self.name!r}")
         validate_fields(self, where, ": ")
-        if self.duration <= 0.0:
-            raise ConfigError(f"{where}: duration = {self.duration} s must be > 0")
         if isinstance(self.seed, bool) or not isinstance(self.seed, int) or self.seed < 0:
             raise ConfigError(f"{where}: seed must be a whole number >= 0, got {self.seed!r}")
         if not self.profile:

@@ -33,7 +33,7 @@ All quantities SI: rad/s, K, N, N m, rad.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -42,7 +42,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig
+from ..params import TwinConfig, limits, not_negative, positive, validate_fields
 from .fault_profiles import FaultState, apply_to_config
 
 FloatArray = NDArray[np.float64]
@@ -130,35 +130,19 @@ class BenchUnit:
     """
 
     seed: int = -1
-    preload_scale: float = 1.0
-    viscosity_scale: float = 1.0
-    dry_friction_scale: float = 1.0
-    eyring_scale: float = 1.0
-    torque_gain: float = 1.0
-    torque_bias: float = 0.0
-    inertia_scale: float = 1.0
-    presliding_angle: float = 0.0
-    stribeck_fraction: float = 0.0
-    stribeck_speed: float = 1.0
+    preload_scale: float = field(default=1.0, metadata=positive("-"))
+    viscosity_scale: float = field(default=1.0, metadata=positive("-"))
+    dry_friction_scale: float = field(default=1.0, metadata=positive("-"))
+    eyring_scale: float = field(default=1.0, metadata=positive("-"))
+    torque_gain: float = field(default=1.0, metadata=positive("-"))
+    torque_bias: float = field(default=0.0, metadata=limits("N m", -math.inf, math.inf))
+    inertia_scale: float = field(default=1.0, metadata=positive("-"))
+    presliding_angle: float = field(default=0.0, metadata=not_negative("rad"))
+    stribeck_fraction: float = field(default=0.0, metadata=not_negative("-"))
+    stribeck_speed: float = field(default=1.0, metadata=positive("rad/s"))
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.name != "seed" and not math.isfinite(value):
-                raise ConfigError(f"bench unit: {f.name} = {value!r} is not finite")
-        for name in (
-            "preload_scale",
-            "viscosity_scale",
-            "dry_friction_scale",
-            "eyring_scale",
-            "torque_gain",
-            "inertia_scale",
-            "stribeck_speed",
-        ):
-            if getattr(self, name) <= 0.0:
-                raise ConfigError(f"bench unit: {name} = {getattr(self, name)!r} must be > 0")
-        if self.presliding_angle < 0.0 or self.stribeck_fraction < 0.0:
-            raise ConfigError("bench unit: presliding_angle and stribeck_fraction must be >= 0")
+        validate_fields(self, "bench unit")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready record (ground truth)."""

@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import ConfigError
-from ..params import TwinConfig, config_fingerprint
+from ..params import TwinConfig, check_number, config_fingerprint, positive
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
     LOG_SPEED_NODES,
@@ -418,8 +418,7 @@ def commission(
             the time), or no real-time map for ``config``.
     """
     settings = settings or ResidualSettings()
-    if not (math.isfinite(error_scale) and error_scale > 0.0):
-        raise ConfigError(f"commission: error_scale = {error_scale!r} must be > 0")
+    check_number(error_scale, positive("-"), "commission: error_scale", text=False)
     twin = twin or UnitTwin(config)
     every: list[Block] = []
     usable: list[Block] = []

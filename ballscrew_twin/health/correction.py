@@ -25,13 +25,13 @@ All quantities SI: rad/s, K; c and r relative [-].
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import ConfigError
+from ..params import check_number, positive
 
 FloatArray = NDArray[np.float64]
 
@@ -202,8 +202,7 @@ def fit_surface(
 def robust_fit(design: FloatArray, residual: FloatArray, scale: float) -> ResidualSurface:
     """:func:`fit_surface` with two Huber reweightings at ``scale`` [-] (a block across a
     preload step or a hard acceleration does not bend the surface)."""
-    if not (math.isfinite(scale) and scale > 0.0):
-        raise ConfigError(f"residual surface: scale = {scale!r} must be > 0")
+    check_number(scale, positive("-"), "residual surface: scale", text=False)
     surface = fit_surface(design, residual)
     for _ in range(2):
         misfit = np.abs(residual - design @ np.ravel(surface.values))

@@ -162,6 +162,7 @@ def test_defect_faster_than_half_the_torque_rate_is_refused() -> None:
     [
         ({"colour": 1}, r"unknown key\(s\) \['colour'\]"),
         ({"duration": -1.0}, r"duration = -1.0 is outside"),
+        ({"duration": 0.0}, r"duration = 0.0 is outside the allowed range \(0, 36000\] s"),
         (
             {"profile": [{"time": 0.0, "speed": 1.0, "temperature": 20.0, "preload": 1.0}]},
             r"profile\[0\].temperature = 20.0 is outside .* K",

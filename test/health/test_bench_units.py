@@ -66,7 +66,8 @@ def test_unit_config_scales_exactly_the_unit_parameters() -> None:
     "values", [{"preload_scale": 0.0}, {"torque_gain": -1.0}, {"presliding_angle": math.nan}]
 )
 def test_an_impossible_unit_is_refused(values: dict[str, float]) -> None:
-    with pytest.raises(ConfigError):
+    (name,) = values
+    with pytest.raises(ConfigError, match=rf"^bench unit\.{name}"):  # the field, named
         BenchUnit(**values)
 
 

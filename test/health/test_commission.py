@@ -169,6 +169,12 @@ def test_two_recordings_of_a_unit_commission_it_together(fitted: Baseline) -> No
         assert getattr(both, edges)[band] == pytest.approx(getattr(fitted, edges)[band], abs=0.3)
 
 
+@pytest.mark.parametrize("scale", [0.0, -1.5, math.inf, math.nan])
+def test_an_error_scale_that_is_not_a_positive_number_is_refused(scale: float) -> None:
+    with pytest.raises(ConfigError, match=r"^commission: error_scale"):
+        commission({}, load_config(None), error_scale=scale)
+
+
 def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> None:
     channels = _recording(2)
     still = {k: (t, np.zeros_like(v) if k == "speed" else v) for k, (t, v) in channels.items()}
