@@ -99,25 +99,24 @@ if "PYTEST_XDIST_WORKER" in os.environ:
     Dispatcher.compile = compile_one_at_a_time(Dispatcher.compile)  # type: ignore[method-assign]
 
 #: Test modules that take longest (one worker, a fresh numba cache, 2026-11-27), slowest first,
-#: apart from the second. The first compiles the steady solver's kernels before
-#: anything else; the modules of :data:`WHILE_THE_STEADY_SOLVER_COMPILES` go after it
-#: (:func:`module_order`), and then the second, test_commission.py: its first 25 s (the
-#: synthetic commissioning and the commission command) load none of the steady solver's
+#: apart from the second. The first compiles the steady solver's kernels before anything else;
+#: the modules of :data:`WHILE_THE_STEADY_SOLVER_COMPILES` go after it (:func:`module_order`),
+#: and then the second, test_memory.py: its first 21 s load none of the steady solver's
 #: kernels, so the second worker runs them while the first still compiles, instead of waiting
 #: for the kernels' lock in a module that needs them at once. test_detection.py must come well
 #: after the first: its benchmark's two worker processes compile the kernels they miss each on
 #: its own, outside the lock.
 SLOWEST_FIRST = (
     "test/models/test_paper_claims.py",
-    "test/health/test_commission.py",
+    "test/health/test_memory.py",
     "test/ros/test_health_node_replay.py",
     "test/models/test_simulation.py",
     "test/benchmarks/test_detection.py",
     "test/benchmarks/test_node_bench.py",
+    "test/health/test_commission_unit.py",
     "test/health/test_classification_window.py",
     "test/health/test_order_test.py",
     "test/health/test_detect.py",
-    "test/health/test_memory.py",
     "test/models/test_steady_branch.py",
     "test/test_report.py",
     "test/kernels/test_steady_solver.py",
@@ -133,6 +132,7 @@ SLOWEST_FIRST = (
 #: clone: the second worker runs these while the first compiles it (for the first module of
 #: :data:`SLOWEST_FIRST`) instead of waiting for its lock from the start.
 WHILE_THE_STEADY_SOLVER_COMPILES = (
+    "test/health/test_commission.py",
     "test/health/test_detectors.py",
     "test/ros/test_cdr.py",
     "test/health/test_correction.py",
