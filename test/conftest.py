@@ -98,28 +98,31 @@ def compile_one_at_a_time(compile_: Callable[..., Any]) -> Callable[..., Any]:
 if "PYTEST_XDIST_WORKER" in os.environ:
     Dispatcher.compile = compile_one_at_a_time(Dispatcher.compile)  # type: ignore[method-assign]
 
-#: Test modules that take longest under ``make test`` in a fresh clone (numba compiling in both
-#: workers, 2026-11-27), slowest first. Both of the first two need the steady solver's kernels
-#: before anything else (the second one's dynamic model too): the modules of
-#: :data:`WHILE_THE_STEADY_SOLVER_COMPILES` go between them (:func:`module_order`).
+#: Test modules that take longest (one worker, a fresh numba cache, 2026-11-27), slowest first,
+#: apart from the second. The first compiles the steady solver's kernels before anything else;
+#: the modules of :data:`WHILE_THE_STEADY_SOLVER_COMPILES` go after it (:func:`module_order`),
+#: and then the second, test_memory.py: its first 21 s load none of the steady solver's
+#: kernels, so the second worker runs them while the first still compiles, instead of waiting
+#: for the kernels' lock in a module that needs them at once. test_detection.py must come well
+#: after the first: its benchmark's two worker processes compile the kernels they miss each on
+#: its own, outside the lock.
 SLOWEST_FIRST = (
     "test/models/test_paper_claims.py",
-    "test/models/test_simulation.py",
-    "test/test_envelope_commands.py",
     "test/health/test_memory.py",
-    "test/kernels/test_steady_solver.py",
-    "test/health/test_commission.py",
     "test/ros/test_health_node_replay.py",
-    "test/models/test_steady_branch.py",
+    "test/models/test_simulation.py",
     "test/benchmarks/test_detection.py",
-    "test/health/test_order_test.py",
-    "test/ros/test_health_node_live.py",
-    "test/test_report.py",
-    "test/ros/test_tables.py",
-    "test/models/test_dynamic.py",
-    "test/health/test_detect.py",
     "test/benchmarks/test_node_bench.py",
+    "test/health/test_commission_unit.py",
     "test/health/test_classification_window.py",
+    "test/health/test_order_test.py",
+    "test/health/test_detect.py",
+    "test/models/test_steady_branch.py",
+    "test/test_report.py",
+    "test/kernels/test_steady_solver.py",
+    "test/ros/test_health_node_live.py",
+    "test/ros/test_tables.py",
+    "test/ros/test_console_scripts.py",
 )
 
 
@@ -129,6 +132,7 @@ SLOWEST_FIRST = (
 #: clone: the second worker runs these while the first compiles it (for the first module of
 #: :data:`SLOWEST_FIRST`) instead of waiting for its lock from the start.
 WHILE_THE_STEADY_SOLVER_COMPILES = (
+    "test/health/test_commission.py",
     "test/health/test_detectors.py",
     "test/ros/test_cdr.py",
     "test/health/test_correction.py",

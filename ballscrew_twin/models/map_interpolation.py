@@ -35,9 +35,12 @@ def catmull_rom_weights(t: float) -> FloatArray:
 def catmull_rom_rows(t: FloatArray) -> FloatArray:
     """(N, 4) weights of :func:`catmull_rom_weights` for each fraction of ``t`` (N,)."""
     t2, t3 = t * t, t * t * t
-    return 0.5 * np.column_stack(
-        [-t3 + 2.0 * t2 - t, 3.0 * t3 - 5.0 * t2 + 2.0, -3.0 * t3 + 4.0 * t2 + t, t3 - t2]
-    )
+    rows = np.empty((len(t), 4))
+    rows[:, 0] = -t3 + 2.0 * t2 - t
+    rows[:, 1] = 3.0 * t3 - 5.0 * t2 + 2.0
+    rows[:, 2] = -3.0 * t3 + 4.0 * t2 + t
+    rows[:, 3] = t3 - t2
+    return 0.5 * rows
 
 
 def pad_axis(table: FloatArray, axis: int) -> FloatArray:
@@ -133,21 +136,36 @@ def folded_rows(cells: IntArray, fractions: FloatArray, count: int) -> tuple[Int
     stored; its weight goes to the two nodes it is made of, so ``start`` stays inside the axis
     (a node of the four beyond the stencil gets weight 0).
     """
-    w = catmull_rom_rows(fractions)
-    folded = w.copy()
+    folded = catmull_rom_rows(fractions)
     first, last = cells == 0, cells == count - 2
-    a, b = w[first].T, w[last].T  # the weights of nodes i-1, i, i+1, i+2 of those cells
-    # Ghost before node 0 (weight a[0]): nodes 0, 1, 2, 3.
-    folded[first] = np.column_stack([a[1] + 2.0 * a[0], a[2] - a[0], a[3], np.zeros_like(a[0])])
-    # Ghost after node count-1 (weight b[3]): nodes count-4 .. count-1.
-    folded[last] = np.column_stack([np.zeros_like(b[0]), b[0], b[1] - b[3], b[2] + 2.0 * b[3]])
+    if first.any():
+        a = folded[first].T  # the weights of nodes i-1, i, i+1, i+2 of those cells
+        # Ghost before node 0 (weight a[0]): nodes 0, 1, 2, 3.
+        folded[first] = np.column_stack([a[1] + 2.0 * a[0], a[2] - a[0], a[3], np.zeros_like(a[0])])
+    if last.any():
+        b = folded[last].T
+        # Ghost after node count-1 (weight b[3]): nodes count-4 .. count-1.
+        folded[last] = np.column_stack([np.zeros_like(b[0]), b[0], b[1] - b[3], b[2] + 2.0 * b[3]])
     return np.clip(cells - 1, 0, count - 4), folded
 
 
 def folded_position(cell: AxisCell, count: int) -> AxisPosition:
-    """The stencil of one ``cell`` as :func:`folded_rows` makes it."""
-    starts, weights = folded_rows(np.array([cell[0]]), np.array([cell[1]]), count)
-    return AxisPosition(int(starts[0]), weights[0])
+    """The stencil of one ``cell`` as :func:`folded_rows` makes it, in the same arithmetic on
+    plain floats (the same weights to the bit, without the cost of (1,) arrays: the map's
+    drag along a trajectory takes three of these per call)."""
+    index, t = cell
+    t2, t3 = t * t, t * t * t
+    w = (
+        0.5 * (-t3 + 2.0 * t2 - t),
+        0.5 * (3.0 * t3 - 5.0 * t2 + 2.0),
+        0.5 * (-3.0 * t3 + 4.0 * t2 + t),
+        0.5 * (t3 - t2),
+    )
+    if index == 0:
+        w = (w[1] + 2.0 * w[0], w[2] - w[0], w[3], 0.0)
+    elif index == count - 2:
+        w = (0.0, w[0], w[1] - w[3], w[2] + 2.0 * w[3])
+    return AxisPosition(min(max(index - 1, 0), count - 4), np.array(w))
 
 
 def torque_stencil(table: FloatArray, pos: Positions) -> FloatArray:
