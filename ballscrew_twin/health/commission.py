@@ -1,4 +1,5 @@
-"""``ballscrew-twin commission BAG --out baseline.yaml``: learn the healthy unit from a recording.
+"""``ballscrew-twin commission BAG [BAG ...] --out baseline.yaml``: learn the healthy unit from
+one healthy recording, or several of the same unit fitted together (:func:`one_timeline`).
 
 The monitor's faults are deviations from *this* unit, not from the nominal screw. On a healthy
 recording (a bag, or the first minutes of a live run) the blocks the monitor would compare
@@ -389,7 +390,9 @@ def one_timeline(recordings: Sequence[Channels]) -> list[Channels]:
     for k, channels in enumerate(recordings):
         stamps = [np.asarray(series[0], float) for series in channels.values()]
         if not stamps or any(len(t) == 0 for t in stamps):
-            raise ConfigError(f"commission: recording {k + 1} has a channel without samples")
+            raise ConfigError(
+                f"commission: recording {k + 1} has no channels, or a channel without samples"
+            )
         first = min(float(t[0]) for t in stamps)
         offset = 0.0 if k == 0 else end + RECORDING_GAP - first
         placed.append(

@@ -147,7 +147,9 @@ def test_two_recordings_on_one_clock_are_put_one_after_the_other() -> None:
     with pytest.raises(ConfigError, match="no recording"):
         one_timeline([])
     empty = {**second, "preload": (np.array([]), np.array([]))}
-    with pytest.raises(ConfigError, match="recording 2 has a channel without samples"):
+    with pytest.raises(
+        ConfigError, match="recording 2 has no channels, or a channel without samples"
+    ):
         one_timeline([first, empty])
 
 
