@@ -74,6 +74,11 @@ def limits(
     }
 
 
+def finite(unit: str) -> dict[str, Any]:
+    """The :func:`limits` of any finite number in ``unit``."""
+    return limits(unit, -math.inf, math.inf)
+
+
 def positive(unit: str) -> dict[str, Any]:
     """The :func:`limits` of a finite number > 0 in ``unit``."""
     return limits(unit, 0.0, math.inf, lo_open=True)

@@ -50,7 +50,7 @@ from ..fidelity import bounds_fingerprint
 from ..models import registry
 from ..models.base import ContactStates, OperatingPoint, TwinOutput
 from ..models.steady import SteadyStateModel
-from ..params import TwinConfig, check_number, default_config_path, limits, load_config
+from ..params import TwinConfig, check_number, default_config_path, finite, load_config
 from ..timing import cpu_time
 from ..units import CELSIUS_ZERO, RPM
 
@@ -102,7 +102,7 @@ def _floats(text: str, what: str, unit: str) -> list[float]:
     """The sorted distinct numbers [unit] of the comma-separated list ``text`` of ``--what``,
     each by the package's one number check (finite; the refusal names the option, the value
     and the unit)."""
-    meta = limits(unit, -math.inf, math.inf)
+    meta = finite(unit)
     where = f"--{what} {text!r}"
     values = {
         float(check_number(v, meta, where, error=BallscrewTwinError))

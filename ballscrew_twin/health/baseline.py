@@ -45,7 +45,7 @@ from ..models.base import OperatingPoint
 from ..params import (
     TwinConfig,
     config_fingerprint,
-    limits,
+    finite,
     not_negative,
     positive,
     read_yaml,
@@ -110,12 +110,12 @@ class Baseline:
     fingerprint: str
     source: str = "nominal"
     torque_gain: float = field(default=1.0, metadata=positive("-"))
-    torque_bias: float = field(default=0.0, metadata=limits("N m", -math.inf, math.inf))
+    torque_bias: float = field(default=0.0, metadata=finite("N m"))
     preload_scale: float = field(default=1.0, metadata=positive("-"))
-    temperature_shift: float = field(default=0.0, metadata=limits("K", -math.inf, math.inf))
+    temperature_shift: float = field(default=0.0, metadata=finite("K"))
     inertia: float = field(metadata=positive("kg m^2"))
-    shape_slope: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
-    shape_curvature: float = field(default=0.0, metadata=limits("-", -math.inf, math.inf))
+    shape_slope: float = field(default=0.0, metadata=finite("-"))
+    shape_curvature: float = field(default=0.0, metadata=finite("-"))
     sensor_noise: float | None = field(default=None, metadata=positive("N m"))
     error_relative: float = field(default=0.03, metadata=not_negative("-"))
     error_bands: tuple[float, ...] = ()

@@ -42,7 +42,7 @@ from scipy.interpolate import RegularGridInterpolator
 
 from ..errors import ConfigError
 from ..models.base import OperatingPoint
-from ..params import TwinConfig, limits, not_negative, positive, validate_fields
+from ..params import TwinConfig, finite, not_negative, positive, validate_fields
 from .fault_profiles import FaultState, apply_to_config
 
 FloatArray = NDArray[np.float64]
@@ -135,7 +135,7 @@ class BenchUnit:
     dry_friction_scale: float = field(default=1.0, metadata=positive("-"))
     eyring_scale: float = field(default=1.0, metadata=positive("-"))
     torque_gain: float = field(default=1.0, metadata=positive("-"))
-    torque_bias: float = field(default=0.0, metadata=limits("N m", -math.inf, math.inf))
+    torque_bias: float = field(default=0.0, metadata=finite("N m"))
     inertia_scale: float = field(default=1.0, metadata=positive("-"))
     presliding_angle: float = field(default=0.0, metadata=not_negative("rad"))
     stribeck_fraction: float = field(default=0.0, metadata=not_negative("-"))

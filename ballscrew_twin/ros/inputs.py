@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 
 from ..errors import ConfigError
-from ..params import check_number, limits, quantity, validate_fields
+from ..params import check_number, finite, limits, quantity, validate_fields
 from ..units import CELSIUS_ZERO, NS_PER_S, RPM
 
 
@@ -113,10 +113,8 @@ def check_axial_load(value: float, limits: InputLimits) -> str | None:
 #: Unit of the values of each of the health node's sample channels (converted to SI).
 SAMPLE_UNITS = {"torque": "N m", "speed": "rad/s", "temperature": "K", "preload": "N"}
 #: What a sample's stamp and each channel's value are checked against: any finite number.
-_STAMP_LIMITS = limits("s", -math.inf, math.inf)
-_SAMPLE_LIMITS = {
-    channel: limits(unit, -math.inf, math.inf) for channel, unit in SAMPLE_UNITS.items()
-}
+_STAMP_LIMITS = finite("s")
+_SAMPLE_LIMITS = {channel: finite(unit) for channel, unit in SAMPLE_UNITS.items()}
 
 
 def check_sample(channel: str, stamp: float, value: float) -> str | None:
