@@ -11,10 +11,10 @@ Two parts, printed (never asserted):
    1 ms) during the build and over ``--settle`` seconds on the full table; then the same
    ``--settle`` seconds of the paper screw's node on its packaged table, for comparison.
 2. **Accuracy of the tables** at ``--points`` random operating points off the nodes (seeded;
-   speed log-uniform in [0.1 rpm, the table's highest speed], temperature uniform in the
-   table's range, preload uniform in sqrt(preload) over [0, 4000] N as the nodes, so 7 % lie below
-   20 N; no axial load): the real-time model on the
-   full and on the preview table against the symmetric steady model at a 1e-11 scaled
+   speed log-uniform in [0.1 rpm, the screw's critical speed or the table's highest speed if
+   lower], temperature uniform in the table's range, preload uniform in sqrt(preload) over
+   [0, 4000] N, so 7 % lie below 20 N; no axial load): the real-time model on the full and on
+   the preview table against the symmetric steady model at a 1e-11 scaled
    residual (the model the tables tabulate) on the tables' branch: continued along the speed
    from the table's lowest speed at the point's temperature and preload, as a table line is
    solved (where the steady state is multi-valued, a cold start can land on another branch;
@@ -150,11 +150,15 @@ def run_node(config_file: str, workers: int, settle: float) -> dict[str, Any]:
     return result
 
 
-def accuracy_points(table: SteadyMap, count: int, seed: int) -> list[OperatingPoint]:
-    """Random operating points over the table's range (see the module docstring)."""
+def accuracy_points(
+    table: SteadyMap, config: TwinConfig, count: int, seed: int
+) -> list[OperatingPoint]:
+    """Random operating points over the table's range up to the screw's critical speed (see the
+    module docstring)."""
     rng = np.random.default_rng(seed)
     g = table.grid
-    speeds = np.exp(rng.uniform(math.log(0.1 * RPM), math.log(g.speed_max), count))
+    top = min(g.speed_max, config.screw.critical_speed)
+    speeds = np.exp(rng.uniform(math.log(0.1 * RPM), math.log(top), count))
     speeds *= rng.choice((-1.0, 1.0), count)
     temperatures = rng.uniform(g.temperature_min, g.temperature_max, count)
     preloads = MAX_PRELOAD * rng.uniform(0.0, 1.0, count) ** 2  # as the nodes: 7 % < 20 N
@@ -185,7 +189,7 @@ def run_accuracy(
     cold = SteadyStateModel(config, mode="symmetric", tolerance=REFERENCE_TOLERANCE)
     models = {name: RealTimeModel(config, steady_map=table) for name, table in tables.items()}
     first = next(iter(tables.values()))
-    points = accuracy_points(first, count, seed)
+    points = accuracy_points(first, config, count, seed)
     found: dict[str, list[tuple[OperatingPoint, dict[str, float]]]] = {n: [] for n in models}
     failed = elsewhere = 0
     for op in points:

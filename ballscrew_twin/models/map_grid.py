@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from ..errors import MapError
 from ..params import TwinConfig
+from ..physics.lubricant import ROELANDS_T_INF
 from ..units import CELSIUS_ZERO, RPM
 from .base import OperatingPoint
 
@@ -65,6 +66,20 @@ PREVIEW_NODES = (9, 7, 9)
 PRELOAD_ROOT = 4
 #: Offset of the preload coordinate [N] (see :data:`PRELOAD_ROOT`).
 PRELOAD_OFFSET = 10.0
+#: How far a table's speed nodes reach above the screw's critical speed (at most to the packaged
+#: 6000 rpm) [-]. Two cells of the 49-node speed axis span a factor of about 1.6, so the cell that
+#: holds the critical speed reads an interior Catmull-Rom stencil, not the end cell's
+#: extrapolated ghost node: the 32 mm screw's drag steepens below its 4000 rpm (31.0 mN m at
+#: 3095 rpm, 46.8 at 4243 rpm at 88 C / 1496 N), and a table ending at 4000 rpm was 2.9 % off
+#: at 3725 rpm, one reaching to 6000 rpm 0.84 % (docs/benchmarks.md, issue 14).
+SPEED_REACH = 1.6
+#: The temperature nodes are uniform in :func:`temperature_coordinate`, ln(T - TEMPERATURE_POLE):
+#: dense where the lubricant is cold. Roelands' viscosity law (Eq. 24) makes ln(eta) + 9.67
+#: proportional to (T - 138 K)^-S0, which bends fastest near its pole; in ln(T - 138 K) the film
+#: laws that follow the viscosity are nearly straight lines. With 29 nodes over -40..100 C the
+#: nodes are 3.1 K apart at -40 C and 7.5 K at 100 C (5 K each when uniform in T, which left the
+#: 32 mm screw's drag 4.4 % off at -37.4 C: docs/benchmarks.md, issue 14) [K].
+TEMPERATURE_POLE = ROELANDS_T_INF
 
 
 def preload_coordinate(preload: float) -> float:
@@ -80,6 +95,12 @@ def preload_at(coordinate: FloatArray) -> FloatArray:
 
 
 _COORDINATE_ZERO = PRELOAD_OFFSET ** (1.0 / PRELOAD_ROOT)
+
+
+def temperature_coordinate(temperature: float) -> float:
+    """The coordinate [-] in which the temperature nodes are uniform, ln((T - 138 K) / 1 K), of a
+    temperature T [K] > 138 K (see :data:`TEMPERATURE_POLE`)."""
+    return math.log(temperature - TEMPERATURE_POLE)
 
 
 def equivalent_preloads(op: OperatingPoint) -> tuple[float, float]:
@@ -101,7 +122,7 @@ class MapGrid:
         speed_nodes: nodes per speed sign, uniform in log |speed|.
         temperature_min: lowest temperature [K].
         temperature_max: highest temperature [K].
-        temperature_nodes: nodes uniform in temperature.
+        temperature_nodes: nodes uniform in :func:`temperature_coordinate`.
         preload_max: highest equivalent preload [N] (the lowest is 0 N).
         preload_nodes: nodes uniform in :func:`preload_coordinate` (41: with 33 the drag
             of the paper screw at 3900 rpm, 53-60 C, 56-60 N was up to 1.4 % off, its curve
@@ -118,9 +139,10 @@ class MapGrid:
     preload_nodes: int = 41
 
     def __post_init__(self) -> None:
+        cold, hot = self.temperature_min, self.temperature_max
         checks = (
             ("speed_min", 0.0 < self.speed_min < self.speed_max, "rad/s, 0 < speed_min < max"),
-            ("temperature_min", 138.0 < self.temperature_min < self.temperature_max, "K, < max"),
+            ("temperature_min", TEMPERATURE_POLE < cold < hot, "K, 138 K < temperature_min < max"),
             ("preload_max", self.preload_max > 0.0, "N, > 0"),
         )
         for name, ok, unit in checks:
@@ -145,8 +167,10 @@ class MapGrid:
 
     @property
     def temperatures(self) -> FloatArray:
-        """Temperature nodes [K]."""
-        return np.linspace(self.temperature_min, self.temperature_max, self.temperature_nodes)
+        """Temperature nodes [K], uniform in :func:`temperature_coordinate`."""
+        low = temperature_coordinate(self.temperature_min)
+        high = temperature_coordinate(self.temperature_max)
+        return TEMPERATURE_POLE + np.exp(np.linspace(low, high, self.temperature_nodes))
 
     @property
     def preloads(self) -> FloatArray:
@@ -190,12 +214,13 @@ class MapGrid:
 
 def grid_for(config: TwinConfig, preview: bool = False) -> MapGrid:
     """The grid of ``config``'s table: the packaged table's nodes, with the speed range ending at
-    the screw's critical speed when that is below 6000 rpm (the validity envelope clamps any
-    faster command there, so nodes beyond it would never be read). ``preview``: the
+    :data:`SPEED_REACH` times the screw's critical speed when that is below 6000 rpm. The
+    validity envelope clamps any command faster than the critical speed, but the nodes above it
+    hold the upper end of the stencils of the cells below it. ``preview``: the
     :data:`PREVIEW_NODES` grid over the same ranges."""
     grid = MapGrid()
     # params.py keeps the critical speed >= 1 rad/s, far above the lowest node (0.05 rpm).
-    grid = replace(grid, speed_max=min(grid.speed_max, config.screw.critical_speed))
+    grid = replace(grid, speed_max=min(grid.speed_max, SPEED_REACH * config.screw.critical_speed))
     if preview:
         speed, temperature, preload = PREVIEW_NODES
         grid = replace(

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from .map_grid import TORQUE_SCALE, MapGrid, preload_coordinate
+from .map_grid import TORQUE_SCALE, MapGrid, preload_coordinate, temperature_coordinate
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -72,8 +72,14 @@ def speed_node(grid: MapGrid, speed: float) -> float:
 
 
 def temperature_node(grid: MapGrid, temperature: float) -> float:
-    """The temperature [K] in node units of ``grid``'s temperature axis (uniform) [-]."""
-    u = (temperature - grid.temperature_min) / (grid.temperature_max - grid.temperature_min)
+    """The temperature [K] in node units of ``grid``'s temperature axis (uniform in
+    :func:`~.map_grid.temperature_coordinate`) [-]; clamped to the axis first, as
+    :func:`axis_cell` clamps it (the coordinate has a pole at 138 K)."""
+    clamped = min(max(temperature, grid.temperature_min), grid.temperature_max)
+    low = temperature_coordinate(grid.temperature_min)
+    u = (temperature_coordinate(clamped) - low) / (
+        temperature_coordinate(grid.temperature_max) - low
+    )
     return u * (grid.temperature_nodes - 1)
 
 

@@ -8,7 +8,7 @@ as functions of
 
 - the screw speed, for each sign separately (a reversal is not a mirror image: the slips differ
   by a few per cent), on nodes uniform in log |speed| between ``speed_min`` and ``speed_max``;
-- the temperature, on uniform nodes;
+- the temperature, on nodes uniform in ln(T - 138 K) (:func:`~.map_grid.temperature_coordinate`);
 - the nut's *equivalent preload* (the preload that loads the nut alike with no external load:
   preload + axial load for the master nut, the preload for the slave nut; see
   :func:`~.map_grid.equivalent_preloads`), on nodes uniform in the fourth root of
@@ -81,9 +81,10 @@ from .map_interpolation import (
 
 FloatArray = NDArray[np.float64]
 
-#: Format version of the saved file; a file of another version is refused. 2: preload nodes
-#: uniform in :func:`~.map_grid.preload_coordinate` (1: in the square root of the preload).
-FORMAT_VERSION = 2
+#: Format version of the saved file; a file of another version is refused. 3: temperature nodes
+#: uniform in :func:`~.map_grid.temperature_coordinate` (2: uniform in temperature); 2: preload
+#: nodes uniform in :func:`~.map_grid.preload_coordinate` (1: in the square root of the preload).
+FORMAT_VERSION = 3
 #: The committed map of the default parameter set (package data).
 DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map.npz"
 _LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])

@@ -62,7 +62,9 @@ def test_accuracy_rows_of_a_small_table(
     assert not any("| full |" in line for line in text.splitlines())  # none built
     config = load_config(NEW_SCREW)
     grid = small(config, preview=True)
-    ops = screw.accuracy_points(sm.load_map(map_store.cached_map_path(config, grid)), 200, 1)
+    table = sm.load_map(map_store.cached_map_path(config, grid))
+    ops = screw.accuracy_points(table, config, 200, 1)
     assert all(0.0 <= op.preload <= screw.MAX_PRELOAD for op in ops)
-    assert all(0.1 * RPM <= abs(op.screw_speed) <= grid.speed_max * (1 + 1e-12) for op in ops)
+    top = min(grid.speed_max, config.screw.critical_speed) * (1 + 1e-12)
+    assert all(0.1 * RPM <= abs(op.screw_speed) <= top for op in ops)
     assert any(op.preload < 20.0 for op in ops) and not any(math.isnan(op.preload) for op in ops)

@@ -63,10 +63,13 @@ def test_cache_dir_follows_xdg_and_falls_back_to_home(
     assert sm.DEFAULT_MAP_PATH.parent not in map_store.cache_dir().parents
 
 
-def test_grid_ends_at_the_critical_speed_and_the_paper_grid_is_the_packaged_one() -> None:
+def test_grid_reaches_above_the_critical_speed_and_the_paper_grid_is_the_packaged_one() -> None:
     new = load_config(NEW_SCREW)
     grid = map_grid.grid_for(new)
-    assert grid.speed_max == pytest.approx(new.screw.critical_speed)
+    # 1.6 x 4000 rpm is beyond the packaged 6000 rpm: the cell of 4000 rpm is an interior one.
+    assert grid.speed_max == map_grid.MapGrid().speed_max
+    above = int(np.searchsorted(grid.speeds, new.screw.critical_speed))
+    assert above + 1 < grid.speed_nodes
     assert (grid.speed_nodes, grid.temperature_nodes) == (49, 29)
     preview = map_grid.grid_for(new, preview=True)
     nodes = (preview.speed_nodes, preview.temperature_nodes, preview.preload_nodes)
@@ -74,7 +77,7 @@ def test_grid_ends_at_the_critical_speed_and_the_paper_grid_is_the_packaged_one(
     assert preview.speed_max == grid.speed_max
     assert map_grid.grid_for(load_config(None)) == sm.load_map().grid
     slowest = replace(new, screw=replace(new.screw, critical_speed=1.0))  # lowest allowed
-    assert map_grid.grid_for(slowest).speed_max == 1.0
+    assert map_grid.grid_for(slowest).speed_max == pytest.approx(map_grid.SPEED_REACH)
 
 
 def test_find_map_refuses_a_table_of_other_parameters_and_says_why(user_cache: Path) -> None:

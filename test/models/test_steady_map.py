@@ -11,6 +11,7 @@ import pytest
 
 from ballscrew_twin.errors import MapError, SolverError
 from ballscrew_twin.models import map_build, map_grid
+from ballscrew_twin.models import map_interpolation as mi
 from ballscrew_twin.models import steady_map as sm
 from ballscrew_twin.models.base import MECHANISMS, OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
@@ -32,11 +33,11 @@ F = len(map_grid.CONTACT_FIELDS)
 
 
 def _coordinates(grid: map_grid.MapGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Node coordinates in which the map is uniform: log speed, temperature, a root of the
+    """Node coordinates in which the map is uniform: log speed, ln(T - 138 K), a root of the
     preload."""
     return (
         np.log(grid.speeds),
-        grid.temperatures,
+        np.log(grid.temperatures - map_grid.TEMPERATURE_POLE),
         np.array([map_grid.preload_coordinate(p) for p in grid.preloads]),
     )
 
@@ -56,7 +57,7 @@ def _from_interpolated(name: str, value: np.ndarray | float) -> np.ndarray:
 def _master_torque(s: np.ndarray | float, t: np.ndarray | float) -> np.ndarray:
     """The synthetic master nut torque [N m]: asinh(torque / scale) linear in log speed and
     temperature, the same at every preload."""
-    return np.asarray(map_grid.TORQUE_SCALE * np.sinh(_linear(s, t, 0.0, 0.9, 0.01, 0.0)))
+    return np.asarray(map_grid.TORQUE_SCALE * np.sinh(_linear(s, t, 0.0, 0.9, 2.0, 0.0)))
 
 
 def _slave_torque(p: np.ndarray | float) -> np.ndarray:
@@ -81,7 +82,7 @@ def _synthetic_map() -> sm.SteadyMap:
     cs, ct, cp = np.meshgrid(*_coordinates(coarse), indexing="ij")
     contacts = np.zeros((2, *cs.shape, 2, 4, F))
     for j, name in enumerate(map_grid.CONTACT_FIELDS):
-        linear = _linear(cs, ct, cp, 1.0 + j, 0.02, 0.5)[None, ..., None, None]
+        linear = _linear(cs, ct, cp, 1.0 + j, 4.0, 0.5)[None, ..., None, None]
         contacts[..., j] = _from_interpolated(name, linear)
     static = np.full((*cs.shape[1:], 2, 4, F), 7.0)
     return sm.SteadyMap(
@@ -106,7 +107,7 @@ def test_interpolation_reproduces_linear_fields(sign: float) -> None:
         sample = table.sample(sign * speed, temperature, preloads)
         assert sample.notes == ()
         exact = (
-            _master_torque(math.log(speed), temperature),
+            _master_torque(math.log(speed), map_grid.temperature_coordinate(temperature)),
             _slave_torque(map_grid.preload_coordinate(preloads[1])),
         )
         for nut in range(2):
@@ -116,7 +117,7 @@ def test_interpolation_reproduces_linear_fields(sign: float) -> None:
                     name,
                     1.0
                     + (1.0 + j) * math.log(speed)
-                    + 0.02 * temperature
+                    + 4.0 * map_grid.temperature_coordinate(temperature)
                     + 0.5 * map_grid.preload_coordinate(preloads[nut]),
                 )
                 for j, name in enumerate(map_grid.CONTACT_FIELDS)
@@ -178,6 +179,25 @@ def test_grid_validation() -> None:
     with pytest.raises(MapError, match="odd"):
         replace(GRID, preload_nodes=6).check_buildable()
     assert map_grid.MapGrid.from_array(GRID.as_array()) == GRID
+    with pytest.raises(MapError, match="temperature_min"):
+        replace(GRID, temperature_min=map_grid.TEMPERATURE_POLE)
+
+
+def test_temperature_nodes_are_uniform_in_ln_of_the_distance_to_138_k() -> None:
+    grid = map_grid.MapGrid()
+    nodes = grid.temperatures
+    assert nodes[0] == pytest.approx(grid.temperature_min, rel=1e-12)
+    assert nodes[-1] == pytest.approx(grid.temperature_max, rel=1e-12)
+    # Each node lies on its own node number, and the spacing grows with the temperature by
+    # the ratio of the distances to the pole: 3.1 K at -40 C, 7.5 K at 100 C.
+    for k, node in enumerate(nodes):
+        assert mi.temperature_node(grid, float(node)) == pytest.approx(k, abs=1e-9)
+    steps = np.diff(nodes)
+    ratio = (grid.temperature_max - 138.0) / (grid.temperature_min - 138.0)
+    assert steps[-1] / steps[0] == pytest.approx(ratio, rel=0.05)
+    # A temperature at or below the pole is clamped to the axis, not a math domain error.
+    assert mi.temperature_node(grid, 100.0) == 0.0
+    assert mi.temperature_node(grid, 1.0e4) == grid.temperature_nodes - 1
 
 
 def test_failed_nodes_take_the_nearest_solved_speed_or_line() -> None:
