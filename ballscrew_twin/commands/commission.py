@@ -1,7 +1,8 @@
 """``ballscrew-twin commission BAG [BAG ...] --out baseline.yaml``: learn the healthy unit from
 one healthy recording or several of the same unit, fitted together (a cold start and a run at
 the speeds and temperatures it serves at: the monitor is sharpest where the commissioning
-taught it).
+taught it). Several recordings fitted together raised false alarms in held-out testing where
+the cold start alone raised none (docs/benchmarks.md, round 23), and the command says so.
 
 The fit and its error model: :mod:`ballscrew_twin.health.commission`. The bags' topics are
 chosen as for ``detect``.
@@ -76,6 +77,12 @@ def run(args: argparse.Namespace) -> int:
             f"temperature (support >= {MIN_SUPPORT:g} blocks; hatched elsewhere in --plot); "
             f"where it is not taught the twin's error is taken as {b.unseen_error:.2%} (1 sigma): "
             "commission over the speeds and temperatures the unit will run at"
+        )
+    if len(recordings) > 1:
+        print(
+            "caution: fitted together, several recordings of a unit raised false alarms in "
+            "held-out testing where its cold start alone raised none (docs/health.md, round "
+            "23): prefer one healthy recording that covers the unit's speeds and temperatures"
         )
     print(f"wrote {b.save(args.out)}")
     if args.plot:

@@ -212,15 +212,20 @@ def test_commission_command_writes_baseline_and_plot(
     assert 0 < taught < nodes
     assert f"taught at {taught} of {nodes} nodes" in printed
     assert f"taken as {baseline.unseen_error:.2%} (1 sigma)" in printed
+    assert "caution" not in printed  # one recording: no word on several
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_commission_command_fits_several_bags_together(
-    tmp_path: Path, commissioned_bag: tuple[Baseline, str, Path]
+    tmp_path: Path,
+    commissioned_bag: tuple[Baseline, str, Path],
+    capsys: pytest.CaptureFixture[str],
 ) -> None:
     once = commissioned_bag[0]
     healthy, out = SAMPLE_DIR / "healthy", tmp_path / "unit.yaml"
     assert main(["commission", str(healthy), str(healthy), "--out", str(out)]) == 0
+    # the held-out finding of round 23 is said where a user fits several recordings
+    assert "caution: fitted together, several recordings" in capsys.readouterr().out
     twice = load_baseline(out)
     assert twice.source == "healthy + healthy"
     # the same recording twice: the same unit from twice its blocks (all of them fitted below
