@@ -70,6 +70,13 @@ def run(args: argparse.Namespace) -> int:
         f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
         f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
     )
+    for name in result.at_bounds:
+        print(
+            f"note: {name} ended on a bound of the fit: the recording did not pin the unit "
+            "down (it trades against the other values), so the baseline is doubtful; record "
+            "a run over more speeds, temperatures and preloads, or check the torque's units "
+            "and sign"
+        )
     if b.surface is not None:
         taught = int(np.count_nonzero(b.surface.support >= MIN_SUPPORT))
         print(

@@ -107,6 +107,18 @@ def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
     assert fitted.error_relative == pytest.approx(0.007, abs=1e-3)
 
 
+def test_a_fit_that_ends_on_a_bound_says_which_value() -> None:
+    # a torque sensor reading 40 % of the torque: the gain's bound is 0.5
+    recording = _recording(1)
+    stamps, torque = recording["torque"]
+    recording["torque"] = (stamps, 0.4 * torque)
+    result = commission(recording, load_config(None), source="synthetic")
+    assert "torque_gain" in result.at_bounds
+    assert result.baseline.torque_gain == pytest.approx(0.5)
+    # the recording the fit explains ends inside every bound
+    assert commission(_recording(1), load_config(None)).at_bounds == ()
+
+
 def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
     fitted: Baseline,
 ) -> None:
