@@ -71,7 +71,8 @@ PRELOAD_OFFSET = 10.0
 #: holds the critical speed reads an interior Catmull-Rom stencil, not the end cell's
 #: extrapolated ghost node: the 32 mm screw's drag steepens below its 4000 rpm (31.0 mN m at
 #: 3095 rpm, 46.8 at 4243 rpm at 88 C / 1496 N), and a table ending at 4000 rpm was 2.9 % off
-#: at 3725 rpm, one reaching to 6000 rpm 0.84 % (docs/benchmarks.md, issue 14).
+#: at 3725 rpm, one reaching to 6000 rpm 0.84 % (docs/benchmarks.md, issue 14). A critical speed
+#: of about 4700-6000 rpm still lies in the top cell below 6000 rpm, with its one-sided stencil.
 SPEED_REACH = 1.6
 #: The temperature nodes are uniform in :func:`temperature_coordinate`, ln(T - TEMPERATURE_POLE):
 #: dense where the lubricant is cold. Roelands' viscosity law (Eq. 24) makes ln(eta) + 9.67
