@@ -584,15 +584,6 @@ def commission(
         settling_angle=angle,
         unseen_error=unseen,
     )
-    names = (
-        "torque_gain",
-        "torque_bias",
-        "preload_scale",
-        "temperature_shift",
-        "inertia",
-        "shape_slope",
-        "shape_curvature",
-    )
     on_bound = (theta - lower <= 1e-6 * step) | (upper - theta <= 1e-6 * step)
     uncertainty = {
         "torque_gain": float(sigma[0]),
@@ -610,5 +601,6 @@ def commission(
         nominal=_predict(twin, nominal_theta, fit_blocks),
         fitted=predicted,
         gated_share=1.0 - len(usable) / max(len(every), 1),
-        at_bounds=tuple(name for name, hit in zip(names, on_bound, strict=True) if hit),
+        # the names of uncertainty, in the order of theta
+        at_bounds=tuple(name for name, hit in zip(uncertainty, on_bound, strict=True) if hit),
     )

@@ -20,6 +20,7 @@ from ballscrew_twin.health.commission import (
     FIT_BLOCKS,
     FOLD_CHUNK,
     RECORDING_GAP,
+    CommissioningResult,
     SurfaceStudy,
     _settling_angle,
     commission,
@@ -90,8 +91,13 @@ def _recording(seed: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
 
 
 @pytest.fixture(scope="module")
-def fitted() -> Baseline:
-    return commission(_recording(1), load_config(None), source="synthetic").baseline
+def fitted_result() -> CommissioningResult:
+    return commission(_recording(1), load_config(None), source="synthetic")
+
+
+@pytest.fixture(scope="module")
+def fitted(fitted_result: CommissioningResult) -> Baseline:
+    return fitted_result.baseline
 
 
 def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
@@ -107,7 +113,7 @@ def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
     assert fitted.error_relative == pytest.approx(0.007, abs=1e-3)
 
 
-def test_a_fit_that_ends_on_a_bound_says_which_value() -> None:
+def test_a_fit_that_ends_on_a_bound_says_which_value(fitted_result: CommissioningResult) -> None:
     # a torque sensor reading 40 % of the torque: the gain's bound is 0.5
     recording = _recording(1)
     stamps, torque = recording["torque"]
@@ -116,7 +122,7 @@ def test_a_fit_that_ends_on_a_bound_says_which_value() -> None:
     assert "torque_gain" in result.at_bounds
     assert result.baseline.torque_gain == pytest.approx(0.5)
     # the recording the fit explains ends inside every bound
-    assert commission(_recording(1), load_config(None)).at_bounds == ()
+    assert fitted_result.at_bounds == ()
 
 
 def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
