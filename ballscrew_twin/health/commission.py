@@ -45,6 +45,7 @@ from .correction import (
     TEMPERATURE_NODES,
     ResidualSurface,
     basis,
+    nearest_nodes,
     robust_fit,
 )
 from .residuals import (
@@ -242,13 +243,16 @@ class SurfaceStudy:
     Attributes:
         times: block mid times [s]; speeds: block mean |speed| [rad/s];
         residual: relative residual of the parametric fit, (z - z_fit) / (g D) [-];
-        design: each block's drag-weighted mean basis of the surface's nodes [-].
+        design: each block's drag-weighted mean basis of the surface's nodes [-];
+        nearness: each block's drag-weighted share of samples nearest to each node [-]
+            (:func:`~ballscrew_twin.health.correction.nearest_nodes`).
     """
 
     times: FloatArray
     speeds: FloatArray
     residual: FloatArray
     design: FloatArray
+    nearness: FloatArray
 
 
 def out_of_fold_residuals(study: SurfaceStudy) -> FloatArray:
@@ -267,7 +271,9 @@ def out_of_fold_residuals(study: SurfaceStudy) -> FloatArray:
     for k in (0, 1):
         train, held = folds != k, folds == k
         if np.count_nonzero(train) >= BAND_BLOCKS and np.any(held):
-            fold_surface = robust_fit(study.design[train], study.residual[train], SURFACE_SCALE)
+            fold_surface = robust_fit(
+                study.design[train], study.residual[train], study.nearness[train], SURFACE_SCALE
+            )
             learnt = held & (study.design @ np.ravel(fold_surface.support) >= MIN_SUPPORT)
             predicted = study.design[learnt] @ np.ravel(fold_surface.values)
             out_of_fold[learnt] = study.residual[learnt] - predicted
@@ -295,15 +301,15 @@ def validated_support(study: SurfaceStudy) -> FloatArray:
     folds = _folds(study.times)
     shape = (len(LOG_SPEED_NODES), len(TEMPERATURE_NODES))
     if np.all(folds == 0):
-        return np.sum(study.design, axis=0).reshape(shape)
-    per_fold = [np.sum(study.design[folds == k], axis=0) for k in (0, 1)]
+        return np.sum(study.nearness, axis=0).reshape(shape)
+    per_fold = [np.sum(study.nearness[folds == k], axis=0) for k in (0, 1)]
     return (2.0 * np.minimum(per_fold[0], per_fold[1])).reshape(shape)
 
 
 def _surface_study(twin: UnitTwin, theta: FloatArray, usable: list[Block]) -> SurfaceStudy:
     """Relative residuals and design rows of every usable block at the fitted ``theta``."""
     adjusted = _AdjustedUnit(twin, theta)
-    times, speeds, residual, rows = [], [], [], []
+    times, speeds, residual, rows, near = [], [], [], [], []
     for b in usable:
         picked = _pick(b.speed, FIT_SPEEDS)
         drags = adjusted.drag(picked, b.temperature, b.preload)
@@ -316,13 +322,17 @@ def _surface_study(twin: UnitTwin, theta: FloatArray, usable: list[Block]) -> Su
         speeds.append(float(np.mean(np.abs(b.speed))))
         residual.append((float(np.mean(b.torque)) - predicted) / (theta[0] * drag))
         weights = drags / np.sum(drags)
-        rows.append(weights @ basis(picked, np.full(len(picked), b.temperature)))
+        temperatures = np.full(len(picked), b.temperature)
+        rows.append(weights @ basis(picked, temperatures))
+        near.append(weights @ nearest_nodes(picked, temperatures))
     if len(rows) < BAND_BLOCKS:
         raise ConfigError(
             f"commission: {len(rows)} blocks at low acceleration; at least {BAND_BLOCKS} are "
             "needed to learn the unit's residual surface"
         )
-    return SurfaceStudy(np.array(times), np.array(speeds), np.array(residual), np.array(rows))
+    return SurfaceStudy(
+        np.array(times), np.array(speeds), np.array(residual), np.array(rows), np.array(near)
+    )
 
 
 def _settling_angle(
@@ -517,7 +527,8 @@ def commission(
     study = _surface_study(twin, theta, usable)
     out_of_fold = out_of_fold_residuals(study)
     surface = replace(
-        robust_fit(study.design, study.residual, SURFACE_SCALE), support=validated_support(study)
+        robust_fit(study.design, study.residual, study.nearness, SURFACE_SCALE),
+        support=validated_support(study),
     )
     # Where the surface was not learnt, the twin is as wrong as the parametric fit alone was
     # at its worst on this unit (training unit 9: 23 % at -10 C and 3 rad/s, a corner the

@@ -16,9 +16,17 @@ r_j the relative residual of block j, A_jk the block's drag-weighted mean of the
 of node k over its speed samples, D first differences along each axis: where the recording has
 no data the surface continues flat from the nearest data and relaxes to zero over a few nodes
 (sqrt(lambda / lambda_0)). The monitor multiplies the twin's drag by 1 + c (queries beyond the
-grid are clamped to its edge). The support of each node (the sum of its basis weights over the
-blocks) says where the surface was learnt; the monitor widens its error by the share of a
-query's value that comes from thin nodes (:meth:`ResidualSurface.unlearnt_share`).
+grid are clamped to its edge). The support of each node (how many blocks lie nearer to it than
+to any other node, :func:`nearest_nodes`) says where the surface was learnt; the monitor widens
+its error by the share of a query's value that comes from thin nodes
+(:meth:`ResidualSurface.unlearnt_share`).
+
+Support counts the nearest node, not the basis weight: a node whose cell holds data on its far
+side only is not taught by it. Its value there is the slope of the near data carried across the
+cell. Unit 22011 of ``bench detection`` (round 23 of issue 13, commissioned on its cold start
+and a service run): thousands of service blocks at 18-21 C gave the 15 C node a basis-weight
+support in the hundreds, its value was carried to a later run at 12.9 C, 4.4-4.7 % off the unit,
+and the CUSUM alarmed.
 
 All quantities SI: rad/s, K; c and r relative [-].
 """
@@ -80,6 +88,17 @@ def basis(speed: FloatArray, temperature: FloatArray) -> FloatArray:
     return out
 
 
+def nearest_nodes(speed: FloatArray, temperature: FloatArray) -> FloatArray:
+    """Each (speed [rad/s], temperature [K]) pair's nearest node (in x and in T, clamped to the
+    grid) as indicator rows (samples, nodes) [-], in the node order of :func:`basis`."""
+    ix, fx = _axis_weights(_X, log_speed(np.asarray(speed, dtype=np.float64)))
+    it, ft = _axis_weights(_T, np.asarray(temperature, dtype=np.float64))
+    node = (ix + (fx >= 0.5)) * len(_T) + it + (ft >= 0.5)
+    out = np.zeros((len(ix), len(_X) * len(_T)))
+    out[np.arange(len(ix)), node] = 1.0
+    return out
+
+
 def _differences(size_x: int, size_t: int) -> tuple[FloatArray, FloatArray]:
     """First-difference operators along x and along T of the node vector."""
     n = size_x * size_t
@@ -99,7 +118,7 @@ class ResidualSurface:
 
     Attributes:
         values: c at the nodes, shape (x nodes, T nodes) [-].
-        support: sum of each node's basis weights over the fitted blocks [blocks] (a
+        support: how many of the fitted blocks lie nearest to each node [blocks] (a
             commissioned baseline stores the support both folds of its cross-validation
             gave, :func:`~ballscrew_twin.health.commission.validated_support`).
     """
@@ -170,7 +189,10 @@ def _bilinear(grid: FloatArray, speed: FloatArray, temperature: float) -> FloatA
 
 
 def fit_surface(
-    design: FloatArray, residual: FloatArray, weight: FloatArray | None = None
+    design: FloatArray,
+    residual: FloatArray,
+    nearness: FloatArray,
+    weight: FloatArray | None = None,
 ) -> ResidualSurface:
     """The penalised least-squares surface (see the module docstring).
 
@@ -178,12 +200,17 @@ def fit_surface(
         design: A, (blocks, nodes): each block's drag-weighted mean basis (rows of
             :func:`basis` averaged over the block's samples with the drag as weight).
         residual: r, each block's relative residual [-].
+        nearness: (blocks, nodes), each block's share of samples nearest to each node (rows
+            of :func:`nearest_nodes` averaged the same way) [-]; their sum is the support.
         weight: per-block weight [-] (default one; robust reweighting passes smaller ones).
     """
     a = np.asarray(design, dtype=np.float64)
     r = np.asarray(residual, dtype=np.float64)
-    if a.ndim != 2 or a.shape[0] != len(r) or not np.all(np.isfinite(r)):
-        raise ConfigError("residual surface: design and residuals disagree or are not finite")
+    near = np.asarray(nearness, dtype=np.float64)
+    if a.ndim != 2 or a.shape[0] != len(r) or not np.all(np.isfinite(r)) or near.shape != a.shape:
+        raise ConfigError(
+            "residual surface: design, nearness and residuals disagree or are not finite"
+        )
     w = np.ones(len(r)) if weight is None else np.asarray(weight, dtype=np.float64)
     size_x, size_t = len(LOG_SPEED_NODES), len(TEMPERATURE_NODES)
     along_x, along_t = _differences(size_x, size_t)
@@ -195,17 +222,19 @@ def fit_surface(
     )
     values = np.linalg.solve(normal, a.T @ (w * r))
     values = np.clip(values, -0.5, 0.5)
-    support = np.sum(a, axis=0)
+    support = np.sum(near, axis=0)
     return ResidualSurface(values.reshape(size_x, size_t), support.reshape(size_x, size_t))
 
 
-def robust_fit(design: FloatArray, residual: FloatArray, scale: float) -> ResidualSurface:
+def robust_fit(
+    design: FloatArray, residual: FloatArray, nearness: FloatArray, scale: float
+) -> ResidualSurface:
     """:func:`fit_surface` with two Huber reweightings at ``scale`` [-] (a block across a
     preload step or a hard acceleration does not bend the surface)."""
     check_number(scale, positive("-"), "residual surface: scale", text=False)
-    surface = fit_surface(design, residual)
+    surface = fit_surface(design, residual, nearness)
     for _ in range(2):
         misfit = np.abs(residual - design @ np.ravel(surface.values))
         weight = np.minimum(1.0, scale / np.maximum(misfit, 1e-12))
-        surface = fit_surface(design, residual, weight)
+        surface = fit_surface(design, residual, nearness, weight)
     return surface

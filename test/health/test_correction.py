@@ -1,5 +1,6 @@
 """The residual surface: bilinear basis exact on bilinear functions, the penalised fit recovers a
-smooth surface where it has data and relaxes to zero far from it, outliers do not bend it."""
+smooth surface where it has data and relaxes to zero far from it, outliers do not bend it, and
+a node's support counts only the samples nearest to it."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from ballscrew_twin.health.correction import (
     basis,
     fit_surface,
     log_speed,
+    nearest_nodes,
     robust_fit,
 )
 
@@ -59,7 +61,11 @@ def test_the_fit_recovers_a_smooth_surface_where_it_has_data_and_relaxes_far_fro
     speed = np.exp(rng.uniform(np.log(2.0), np.log(300.0), n))
     temperature = rng.uniform(280.0, 310.0, n)
     truth = _true_surface(speed, temperature)
-    surface = fit_surface(basis(speed, temperature), truth + rng.normal(0.0, 0.003, n))
+    surface = fit_surface(
+        basis(speed, temperature),
+        truth + rng.normal(0.0, 0.003, n),
+        nearest_nodes(speed, temperature),
+    )
     probe_w = np.array([3.0, 8.0, 30.0, 100.0])
     for t in (285.0, 300.0):
         # inside the data: the truth to 0.25 % of the drag (noise 0.3 % per block)
@@ -81,9 +87,9 @@ def test_outliers_do_not_bend_the_robust_fit() -> None:
     temperature = np.full(n, 295.0)
     residual = np.full(n, 0.01) + rng.normal(0.0, 0.002, n)
     residual[::20] = 0.5  # 5 % of the blocks across a preload step
-    design = basis(speed, temperature)
-    plain = fit_surface(design, residual).at(np.array([10.0]), 295.0)[0]
-    robust = robust_fit(design, residual, 0.01).at(np.array([10.0]), 295.0)[0]
+    design, near = basis(speed, temperature), nearest_nodes(speed, temperature)
+    plain = fit_surface(design, residual, near).at(np.array([10.0]), 295.0)[0]
+    robust = robust_fit(design, residual, near, 0.01).at(np.array([10.0]), 295.0)[0]
     assert plain > 0.03  # least squares is pulled by the outliers
     assert robust == pytest.approx(0.01, abs=1.5e-3)
 
@@ -96,7 +102,49 @@ def test_a_surface_of_the_wrong_shape_or_size_is_refused() -> None:
     with pytest.raises(ConfigError, match="not finite"):
         ResidualSurface(np.full(SHAPE, np.nan), np.zeros(SHAPE))
     with pytest.raises(ConfigError, match="scale"):
-        robust_fit(np.zeros((2, SHAPE[0] * SHAPE[1])), np.zeros(2), 0.0)
+        robust_fit(
+            np.zeros((2, SHAPE[0] * SHAPE[1])), np.zeros(2), np.zeros((2, SHAPE[0] * SHAPE[1])), 0.0
+        )
+    with pytest.raises(ConfigError, match="nearness"):
+        fit_surface(np.zeros((2, SHAPE[0] * SHAPE[1])), np.zeros(2), np.zeros((3, 4)))
+
+
+def test_each_sample_counts_for_its_nearest_node() -> None:
+    rng = np.random.default_rng(11)
+    speed = np.exp(rng.uniform(np.log(0.05), np.log(900.0), 300)) * rng.choice([-1, 1], 300)
+    temperature = rng.uniform(220.0, 390.0, 300)
+    rows = nearest_nodes(speed, temperature)
+    np.testing.assert_array_equal(rows.sum(axis=1), 1.0)
+    # Oracle: the node at the least distance in node units on each axis, clamped to the grid.
+    x = (
+        np.clip(log_speed(speed), LOG_SPEED_NODES[0], LOG_SPEED_NODES[-1]) - LOG_SPEED_NODES[0]
+    ) / 0.25
+    t = (
+        np.clip(temperature, TEMPERATURE_NODES[0], TEMPERATURE_NODES[-1]) - TEMPERATURE_NODES[0]
+    ) / 5.0
+    expected = np.floor(x + 0.5).astype(int) * len(TEMPERATURE_NODES) + np.floor(t + 0.5).astype(
+        int
+    )
+    np.testing.assert_array_equal(np.argmax(rows, axis=1), expected)
+
+
+def test_data_on_the_far_side_of_a_cell_does_not_teach_its_node() -> None:
+    """Blocks at 18-21 C only (a service run, unit 22011 of round 23): the 15 C node is not
+    learnt, though its bilinear weight over those blocks is several times MIN_SUPPORT at most
+    speed nodes."""
+    rng = np.random.default_rng(12)
+    speed = np.exp(rng.uniform(np.log(5.0), np.log(200.0), 2000))
+    temperature = 273.15 + rng.uniform(18.0, 21.0, 2000)
+    design = basis(speed, temperature)
+    surface = fit_surface(design, np.full(2000, 0.02), nearest_nodes(speed, temperature))
+    node_15 = TEMPERATURE_NODES.index(288.15)
+    node_20 = TEMPERATURE_NODES.index(293.15)
+    weight_15 = design.reshape(len(design), len(LOG_SPEED_NODES), -1)[:, :, node_15].sum(axis=0)
+    assert weight_15.max() > 3 * MIN_SUPPORT  # what the basis-weight support would count
+    assert np.all(surface.support[:, node_15] == 0.0)
+    assert surface.support[:, node_20].max() >= MIN_SUPPORT
+    # so a query at 12.9 C takes its value from unlearnt nodes only
+    assert surface.unlearnt_share(30.0, 286.05) == 1.0
 
 
 def test_a_query_between_a_learnt_and_an_unlearnt_node_is_mostly_unlearnt() -> None:
