@@ -3,12 +3,14 @@
 The compiled twin of the numeric part of :meth:`ballscrew_twin.models.steady_map.SteadyMap.sample`
 (the readable reference; read it and the module docstring of ``steady_map`` first): tensor
 Catmull-Rom stencils over 4 x 4 x 4 nodes of the tables (the torque table along the preload
-first, then along speed and temperature on asinh of the nut torque; the contact tables padded),
+first, its slopes limited, then along speed and temperature on asinh of the nut torque; the
+contact tables padded),
 the asinh back-transform of the nut torque and of the power-law contact fields, the share-out
 of the torque over the mechanisms, the blend to standstill and the lower bounds. Where the
 query falls on each axis (cell and fraction), the clamping and the notes stay in Python and are
 shared with the reference, so only the arithmetic is duplicated (the torque table's stencils,
-``_folded``, follow ``map_interpolation.folded_rows``); test/kernels/test_map_sample_kernel.py
+``_folded``, follow ``map_interpolation.folded_rows``, and ``_preload_hermite`` follows
+``map_interpolation.preload_line``); test/kernels/test_map_sample_kernel.py
 checks the two agree to rounding (the reference sums the 64 stencil terms in BLAS order, the
 kernel in loop order).
 
@@ -108,6 +110,46 @@ def _folded(cell: int, t: float, count: int, out: FloatArray) -> int:
     return cell - 1
 
 
+@njit(cache=True, inline="always")
+def _hermite_basis(t: float, out: FloatArray) -> None:
+    """Cubic Hermite basis at fraction ``t`` of a unit cell into ``out``: the weights of the
+    value and the slope at its low end, then of the value and the slope at its high end."""
+    t2 = t * t
+    t3 = t * t * t
+    out[0] = 2.0 * t3 - 3.0 * t2 + 1.0
+    out[1] = t3 - 2.0 * t2 + t
+    out[2] = 3.0 * t2 - 2.0 * t3
+    out[3] = t3 - t2
+
+
+@njit(cache=True, inline="always")
+def _limited_slope(left: float, right: float, limit: float) -> float:
+    """A node's slope from its two secants (as ``map_interpolation._limited_slope``)."""
+    if left * right <= 0.0:
+        return 0.0
+    slope = 0.5 * (left + right)
+    bound = limit * min(abs(left), abs(right))
+    return min(max(slope, -bound), bound)
+
+
+@njit(cache=True)
+def _preload_hermite(
+    nodes: FloatArray, cell: int, count: int, hermite: FloatArray, limit: float
+) -> float:
+    """One line's value along the preload from the four ``nodes`` of the folded stencil of
+    ``cell`` on an axis of ``count`` nodes, with the ``hermite`` basis of the cell's fraction
+    (as ``map_interpolation.preload_line``)."""
+    if cell == 0:
+        y0, y1, y2, y3 = 2.0 * nodes[0] - nodes[1], nodes[0], nodes[1], nodes[2]
+    elif cell == count - 2:
+        y0, y1, y2, y3 = nodes[1], nodes[2], nodes[3], 2.0 * nodes[3] - nodes[2]
+    else:
+        y0, y1, y2, y3 = nodes[0], nodes[1], nodes[2], nodes[3]
+    low = _limited_slope(y1 - y0, y2 - y1, limit)
+    high = _limited_slope(y2 - y1, y3 - y2, limit)
+    return hermite[0] * y1 + hermite[1] * low + hermite[2] * y2 + hermite[3] * high
+
+
 @njit(cache=True)
 def nut_torques(
     table: FloatArray,
@@ -117,10 +159,12 @@ def nut_torques(
     preload_fractions: FloatArray,
     blend: float,
     torque_scale: float,
+    slope_limit: float,
 ) -> FloatArray:
     """(2, M) drag torque per nut and mechanism [N m] from the unpadded (S, T, P, 2, 1 + M)
     torque table of one speed sign (the nut torque, then the M mechanisms): the preload axis
-    first, then speed and temperature on asinh(nut torque / ``torque_scale``) (as
+    first (the limited Hermite cubic of ``map_interpolation.preload_line``), then speed and
+    temperature on asinh(nut torque / ``torque_scale``) (as
     ``map_interpolation.torque_stencil``).
 
     Args:
@@ -129,26 +173,29 @@ def nut_torques(
             preload.
         blend: standstill factor, 1 on the map, -> 0 at standstill [-].
         torque_scale: ``map_grid.TORQUE_SCALE`` [N m].
+        slope_limit: ``map_interpolation.SLOPE_LIMIT`` [-].
     """
     width = table.shape[4]
     ws = np.empty(4)
     wt = np.empty(4)
-    wp = np.empty(4)
     s = _folded(speed[0], speed[1], table.shape[0], ws)
     t = _folded(temperature[0], temperature[1], table.shape[1], wt)
+    count = table.shape[2]
+    hermite = np.empty(4)
     line = np.empty(width)
     values = np.empty(width)
     out = np.empty((2, width - 1))
     for nut in range(2):
-        p = _folded(preload_cells[nut], preload_fractions[nut], table.shape[2], wp)
+        cell = preload_cells[nut]
+        fraction = preload_fractions[nut]
+        _hermite_basis(fraction, hermite)
+        p = min(max(cell - 1, 0), count - 4)
         values[:] = 0.0
         for i in range(4):
             for j in range(4):
-                line[:] = 0.0
-                for k in range(4):
-                    row = table[s + i, t + j, p + k, nut]
-                    for v in range(width):
-                        line[v] += wp[k] * row[v]
+                nodes = table[s + i, t + j, p : p + 4, nut]
+                for v in range(width):
+                    line[v] = _preload_hermite(nodes[:, v], cell, count, hermite, slope_limit)
                 line[0] = math.asinh(line[0] / torque_scale)
                 wij = ws[i] * wt[j]
                 for v in range(width):

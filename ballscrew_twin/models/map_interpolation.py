@@ -5,8 +5,9 @@ node units: :func:`speed_node`, :func:`temperature_node`, :func:`preload_node`) 
 weighted sum of the 4 x 4 x 4 nodes around it (:func:`catmull_rom_weights`; C1). The edge cells
 use a linearly extrapolated ghost node: a padded table (:func:`pad_axis`, :func:`stencil`) or,
 where the values are transformed between the axes, the ghost's weight folded onto the two
-nodes it is extrapolated from (:func:`folded_position`, :func:`torque_stencil`). The compiled
-twin is ``kernels/map_sample.py``.
+nodes it is extrapolated from (:func:`folded_position`, :func:`torque_stencil`). Along the
+preload the torque table takes the same cubic with its slopes limited where the data are steep
+or flat (:func:`preload_line`). The compiled twin is ``kernels/map_sample.py``.
 """
 
 from __future__ import annotations
@@ -174,22 +175,76 @@ def folded_position(cell: AxisCell, count: int) -> AxisPosition:
     return AxisPosition(min(max(index - 1, 0), count - 4), np.array(w))
 
 
-def torque_stencil(table: FloatArray, pos: Positions) -> FloatArray:
-    """Interpolate an unpadded (S, T, P, nut, 1 + M) torque table (the nut torque [N m], then
-    its M mechanisms) at the :func:`folded_position` stencils ``pos``: (nut, 1 + M), the nut
-    torque as asinh(torque / :data:`~.map_grid.TORQUE_SCALE`).
+#: Largest ratio of a node's slope to the smaller of its two secants along the preload where
+#: the data are monotone (Fritsch and Carlson 1980; Hyman 1983: at <= 3 the cubic between
+#: monotone nodes is monotone).
+SLOPE_LIMIT = 3.0
 
-    The preload axis first, on the torques as they are; then speed and temperature on
-    asinh(nut torque / scale) (the mechanisms as they are). Along the preload a light nut's
-    torque can pass near zero or change sign (docs/model.md 11), where its logarithm has no
-    cubic to follow; along speed and temperature it follows power laws of the film and the
-    viscosity, which the logarithm makes nearly linear.
+
+def preload_line(block: FloatArray, axis: int, cell: AxisCell, count: int) -> FloatArray:
+    """Shape-preserving cubic Hermite along ``axis`` of ``block`` (the four nodes of the
+    :func:`folded_position` stencil of ``cell`` on an axis of ``count`` nodes), the axis
+    removed.
+
+    Catmull-Rom slopes (the central differences of the nodes beside each end of the cell; an
+    edge cell's ghost node is linearly extrapolated) limited as Hyman's filter does: where the
+    two secants at a node have the same sign, to SLOPE_LIMIT times the smaller one; where they
+    differ or one is zero, to zero. Equal to :func:`folded_position`'s weights wherever no
+    limit binds. Why: a nut's torque along the preload can fall steeply over one cell and be
+    flat beside it (the master nut of ``config/screw_32x10.yaml`` at 15-23 N), and a node the
+    solver could not solve is filled from a neighbour (a flat step); the plain cubic overshoots
+    there, 3 % at 28.7 N and a torque of the wrong sign at 20 N (issue 14).
     """
-    s, t, p = pos.speed.start, pos.temperature.start, pos.preload.start
-    block = table[s : s + 4, t : t + 4, p : p + 4]
-    lines = np.einsum("ijknv,k->ijnv", block, pos.preload.weights)
+    index, t = cell
+    if index == 0:
+        first, second, third = (np.take(block, k, axis=axis) for k in range(3))
+        nodes = (2.0 * first - second, first, second, third)
+    elif index == count - 2:
+        second, third, last = (np.take(block, k, axis=axis) for k in range(1, 4))
+        nodes = (second, third, last, 2.0 * last - third)
+    else:
+        nodes = tuple(np.take(block, k, axis=axis) for k in range(4))
+    before, inside, after = (nodes[k + 1] - nodes[k] for k in range(3))
+    slope_low = _limited_slope(before, inside)
+    slope_high = _limited_slope(inside, after)
+    t2, t3 = t * t, t * t * t
+    return np.asarray(
+        (2.0 * t3 - 3.0 * t2 + 1.0) * nodes[1]
+        + (t3 - 2.0 * t2 + t) * slope_low
+        + (3.0 * t2 - 2.0 * t3) * nodes[2]
+        + (t3 - t2) * slope_high
+    )
+
+
+def _limited_slope(left: FloatArray, right: FloatArray) -> FloatArray:
+    """A node's Catmull-Rom slope (left + right) / 2 from the secants on either side of it,
+    limited as :func:`preload_line` says."""
+    slope = 0.5 * (left + right)
+    bound = SLOPE_LIMIT * np.minimum(np.abs(left), np.abs(right))
+    monotone = left * right > 0.0
+    return np.where(monotone, np.clip(slope, -bound, bound), 0.0)
+
+
+def torque_stencil(
+    table: FloatArray, speed: AxisPosition, temperature: AxisPosition, preload: AxisCell
+) -> FloatArray:
+    """Interpolate an unpadded (S, T, P, nut, 1 + M) torque table (the nut torque [N m], then
+    its M mechanisms) at the :func:`folded_position` stencils of ``speed`` and ``temperature``
+    and the ``preload`` cell: (nut, 1 + M), the nut torque as
+    asinh(torque / :data:`~.map_grid.TORQUE_SCALE`).
+
+    The preload axis first, on the torques as they are (:func:`preload_line`); then speed and
+    temperature on asinh(nut torque / scale) (the mechanisms as they are). Along the preload a
+    light nut's torque can pass near zero or change sign (docs/model.md 11), where its
+    logarithm has no cubic to follow; along speed and temperature it follows power laws of the
+    film and the viscosity, which the logarithm makes nearly linear.
+    """
+    count = table.shape[2]
+    s, t = speed.start, temperature.start
+    p = min(max(preload[0] - 1, 0), count - 4)
+    lines = preload_line(table[s : s + 4, t : t + 4, p : p + 4], 2, preload, count)
     lines[..., 0] = np.arcsinh(lines[..., 0] / TORQUE_SCALE)
-    return np.asarray(np.einsum("ijnv,i,j->nv", lines, pos.speed.weights, pos.temperature.weights))
+    return np.asarray(np.einsum("ijnv,i,j->nv", lines, speed.weights, temperature.weights))
 
 
 def stencil(table: FloatArray, pos: Positions) -> FloatArray:

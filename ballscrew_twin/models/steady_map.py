@@ -63,6 +63,7 @@ from .map_grid import (
     MapGrid,
 )
 from .map_interpolation import (
+    SLOPE_LIMIT,
     AxisCell,
     Positions,
     QueryCells,
@@ -70,6 +71,7 @@ from .map_interpolation import (
     folded_position,
     folded_rows,
     pad_axis,
+    preload_line,
     preload_node,
     query_cells,
     stencil,
@@ -303,11 +305,10 @@ class SteadyMap:
         t0 = temperature_pos.start
         for nut, preload in enumerate(preloads):
             cell = axis_cell(preload_node(g, preload), g.preload_nodes)
-            pos = folded_position(cell, g.preload_nodes)
-            p0 = pos.start
+            p0 = min(max(cell[0] - 1, 0), g.preload_nodes - 4)
             # (sign, S, 4, 4) nut torques around the temperature and preload cells.
             table = self._prepared["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
-            lines = np.arcsinh(np.einsum("abjk,k->abj", table, pos.weights) / TORQUE_SCALE)
+            lines = np.arcsinh(preload_line(table, 3, cell, g.preload_nodes) / TORQUE_SCALE)
             plane = np.einsum("abj,j->ab", lines, temperature_pos.weights)  # (sign, speed node)
             rows = plane[sign[:, None], starts[:, None] + offsets[None, :]]  # (N, 4)
             total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))
@@ -329,8 +330,7 @@ class SteadyMap:
             stencils: dict[AxisCell, FloatArray] = {}
             for nut, cell in enumerate(fine.preloads):
                 if cell not in stencils:  # one stencil when the nuts' loads agree
-                    pos = Positions(speed, temperature, folded_position(cell, g.preload_nodes))
-                    stencils[cell] = torque_stencil(torque_table, pos)
+                    stencils[cell] = torque_stencil(torque_table, speed, temperature, cell)
                 values[nut] = stencils[cell][nut]
             return _nut_torques(values, blend), None
         coarse_speed = stencil_position(coarse.speed)
@@ -340,10 +340,9 @@ class SteadyMap:
         solved: dict[tuple[AxisCell, AxisCell], _NutStencils] = {}
         for nut, cells in enumerate(zip(fine.preloads, coarse.preloads, strict=True)):
             if cells not in solved:  # both nuts at once; one stencil when the loads agree
-                pos = Positions(speed, temperature, folded_position(cells[0], g.preload_nodes))
                 coarse_pos = Positions(coarse_speed, coarse_temperature, stencil_position(cells[1]))
                 solved[cells] = (
-                    torque_stencil(torque_table, pos),
+                    torque_stencil(torque_table, speed, temperature, cells[0]),
                     stencil(self._prepared["contacts"][sign], coarse_pos),
                     stencil_2d(self._prepared["static"], coarse_pos) if blend < 1.0 else None,
                 )
@@ -375,6 +374,7 @@ class SteadyMap:
             fractions,
             blend,
             TORQUE_SCALE,
+            SLOPE_LIMIT,
         )
         if coarse is None:
             return torque, None

@@ -5,6 +5,7 @@ slicing the ``filled`` table directly."""
 from __future__ import annotations
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -66,6 +67,21 @@ def test_compiled_equals_reference(table: sm.SteadyMap, contacts: bool) -> None:
         worst_states = max(worst_states, float(error.max()))
     assert worst_torque < 1e-12
     assert worst_states < 1e-12
+
+
+def test_compiled_equals_reference_where_the_preload_limit_binds(table: sm.SteadyMap) -> None:
+    """The packaged torques with a steep step, a flat (filled) node and a sign change along
+    every preload line: the limited cubic binds, and kernel and reference still agree."""
+    factors = np.ones(table.grid.preload_nodes)
+    factors[3], factors[4], factors[6] = 4.0, 4.0, -0.5
+    stepped = replace(table, torque=table.torque * factors[None, None, None, :, None, None])
+    worst = 0.0
+    for speed, temperature, preloads in _queries(stepped.grid, 200):
+        fast = stepped.sample(speed, temperature, preloads, contacts=False, compiled=True)
+        ref = stepped.sample(speed, temperature, preloads, contacts=False, compiled=False)
+        scale = np.abs(ref.torque).max() + 1e-12
+        worst = max(worst, float(np.abs(fast.torque - ref.torque).max() / scale))
+    assert worst < 1e-12
 
 
 def test_filled_window_matches_slicing(table: sm.SteadyMap) -> None:
