@@ -172,7 +172,13 @@ def folded_position(cell: AxisCell, count: int) -> AxisPosition:
         w = (w[1] + 2.0 * w[0], w[2] - w[0], w[3], 0.0)
     elif index == count - 2:
         w = (0.0, w[0], w[1] - w[3], w[2] + 2.0 * w[3])
-    return AxisPosition(min(max(index - 1, 0), count - 4), np.array(w))
+    return AxisPosition(stencil_start(index, count), np.array(w))
+
+
+def stencil_start(cell: int, count: int) -> int:
+    """First node of the four a :func:`folded_position` stencil of ``cell`` reads on an
+    unpadded axis of ``count`` nodes."""
+    return min(max(cell - 1, 0), count - 4)
 
 
 #: Largest ratio of a node's slope to the smaller of its two secants along the preload where
@@ -193,7 +199,7 @@ def preload_line(block: FloatArray, axis: int, cell: AxisCell, count: int) -> Fl
     limit binds. Why: a nut's torque along the preload can fall steeply over one cell and be
     flat beside it (the master nut of ``config/screw_32x10.yaml`` at 15-23 N), and a node the
     solver could not solve is filled from a neighbour (a flat step); the plain cubic overshoots
-    there, 3 % at 28.7 N and a torque of the wrong sign at 20 N (issue 14).
+    there, 3.6 % at 0.3 rpm / 47.6 C / 28.7 N and a torque of the wrong sign at 20 N (issue 14).
     """
     index, t = cell
     if index == 0:
@@ -241,7 +247,7 @@ def torque_stencil(
     """
     count = table.shape[2]
     s, t = speed.start, temperature.start
-    p = min(max(preload[0] - 1, 0), count - 4)
+    p = stencil_start(preload[0], count)
     lines = preload_line(table[s : s + 4, t : t + 4, p : p + 4], 2, preload, count)
     lines[..., 0] = np.arcsinh(lines[..., 0] / TORQUE_SCALE)
     return np.asarray(np.einsum("ijnv,i,j->nv", lines, speed.weights, temperature.weights))

@@ -77,6 +77,7 @@ from .map_interpolation import (
     stencil,
     stencil_2d,
     stencil_position,
+    stencil_start,
     temperature_node,
     torque_stencil,
 )
@@ -305,7 +306,7 @@ class SteadyMap:
         t0 = temperature_pos.start
         for nut, preload in enumerate(preloads):
             cell = axis_cell(preload_node(g, preload), g.preload_nodes)
-            p0 = min(max(cell[0] - 1, 0), g.preload_nodes - 4)
+            p0 = stencil_start(cell[0], g.preload_nodes)
             # (sign, S, 4, 4) nut torques around the temperature and preload cells.
             table = self._prepared["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
             lines = np.arcsinh(preload_line(table, 3, cell, g.preload_nodes) / TORQUE_SCALE)
