@@ -24,9 +24,9 @@ its error by the share of a query's value that comes from thin nodes
 Support counts the nearest node, not the basis weight: a node whose cell holds data on its far
 side only is not taught by it. Its value there is the slope of the near data carried across the
 cell. Unit 22011 of ``bench detection`` (round 23 of issue 13, commissioned on its cold start
-and a service run): thousands of service blocks at 18-21 C gave the 15 C node a basis-weight
-support in the hundreds, its value was carried to a later run at 12.9 C, 4.4-4.7 % off the unit,
-and the CUSUM alarmed.
+and a service run): thousands of service blocks at 18-21 C made the 15 C node count as learnt
+through its basis weights, its value was carried to a later run at 12.9 C, 4.4-4.7 % off the
+unit, and the CUSUM alarmed.
 
 All quantities SI: rad/s, K; c and r relative [-].
 """
