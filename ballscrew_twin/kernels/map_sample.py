@@ -133,18 +133,13 @@ def _limited_slope(left: float, right: float, limit: float) -> float:
 
 
 @njit(cache=True)
-def _preload_hermite(
-    nodes: FloatArray, cell: int, count: int, hermite: FloatArray, limit: float
-) -> float:
-    """One line's value along the preload from the four ``nodes`` of the folded stencil of
-    ``cell`` on an axis of ``count`` nodes, with the ``hermite`` basis of the cell's fraction
-    (as ``map_interpolation.preload_line``)."""
-    if cell == 0:
-        y0, y1, y2, y3 = 2.0 * nodes[0] - nodes[1], nodes[0], nodes[1], nodes[2]
-    elif cell == count - 2:
-        y0, y1, y2, y3 = nodes[1], nodes[2], nodes[3], 2.0 * nodes[3] - nodes[2]
-    else:
-        y0, y1, y2, y3 = nodes[0], nodes[1], nodes[2], nodes[3]
+def _preload_hermite(line: FloatArray, cell: int, hermite: FloatArray, limit: float) -> float:
+    """One ``line``'s value (the whole preload axis) in ``cell``, with the ``hermite`` basis of
+    the cell's fraction (as ``map_interpolation.preload_line``)."""
+    y1 = line[cell]
+    y2 = line[cell + 1]
+    y0 = line[cell - 1] if cell > 0 else 2.0 * y1 - y2
+    y3 = line[cell + 2] if cell + 2 < line.size else 2.0 * y2 - y1
     low = _limited_slope(y1 - y0, y2 - y1, limit)
     high = _limited_slope(y2 - y1, y3 - y2, limit)
     return hermite[0] * y1 + hermite[1] * low + hermite[2] * y2 + hermite[3] * high
@@ -180,22 +175,19 @@ def nut_torques(
     wt = np.empty(4)
     s = _folded(speed[0], speed[1], table.shape[0], ws)
     t = _folded(temperature[0], temperature[1], table.shape[1], wt)
-    count = table.shape[2]
     hermite = np.empty(4)
     line = np.empty(width)
     values = np.empty(width)
     out = np.empty((2, width - 1))
     for nut in range(2):
         cell = preload_cells[nut]
-        fraction = preload_fractions[nut]
-        _hermite_basis(fraction, hermite)
-        p = min(max(cell - 1, 0), count - 4)
+        _hermite_basis(preload_fractions[nut], hermite)
         values[:] = 0.0
         for i in range(4):
             for j in range(4):
-                nodes = table[s + i, t + j, p : p + 4, nut]
+                nodes = table[s + i, t + j, :, nut]
                 for v in range(width):
-                    line[v] = _preload_hermite(nodes[:, v], cell, count, hermite, slope_limit)
+                    line[v] = _preload_hermite(nodes[:, v], cell, hermite, slope_limit)
                 line[0] = math.asinh(line[0] / torque_scale)
                 wij = ws[i] * wt[j]
                 for v in range(width):

@@ -172,13 +172,7 @@ def folded_position(cell: AxisCell, count: int) -> AxisPosition:
         w = (w[1] + 2.0 * w[0], w[2] - w[0], w[3], 0.0)
     elif index == count - 2:
         w = (0.0, w[0], w[1] - w[3], w[2] + 2.0 * w[3])
-    return AxisPosition(stencil_start(index, count), np.array(w))
-
-
-def stencil_start(cell: int, count: int) -> int:
-    """First node of the four a :func:`folded_position` stencil of ``cell`` reads on an
-    unpadded axis of ``count`` nodes."""
-    return min(max(cell - 1, 0), count - 4)
+    return AxisPosition(min(max(index - 1, 0), count - 4), np.array(w))
 
 
 #: Largest ratio of a node's slope to the smaller of its two secants along the preload where
@@ -187,37 +181,32 @@ def stencil_start(cell: int, count: int) -> int:
 SLOPE_LIMIT = 3.0
 
 
-def preload_line(block: FloatArray, axis: int, cell: AxisCell, count: int) -> FloatArray:
-    """Shape-preserving cubic Hermite along ``axis`` of ``block`` (the four nodes of the
-    :func:`folded_position` stencil of ``cell`` on an axis of ``count`` nodes), the axis
-    removed.
+def preload_line(block: FloatArray, axis: int, cell: AxisCell) -> FloatArray:
+    """Shape-preserving cubic Hermite along ``axis`` of ``block`` (the whole preload axis) in
+    ``cell``, the axis removed.
 
     Catmull-Rom slopes (the central differences of the nodes beside each end of the cell; an
-    edge cell's ghost node is linearly extrapolated) limited as Hyman's filter does: where the
-    two secants at a node have the same sign, to SLOPE_LIMIT times the smaller one; where they
-    differ or one is zero, to zero. Equal to :func:`folded_position`'s weights wherever no
-    limit binds. Why: a nut's torque along the preload can fall steeply over one cell and be
-    flat beside it (the master nut of ``config/screw_32x10.yaml`` at 15-23 N), and a node the
-    solver could not solve is filled from a neighbour (a flat step); the plain cubic overshoots
-    there, 3.6 % at 0.3 rpm / 47.6 C / 28.7 N and a torque of the wrong sign at 20 N (issue 14).
+    edge cell's ghost node is linearly extrapolated, as :func:`folded_position`'s) limited as
+    Hyman's filter does: where the two secants at a node have the same sign, to SLOPE_LIMIT
+    times the smaller one; where they differ or one is zero, to zero. Equal to
+    :func:`folded_position`'s weights wherever no limit binds. Why: a nut's torque along the
+    preload can fall steeply over one cell and be flat beside it (the master nut of
+    ``config/screw_32x10.yaml`` at 15-23 N), and a node the solver could not solve is filled
+    from a neighbour (a flat step); the plain cubic overshoots there, 3.6 % at 0.3 rpm / 47.6 C
+    / 28.7 N and a torque of the wrong sign at 20 N (issue 14).
     """
     index, t = cell
-    if index == 0:
-        first, second, third = (np.take(block, k, axis=axis) for k in range(3))
-        nodes = (2.0 * first - second, first, second, third)
-    elif index == count - 2:
-        second, third, last = (np.take(block, k, axis=axis) for k in range(1, 4))
-        nodes = (second, third, last, 2.0 * last - third)
-    else:
-        nodes = tuple(np.take(block, k, axis=axis) for k in range(4))
-    before, inside, after = (nodes[k + 1] - nodes[k] for k in range(3))
-    slope_low = _limited_slope(before, inside)
-    slope_high = _limited_slope(inside, after)
+    count = block.shape[axis]
+    low, high = np.take(block, index, axis=axis), np.take(block, index + 1, axis=axis)
+    before = np.take(block, index - 1, axis=axis) if index > 0 else 2.0 * low - high
+    after = np.take(block, index + 2, axis=axis) if index + 2 < count else 2.0 * high - low
+    slope_low = _limited_slope(low - before, high - low)
+    slope_high = _limited_slope(high - low, after - high)
     t2, t3 = t * t, t * t * t
     return np.asarray(
-        (2.0 * t3 - 3.0 * t2 + 1.0) * nodes[1]
+        (2.0 * t3 - 3.0 * t2 + 1.0) * low
         + (t3 - 2.0 * t2 + t) * slope_low
-        + (3.0 * t2 - 2.0 * t3) * nodes[2]
+        + (3.0 * t2 - 2.0 * t3) * high
         + (t3 - t2) * slope_high
     )
 
@@ -245,10 +234,8 @@ def torque_stencil(
     logarithm has no cubic to follow; along speed and temperature it follows power laws of the
     film and the viscosity, which the logarithm makes nearly linear.
     """
-    count = table.shape[2]
     s, t = speed.start, temperature.start
-    p = stencil_start(preload[0], count)
-    lines = preload_line(table[s : s + 4, t : t + 4, p : p + 4], 2, preload, count)
+    lines = preload_line(table[s : s + 4, t : t + 4], 2, preload)
     lines[..., 0] = np.arcsinh(lines[..., 0] / TORQUE_SCALE)
     return np.asarray(np.einsum("ijnv,i,j->nv", lines, speed.weights, temperature.weights))
 

@@ -77,7 +77,6 @@ from .map_interpolation import (
     stencil,
     stencil_2d,
     stencil_position,
-    stencil_start,
     temperature_node,
     torque_stencil,
 )
@@ -306,10 +305,9 @@ class SteadyMap:
         t0 = temperature_pos.start
         for nut, preload in enumerate(preloads):
             cell = axis_cell(preload_node(g, preload), g.preload_nodes)
-            p0 = stencil_start(cell[0], g.preload_nodes)
-            # (sign, S, 4, 4) nut torques around the temperature and preload cells.
-            table = self._prepared["torque"][:, :, t0 : t0 + 4, p0 : p0 + 4, nut, 0]
-            lines = np.arcsinh(preload_line(table, 3, cell, g.preload_nodes) / TORQUE_SCALE)
+            # (sign, S, 4, P) nut torques around the temperature cell.
+            table = self._prepared["torque"][:, :, t0 : t0 + 4, :, nut, 0]
+            lines = np.arcsinh(preload_line(table, 3, cell) / TORQUE_SCALE)
             plane = np.einsum("abj,j->ab", lines, temperature_pos.weights)  # (sign, speed node)
             rows = plane[sign[:, None], starts[:, None] + offsets[None, :]]  # (N, 4)
             total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))

@@ -34,9 +34,7 @@ def test_folded_stencils_equal_the_padded_ghost_node_stencils() -> None:
 
 def _line(values: np.ndarray, cell: int, fraction: float) -> float:
     """``preload_line`` of a 1-D axis of ``values`` at ``fraction`` of ``cell``."""
-    count = len(values)
-    start = min(max(cell - 1, 0), count - 4)
-    return float(preload_line(values[start : start + 4], 0, (cell, fraction), count))
+    return float(preload_line(values, 0, (cell, fraction)))
 
 
 def test_the_preload_line_is_catmull_rom_where_no_limit_binds() -> None:
