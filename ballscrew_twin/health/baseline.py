@@ -4,13 +4,16 @@ A :class:`Baseline` holds the parameters that differ from unit to unit and that 
 alone can identify: the contact preload over the load cell's reading (preload tolerance of
 the nut pair), a shift of the torque-temperature curve (thermometer offset, lubricant batch),
 the torque sensor's gain (which also takes a friction level common to every mechanism) and
-bias, a correction of the speed dependence (the unit's mu_dry and Eyring stress), and the
-rotating inertia the sensor sees. The monitor predicts the measured block mean as
+bias, the scales k of its dry friction coefficient mu_dry and Eyring stress tau_0 (run-in of
+the grooves, the lubricant's additives), a correction S of the speed dependence that those
+leave, and the rotating inertia the sensor sees. The monitor predicts the measured block mean
+as
 
-    z = g (mean_i S(w_i) T_map(w_i, T + dT, k_F F) + J dw/dt) + b,
+    z = g (mean_i S(w_i) T_unit(w_i, T + dT, k_F F; k) + J dw/dt) + b,
     S(w) = 1 + beta_1 x + beta_2 x^2,  x = log10(|w| / 30 rad/s),
 
-T_map the real-time map along the measured speeds w_i of the block (:class:`.residuals.UnitTwin`),
+T_unit the real-time map along the measured speeds w_i of the block times the steady model's
+response to k (:class:`.residuals.UnitTwin`),
 and compares with the 1-sigma uncertainty
 
     sigma^2 = sigma_s^2 / n + (e_rel |T|)^2 + e_abs^2 + (e_J J dw/dt)^2
@@ -77,6 +80,8 @@ FIELD_DOCS: dict[str, str] = {
     "preload_scale": "k_F, contact preload over the load cell's reading [-]",
     "temperature_shift": "dT, the twin is read at the measured temperature + dT [K]",
     "inertia": "J, rotating inertia between torque sensor and screw [kg m^2]",
+    "dry_friction_scale": "k_mu, the unit's dry friction coefficient mu_dry over nominal [-]",
+    "eyring_scale": "k_tau, the unit's Eyring stress tau_0 over nominal [-]",
     "shape_slope": "beta_1, drag change per decade of speed about 30 rad/s [-]",
     "shape_curvature": "beta_2, drag change per decade of speed squared [-]",
     "sensor_noise": "sigma_s, noise of one torque sample [N m]",
@@ -114,6 +119,8 @@ class Baseline:
     preload_scale: float = field(default=1.0, metadata=positive("-"))
     temperature_shift: float = field(default=0.0, metadata=finite("K"))
     inertia: float = field(metadata=positive("kg m^2"))
+    dry_friction_scale: float = field(default=1.0, metadata=positive("-"))
+    eyring_scale: float = field(default=1.0, metadata=positive("-"))
     shape_slope: float = field(default=0.0, metadata=finite("-"))
     shape_curvature: float = field(default=0.0, metadata=finite("-"))
     sensor_noise: float | None = field(default=None, metadata=positive("N m"))

@@ -5,13 +5,16 @@ The monitor's faults are deviations from *this* unit, not from the nominal screw
 recording (a bag, or the first minutes of a live run) the blocks the monitor would compare
 (:class:`.residuals.ReversalGate`) are fitted with the unit model of :mod:`.baseline`:
 
-    z_j = g (mean_i S(w_ij) T_map(w_ij, T_j + dT, k_F F_j) + J a_j) + b,
+    z_j = g (mean_i S(w_ij) T_unit(w_ij, T_j + dT, k_F F_j; k_mu, k_tau) + J a_j) + b,
 
-over theta = (g, b, ln k_F, dT, J, beta_1, beta_2), by scipy's trust-region least squares (the
+over theta = (g, b, ln k_F, dT, J, beta_1, beta_2, ln k_mu, ln k_tau) (the last two, the
+unit's mu_dry and tau_0 scales, only where the screw has a friction response table:
+:mod:`~ballscrew_twin.models.friction_response`), by scipy's trust-region least squares (the
 calibration's method) with the relative block residuals r_j / (|T_j| + e_abs) / 1 % as the
 cost under a soft-L1 loss (a block across a preload step or a hard acceleration does not pull
 the whole fit), plus Gaussian priors from the production spreads (one sigma: preload 15 %,
-gain 2 %, temperature shift 5 K, each shape coefficient 0.1: :data:`PRIOR_SIGMA`). The priors
+gain 2 %, temperature shift 5 K, each shape coefficient 0.1, ln k_mu and ln k_tau 0.3:
+:data:`PRIOR_SIGMA`). The priors
 matter: at one set preload a preload scale and a gain change the torque nearly alike, and the
 priors split that change the way the spreads of a production lot make likeliest (a maximum a
 posteriori fit). The uncertainty of each fitted value
@@ -59,7 +62,13 @@ from .residuals import (
 )
 
 #: One-sigma priors of the fitted values (the production spreads of issue 13) [-].
-PRIOR_SIGMA = {"torque_gain": 0.02, "preload_scale": 0.15, "temperature_shift": 5.0, "shape": 0.1}
+PRIOR_SIGMA = {
+    "torque_gain": 0.02,
+    "preload_scale": 0.15,
+    "temperature_shift": 5.0,
+    "shape": 0.1,
+    "friction_scale": 0.3,
+}
 #: Relative block misfit taken as one sigma by the fit's weights [-], and the misfit (in
 #: those sigmas) beyond which a block counts linearly, not squared (soft-L1 loss: a block
 #: across a preload step or a hard acceleration does not pull the whole fit).
@@ -186,13 +195,16 @@ def _pick(values: FloatArray, count: int) -> FloatArray:
 
 
 class _AdjustedUnit:
-    """The twin adjusted to theta = (g, b, ln k_F, dT, J, beta_1, beta_2): preload scale and
-    temperature shift, the shape correction, and the residual surface when given."""
+    """The twin adjusted to theta = (g, b, ln k_F, dT, J, beta_1, beta_2, ln k_mu, ln k_tau):
+    preload scale, temperature shift and friction scales, the shape correction, and the
+    residual surface when given."""
 
     def __init__(
         self, twin: UnitTwin, theta: FloatArray, surface: ResidualSurface | None = None
     ) -> None:
-        self.unit = twin.adjusted(math.exp(theta[2]), theta[3])
+        self.unit = twin.adjusted(
+            math.exp(theta[2]), theta[3], (math.exp(theta[7]), math.exp(theta[8]))
+        )
         self.shaped = Baseline(
             config="",
             fingerprint="",
@@ -228,8 +240,8 @@ def _predict(
     blocks: list[FitBlock],
     surface: ResidualSurface | None = None,
 ) -> FloatArray:
-    """Block means of the unit model with parameters
-    theta = (g, b, ln k_F, dT, J, beta_1, beta_2) (and the residual surface)."""
+    """Block means of the unit model with parameters theta (:class:`_AdjustedUnit`; and the
+    residual surface)."""
     drag = _drags(twin, theta, blocks, surface)
     accel = np.array([b.acceleration for b in blocks])
     return np.asarray(theta[0] * (drag + theta[4] * accel) + theta[1])
@@ -474,7 +486,9 @@ def commission(
     ]
     measured = np.array([b.measured for b in fit_blocks])
     scale = np.abs(measured) + 1e-3 * float(np.max(np.abs(measured)))
-    nominal_theta = np.array([1.0, 0.0, 0.0, 0.0, config.screw.screw_inertia, 0.0, 0.0])
+    nominal_theta = np.array([1.0, 0.0, 0.0, 0.0, config.screw.screw_inertia, 0.0, 0.0, 0.0, 0.0])
+    # theta's entries with a prior, and its one-sigma width
+    prior_index = np.array([0, 2, 3, 5, 6, 7, 8])
     priors = np.array(
         [
             PRIOR_SIGMA["torque_gain"],
@@ -482,8 +496,13 @@ def commission(
             PRIOR_SIGMA["temperature_shift"],
             PRIOR_SIGMA["shape"],
             PRIOR_SIGMA["shape"],
+            PRIOR_SIGMA["friction_scale"],
+            PRIOR_SIGMA["friction_scale"],
         ]
     )
+    # the friction scales are fitted only where the screw has a response table
+    free = np.ones(len(nominal_theta), dtype=bool)
+    free[7:] = twin.response is not None
 
     # The twin's misfit is systematic over a regime, not independent from block to block: the
     # priors weigh as PRIOR_SHARE of the blocks (a data set cannot argue a unit far outside its
@@ -492,34 +511,47 @@ def commission(
     # The fit runs on u, theta = nominal + step * u, so every unknown is of order one (the
     # finite-difference steps and the trust region are then alike for all of them).
     j0 = config.screw.screw_inertia
-    step = np.array([0.02, 1e-3, 0.1, 2.0, 0.1 * j0, 0.02, 0.02])
-    lower = np.array([0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5])
-    upper = np.array([1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5])
+    step = np.array([0.02, 1e-3, 0.1, 2.0, 0.1 * j0, 0.02, 0.02, 0.1, 0.1])
+    lower = np.array(
+        [0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5, math.log(0.4), math.log(0.4)]
+    )
+    upper = np.array([1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5, math.log(2.5), math.log(2.5)])
+
+    def full(u: FloatArray) -> FloatArray:
+        theta = nominal_theta.copy()
+        theta[free] += step[free] * u
+        return theta
 
     def cost(u: FloatArray) -> FloatArray:
-        theta = nominal_theta + step * u
+        theta = full(u)
         misfit = (measured - _predict(twin, theta, fit_blocks)) / scale / FIT_SIGMA
-        deviation = np.array([theta[0] - 1.0, theta[2], theta[3], theta[5], theta[6]])
-        return np.concatenate([misfit, deviation / priors * prior_weight])
+        deviation = (theta - nominal_theta)[prior_index]
+        keep = free[prior_index]
+        return np.concatenate([misfit, (deviation / priors * prior_weight)[keep]])
 
     fit = least_squares(
         cost,
-        np.zeros(len(step)),
-        bounds=((lower - nominal_theta) / step, (upper - nominal_theta) / step),
+        np.zeros(np.count_nonzero(free)),
+        bounds=(
+            ((lower - nominal_theta) / step)[free],
+            ((upper - nominal_theta) / step)[free],
+        ),
         diff_step=1e-4,
         loss="soft_l1",
         f_scale=ROBUST_SCALE,
         max_nfev=200,
     )
-    fit.x = nominal_theta + step * fit.x
-    fit.jac = fit.jac / step
-    theta = fit.x
-    residual_var = float(np.sum(fit.fun**2)) / max(len(fit.fun) - len(theta), 1)
+    theta = full(fit.x)
+    jacobian = np.zeros((len(fit.fun), len(theta)))
+    jacobian[:, free] = fit.jac / step[free]
+    residual_var = float(np.sum(fit.fun**2)) / max(len(fit.fun) - np.count_nonzero(free), 1)
+    sigma = np.zeros(len(theta))  # 0 for a value not fitted
     try:
-        covariance = np.linalg.inv(fit.jac.T @ fit.jac) * residual_var
-        sigma = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+        jf = jacobian[:, free]
+        covariance = np.linalg.inv(jf.T @ jf) * residual_var
+        sigma[free] = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
     except np.linalg.LinAlgError:
-        sigma = np.full(len(theta), math.nan)
+        sigma[free] = math.nan
 
     # What the adjusted twin still misses, learnt as a surface over speed and temperature
     # (:mod:`.correction`); its error per speed band is measured out of fold (two folds of
@@ -577,6 +609,8 @@ def commission(
         inertia=float(theta[4]),
         shape_slope=float(theta[5]),
         shape_curvature=float(theta[6]),
+        dry_friction_scale=float(math.exp(theta[7])),
+        eyring_scale=float(math.exp(theta[8])),
         sensor_noise=noise,
         error_relative=error_relative,
         error_bands=bands,
@@ -595,7 +629,7 @@ def commission(
         settling_angle=angle,
         unseen_error=unseen,
     )
-    on_bound = (theta - lower <= 1e-6 * step) | (upper - theta <= 1e-6 * step)
+    on_bound = free & ((theta - lower <= 1e-6 * step) | (upper - theta <= 1e-6 * step))
     uncertainty = {
         "torque_gain": float(sigma[0]),
         "torque_bias": float(sigma[1]),
@@ -604,6 +638,8 @@ def commission(
         "inertia": float(sigma[4]),
         "shape_slope": float(sigma[5]),
         "shape_curvature": float(sigma[6]),
+        "dry_friction_scale": float(sigma[7] * math.exp(theta[7])),
+        "eyring_scale": float(sigma[8] * math.exp(theta[8])),
     }
     return CommissioningResult(
         baseline=baseline,

@@ -189,10 +189,15 @@ class HealthMonitor:
         #: Why the twin is what it is (e.g. no real-time map for this screw).
         self.twin_note = ""
         try:
+            scales = (baseline.dry_friction_scale, baseline.eyring_scale)
             if twin is not None:
-                self.twin = twin.adjusted(baseline.preload_scale, baseline.temperature_shift)
+                self.twin = twin.adjusted(
+                    baseline.preload_scale, baseline.temperature_shift, scales
+                )
             else:
-                self.twin = UnitTwin(config, baseline.preload_scale, baseline.temperature_shift)
+                self.twin = UnitTwin(
+                    config, baseline.preload_scale, baseline.temperature_shift, scales
+                )
             self.twin_name = "realtime_map"
         except MapError as err:
             self.twin = _SteadyTwin(self.predictor, baseline)

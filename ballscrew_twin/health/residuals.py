@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import (
+    MapError,
     OperatingPointError,
     SampleError,
     StampOrderError,
@@ -288,39 +289,67 @@ class UnitTwin:
     """The real-time map of the twin (:class:`~ballscrew_twin.models.realtime.RealTimeModel`),
     adjusted to a commissioned unit and evaluated along a measured trajectory.
 
-    The unit's drag torque is ``T_map(w, T + dT, k_F F)``: k_F the preload scale, dT the
-    temperature shift (a thermometer offset, or a lubricant whose torque-temperature curve
-    lies a few kelvin off; a scale of the viscosity alone is *not* a shift in temperature in
-    this model, whose density, Roelands indices and thermal film reduction all move with the
-    temperature: measured in docs/model.md section 16); the sensor's gain and bias and the
-    inertia are applied by the caller (:mod:`.monitor`). All the speeds of a call are
-    interpolated at once (:meth:`~ballscrew_twin.models.steady_map.SteadyMap.total_torque`).
+    The unit's drag torque is ``T_map(w, T + dT, k_F F) exp(R(w, T + dT, k_F F; k))``: k_F the
+    preload scale, dT the temperature shift (a thermometer offset, or a lubricant whose
+    torque-temperature curve lies a few kelvin off; a scale of the viscosity alone is *not* a
+    shift in temperature in this model, whose density, Roelands indices and thermal film
+    reduction all move with the temperature: measured in docs/model.md section 16), and R the
+    steady model's response to the unit's own mu_dry and tau_0 scales k
+    (:mod:`~ballscrew_twin.models.friction_response`; 0 with both scales 1); the sensor's gain
+    and bias and the inertia are applied by the caller (:mod:`.monitor`). All the speeds of a
+    call are interpolated at once
+    (:meth:`~ballscrew_twin.models.steady_map.SteadyMap.total_torque`).
 
     Args:
         config: the nominal parameter set (the one the map was built for).
         preload_scale: k_F [-].
         temperature_shift: dT [K].
+        friction_scales: (mu_dry, tau_0) over nominal [-].
 
     Raises:
-        MapError: no map for ``config``.
+        MapError: no map for ``config``, or scales other than 1 and no friction response table
+            for it.
     """
 
     def __init__(
-        self, config: TwinConfig, preload_scale: float = 1.0, temperature_shift: float = 0.0
+        self,
+        config: TwinConfig,
+        preload_scale: float = 1.0,
+        temperature_shift: float = 0.0,
+        friction_scales: tuple[float, float] = (1.0, 1.0),
     ) -> None:
+        from ..models.friction_response import find_response
         from ..models.realtime import RealTimeModel
 
         self.config = config
         self.model = RealTimeModel(config)
+        self.response = find_response(config)
         self.preload_scale = preload_scale
         self.temperature_shift = temperature_shift
+        self.log_scales = self._log_scales(friction_scales)
 
-    def adjusted(self, preload_scale: float, temperature_shift: float) -> UnitTwin:
-        """A twin of other scales sharing this one's map."""
+    def _log_scales(self, friction_scales: tuple[float, float]) -> FloatArray:
+        """ln k [-], checked against the response table's presence."""
+        log_scales = np.log(np.asarray(friction_scales, dtype=np.float64))
+        if np.any(log_scales != 0.0) and self.response is None:
+            raise MapError(
+                f"friction scales {friction_scales} need the friction response table of "
+                f"{self.config.name!r}: build it with `ballscrew-twin map response`"
+            )
+        return log_scales
+
+    def adjusted(
+        self,
+        preload_scale: float,
+        temperature_shift: float,
+        friction_scales: tuple[float, float] = (1.0, 1.0),
+    ) -> UnitTwin:
+        """A twin of other scales sharing this one's map and response table."""
         other = UnitTwin.__new__(UnitTwin)
         other.__dict__.update(self.__dict__)
         other.preload_scale = preload_scale
         other.temperature_shift = temperature_shift
+        other.log_scales = other._log_scales(friction_scales)
         return other
 
     def drag(
@@ -334,11 +363,13 @@ class UnitTwin:
         """Drag torque [N m] at each ``speed`` [rad/s], one ``temperature`` [K] and measured
         ``preload`` [N], the preload times ``preload_factor`` [-] (a preload loss)."""
         load = max(self.preload_scale * preload_factor * preload, 0.0)
-        return self.model.map.total_torque(
-            np.asarray(speed, dtype=np.float64),
-            temperature + self.temperature_shift,
-            (load, load),
-        )
+        speeds = np.asarray(speed, dtype=np.float64)
+        unit_temperature = temperature + self.temperature_shift
+        torque = self.model.map.total_torque(speeds, unit_temperature, (load, load))
+        if self.response is None or not np.any(self.log_scales):
+            return torque
+        factor = self.response.log_factor(speeds, unit_temperature, load, self.log_scales)
+        return np.asarray(torque * np.exp(factor))
 
 
 @functools.lru_cache(maxsize=4)

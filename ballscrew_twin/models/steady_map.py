@@ -87,6 +87,9 @@ FloatArray = NDArray[np.float64]
 #: uniform in :func:`~.map_grid.temperature_coordinate` (2: uniform in temperature); 2: preload
 #: nodes uniform in :func:`~.map_grid.preload_coordinate` (1: in the square root of the preload).
 FORMAT_VERSION = 3
+#: Speed planes :meth:`SteadyMap._speed_planes` keeps (one per block of a commissioning
+#: fit's 600) [-].
+PLANE_CACHE = 2048
 #: The committed map of the default parameter set (package data).
 DEFAULT_MAP_PATH = Path(__file__).resolve().parent.parent / "data" / "steady_map.npz"
 _LOG_FIELDS = np.array([name in LOG_SCALES for name in CONTACT_FIELDS])
@@ -156,6 +159,9 @@ class SteadyMap:
     _prepared: dict[str, FloatArray] = field(default_factory=dict, compare=False, repr=False)
     _coarse: MapGrid | None = field(default=None, compare=False, repr=False)
     _any_filled: bool = field(default=False, compare=False, repr=False)
+    _planes: dict[tuple[float, float, float], FloatArray] = field(
+        default_factory=dict, compare=False, repr=False
+    )
     _filled_window: NDArray[np.bool_] = field(
         default_factory=lambda: np.zeros((2, 1, 1, 1), dtype=bool), compare=False, repr=False
     )
@@ -296,23 +302,42 @@ class SteadyMap:
         u = np.clip(u * (g.speed_nodes - 1), 0.0, g.speed_nodes - 1.0)
         cells = np.minimum(u.astype(np.int64), g.speed_nodes - 2)
         starts, ws = folded_rows(cells, u - cells, g.speed_nodes)
+        planes = self._speed_planes(temperature, preloads)
+        total = np.zeros(len(speeds))
+        sign = (speeds < 0.0).astype(np.int64)
+        columns = starts[:, None] + np.arange(4)[None, :]
+        for plane in planes:
+            rows = plane[sign[:, None], columns]  # (N, 4)
+            total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))
+        blend = np.minimum(magnitude / g.speed_min, 1.0)
+        return np.asarray(total * blend)
+
+    def _speed_planes(self, temperature: float, preloads: tuple[float, float]) -> FloatArray:
+        """(nut, sign, S): asinh(nut torque / TORQUE_SCALE) on every speed node at one
+        ``temperature`` [K] and pair of equivalent ``preloads`` [N], interpolated along the
+        preload and the temperature (:meth:`total_torque`'s first two axes). The last
+        PLANE_CACHE of them are kept: a fit that varies only other unknowns asks for the
+        same ones again (``ballscrew-twin commission``)."""
+        key = (temperature, *preloads)
+        cached = self._planes.get(key)
+        if cached is not None:
+            return cached
+        g = self.grid
         temperature_pos = folded_position(
             axis_cell(temperature_node(g, temperature), g.temperature_nodes), g.temperature_nodes
         )
-        total = np.zeros(len(speeds))
-        sign = (speeds < 0.0).astype(np.int64)
-        offsets = np.arange(4)
         t0 = temperature_pos.start
+        planes = np.empty((NUTS, 2, g.speed_nodes))
         for nut, preload in enumerate(preloads):
             cell = axis_cell(preload_node(g, preload), g.preload_nodes)
             # (sign, S, 4, P) nut torques around the temperature cell.
             table = self._prepared["torque"][:, :, t0 : t0 + 4, :, nut, 0]
             lines = np.arcsinh(preload_line(table, 3, cell) / TORQUE_SCALE)
-            plane = np.einsum("abj,j->ab", lines, temperature_pos.weights)  # (sign, speed node)
-            rows = plane[sign[:, None], starts[:, None] + offsets[None, :]]  # (N, 4)
-            total += TORQUE_SCALE * np.sinh(np.sum(rows * ws, axis=1))
-        blend = np.minimum(magnitude / g.speed_min, 1.0)
-        return np.asarray(total * blend)
+            planes[nut] = np.einsum("abj,j->ab", lines, temperature_pos.weights)
+        if len(self._planes) >= PLANE_CACHE:
+            self._planes.clear()
+        self._planes[key] = planes
+        return planes
 
     def _interpolate_reference(
         self, sign: int, fine: QueryCells, coarse: QueryCells | None, blend: float
