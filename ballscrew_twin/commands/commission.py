@@ -20,6 +20,7 @@ from ..bags.bench import read_bench_bag
 from ..health.commission import ERROR_SCALE, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
+from ..models import friction_response
 from ..params import load_config
 from ..plots.commissioning import plot_commissioning
 from .detect import add_topic_arguments, bench_topics
@@ -49,6 +50,9 @@ def run(args: argparse.Namespace) -> int:
     """Fit, write the baseline (and the plot), print the fitted values."""
     recordings = [read_bench_bag(bag, bench_topics(args), required=CHANNELS) for bag in args.bag]
     config = load_config(args.config)
+    _, built = friction_response.ensure_response(config)
+    if built is not None:
+        print(f"built the friction response table of {config.source} into {built}")
     result = commission(
         [recording_channels(r) for r in recordings],
         config,
@@ -66,7 +70,9 @@ def run(args: argparse.Namespace) -> int:
         f"bias {b.torque_bias * 1e3:.3f} +- {u['torque_bias'] * 1e3:.3f} mN m, "
         f"preload scale {b.preload_scale:.3f} +- {u['preload_scale']:.3f}, "
         f"temperature shift {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K, "
-        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2; "
+        f"inertia {b.inertia:.4g} +- {u['inertia']:.2g} kg m^2, "
+        f"mu_dry scale {b.dry_friction_scale:.3f} +- {u['dry_friction_scale']:.3f}, "
+        f"tau_0 scale {b.eyring_scale:.3f} +- {u['eyring_scale']:.3f}; "
         f"model error {b.error_relative:.2%} (1 sigma), sensor noise "
         f"{(b.sensor_noise or math.nan) * 1e3:.3f} mN m"
     )

@@ -1,11 +1,13 @@
-"""``ballscrew-twin map build|find --config YAML``: the real-time table of any screw.
+"""``ballscrew-twin map build|find|response --config YAML``: the real-time table of any screw.
 
 ``build`` solves the symmetric steady model on the table's grid for the screw of ``--config``
 (:func:`~ballscrew_twin.models.map_grid.grid_for`) in ``--workers`` processes, with a
 progress bar, and saves it in the user cache under the parameter set's fingerprint
 (:func:`~ballscrew_twin.models.map_store.cached_map_path`), where the twin node finds it, or
 to ``--out``. ``find`` says which table the node would use for that screw, and why each other
-one is refused.
+one is refused. ``response`` builds the screw's friction response table
+(:mod:`~ballscrew_twin.models.friction_response`: how the torque answers a unit's own mu_dry
+and tau_0, which ``commission`` fits where the table exists) into the user cache or ``--out``.
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ import time
 from pathlib import Path
 
 from ..errors import MapError
-from ..models import map_build, map_grid, map_store
-from ..params import check_number, limits, load_config
+from ..models import friction_response, map_build, map_grid, map_store
+from ..params import TwinConfig, check_number, limits, load_config
 from .progress import progress_bar
 
 
@@ -27,7 +29,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", required=True)
     build = sub.add_parser("build", help="build the real-time table of a screw (user cache)")
     find = sub.add_parser("find", help="which table the node would use for a screw, and why")
-    for action in (build, find):
+    response = sub.add_parser(
+        "response", help="build the friction response table commissioning fits with"
+    )
+    for action in (build, find, response):
         action.add_argument(
             "--config", default=None, help="parameter YAML (default: the shipped paper screw)"
         )
@@ -42,6 +47,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--force", action="store_true", help="build even when the cache holds the table"
     )
     build.add_argument("--no-progress", action="store_true", help="no progress bar")
+    response.add_argument("--out", default="", help="output .npz (default: the user cache)")
+    response.add_argument("--workers", type=int, default=2, help="worker processes (default 2)")
+    response.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -62,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     workers = limits("-", 1, math.inf, integer=True)
     check_number(args.workers, workers, "--workers", text=False, error=MapError)
+    if args.action == "response":
+        return _build_response(args, config)
     grid = map_grid.grid_for(config, preview=args.preview)
     out = Path(args.out) if args.out else map_store.cached_map_path(config, grid)
     if out.is_file() and not args.force and not args.out:
@@ -84,5 +94,28 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"wrote {out}: {table.node_count} nodes in {time.monotonic() - start:.1f} s, "
         f"{filled} filled from a neighbour (steady solver failed there)"
+    )
+    return 0
+
+
+def _build_response(args: argparse.Namespace, config: TwinConfig) -> int:
+    """``map response``: solve the friction response table of ``config`` and write it."""
+    out = Path(args.out) if args.out else friction_response.cached_response_path(config)
+    start = time.monotonic()
+    try:
+        with progress_bar("friction response", "line", enabled=not args.no_progress) as advance:
+            table = friction_response.build_response(
+                config,
+                workers=args.workers,
+                on_progress=lambda done, total, _elapsed: advance(done, total),
+            )
+    except KeyboardInterrupt:
+        print(f"interrupted: nothing written to {out}", file=sys.stderr)
+        return 130
+    map_store.save_atomic(table, out)
+    print(
+        f"wrote {out}: {table.coefficients[..., 0, 0].size} nodes in "
+        f"{time.monotonic() - start:.1f} s, {int(table.filled.sum())} filled from a neighbour "
+        "(a solve failed or answered irregularly there)"
     )
     return 0

@@ -515,7 +515,9 @@ def commission(
     lower = np.array(
         [0.5, -0.05, math.log(0.3), -30.0, 0.2 * j0, -0.5, -0.5, math.log(0.4), math.log(0.4)]
     )
-    upper = np.array([1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5, math.log(2.5), math.log(2.5)])
+    upper = np.array(
+        [1.5, 0.05, math.log(2.0), 30.0, 5.0 * j0, 0.5, 0.5, math.log(2.5), math.log(2.5)]
+    )
 
     def full(u: FloatArray) -> FloatArray:
         theta = nominal_theta.copy()
@@ -542,13 +544,12 @@ def commission(
         max_nfev=200,
     )
     theta = full(fit.x)
-    jacobian = np.zeros((len(fit.fun), len(theta)))
-    jacobian[:, free] = fit.jac / step[free]
-    residual_var = float(np.sum(fit.fun**2)) / max(len(fit.fun) - np.count_nonzero(free), 1)
+    jacobian = np.asarray(fit.jac) / step[free]  # of the fitted values
+    dof = max(len(fit.fun) - len(fit.x), 1)
+    residual_var = float(np.sum(fit.fun**2)) / dof
     sigma = np.zeros(len(theta))  # 0 for a value not fitted
     try:
-        jf = jacobian[:, free]
-        covariance = np.linalg.inv(jf.T @ jf) * residual_var
+        covariance = np.linalg.inv(jacobian.T @ jacobian) * residual_var
         sigma[free] = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
     except np.linalg.LinAlgError:
         sigma[free] = math.nan

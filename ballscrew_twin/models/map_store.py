@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Protocol
 
 import numpy as np
 
@@ -99,7 +100,16 @@ def find_map(config: TwinConfig, path: str | Path = "") -> MapSearch:
     return MapSearch(None, "", tuple(refused))
 
 
-def save_atomic(table: SteadyMap, path: Path) -> None:
+class Saveable(Protocol):
+    """A table that writes itself to a file (:class:`SteadyMap`,
+    :class:`~.friction_response.FrictionResponse`)."""
+
+    def save(self, path: str | Path) -> None:
+        """Write the table to ``path``."""
+        ...
+
+
+def save_atomic(table: Saveable, path: Path) -> None:
     """Save ``table`` to ``path`` through a temporary file in the same folder (created), so a
     reader never sees a half-written table."""
     path.parent.mkdir(parents=True, exist_ok=True)

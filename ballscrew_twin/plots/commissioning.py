@@ -56,6 +56,8 @@ def plot_commissioning(result: CommissioningResult, path: str | Path) -> Path:
             f"preload scale k_F = {b.preload_scale:.3f} +- {u['preload_scale']:.3f}",
             f"temperature shift dT = {b.temperature_shift:.2f} +- {u['temperature_shift']:.2f} K",
             f"inertia J = {b.inertia * 1e6:.3f} +- {u['inertia'] * 1e6:.3f} g m^2 x 1e-3",
+            f"mu_dry scale k_mu = {b.dry_friction_scale:.3f} +- {u['dry_friction_scale']:.3f}",
+            f"tau_0 scale k_tau = {b.eyring_scale:.3f} +- {u['eyring_scale']:.3f}",
         ]
     )
     axes[0].text(

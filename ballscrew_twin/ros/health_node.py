@@ -299,7 +299,8 @@ class HealthNode(TableNode):
         b = self.baseline
         self.commission_result = (
             f"commissioned on {b.blocks} blocks: gain {b.torque_gain:.4f}, preload scale "
-            f"{b.preload_scale:.3f}, temperature shift {b.temperature_shift:.2f} K, model error "
+            f"{b.preload_scale:.3f}, temperature shift {b.temperature_shift:.2f} K, mu_dry scale "
+            f"{b.dry_friction_scale:.3f}, tau_0 scale {b.eyring_scale:.3f}, model error "
             f"{b.error_relative:.2%}{saved}"
         )
         self.get_logger().info(self.commission_result)

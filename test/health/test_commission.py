@@ -52,27 +52,39 @@ TRUTH = {
 }
 
 
-def _recording(seed: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Holds and ramps at 5..300 rad/s both ways, two set preloads, 15 -> 30 C, made with the
-    map and the TRUTH parameters (torque at 500 Hz, speed 100 Hz)."""
+def _recording(
+    seed: int,
+    truth_values: dict[str, float] | None = None,
+    temperatures: tuple[float, float] = (15.0, 30.0),
+    levels: tuple[float, ...] = (5.0, 20.0, 60.0, 150.0, 300.0, 40.0, 10.0),
+) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Holds and ramps at ``levels`` [rad/s] both ways, two set preloads, a ramp through
+    ``temperatures`` [C], made with the map and ``truth_values`` (default TRUTH; torque at
+    500 Hz, speed 100 Hz)."""
+    values = {"dry_friction_scale": 1.0, "eyring_scale": 1.0, **(truth_values or TRUTH)}
     config = load_config(None)
     rng = np.random.default_rng(seed)
-    levels = [5.0, 20.0, 60.0, 150.0, 300.0, 40.0, 10.0]
     fine = np.arange(0.0, 280.0, 1e-3)
     holds = np.array([v * s for s in (1.0, -1.0) for v in levels])
     speed = np.repeat(holds, math.ceil(len(fine) / len(holds)))[: len(fine)]
     kernel = np.full(300, 1.0 / 300)  # 0.3 s ramps between levels
     speed = np.convolve(np.pad(speed, (150, 149), "edge"), kernel, "valid")
-    temperature = 288.15 + 15.0 * fine / fine[-1]
+    start, end = temperatures
+    temperature = 273.15 + start + (end - start) * fine / fine[-1]
     preload = np.where(fine < 140.0, 1000.0, 2000.0)
     truth = Baseline(
         config="",
         fingerprint="",
-        inertia=TRUTH["inertia"],
-        shape_slope=TRUTH["shape_slope"],
-        shape_curvature=TRUTH["shape_curvature"],
+        inertia=values["inertia"],
+        shape_slope=values["shape_slope"],
+        shape_curvature=values["shape_curvature"],
     )
-    twin = UnitTwin(config, TRUTH["preload_scale"], TRUTH["temperature_shift"])
+    twin = UnitTwin(
+        config,
+        values["preload_scale"],
+        values["temperature_shift"],
+        (values["dry_friction_scale"], values["eyring_scale"]),
+    )
     t_torque = fine[::2]
     w = np.interp(t_torque, fine, speed)
     drag = np.empty_like(t_torque)
@@ -80,8 +92,8 @@ def _recording(seed: int) -> dict[str, tuple[np.ndarray, np.ndarray]]:
         part = slice(k, k + 500)
         drag[part] = twin.drag(w[part], float(temperature[2 * k]), float(preload[2 * k]))
     accel = np.interp(t_torque, fine, np.gradient(speed, fine))
-    torque = TRUTH["torque_gain"] * (drag * truth.shape(w) + TRUTH["inertia"] * accel)
-    torque = torque + TRUTH["torque_bias"] + rng.normal(0.0, 1e-4, len(t_torque))
+    torque = values["torque_gain"] * (drag * truth.shape(w) + values["inertia"] * accel)
+    torque = torque + values["torque_bias"] + rng.normal(0.0, 1e-4, len(t_torque))
     t_speed = fine[::10]
     return {
         "torque": (t_torque, torque),
@@ -112,6 +124,27 @@ def test_commissioning_recovers_the_unit(fitted: Baseline) -> None:
     assert fitted.sensor_noise == pytest.approx(1e-4, rel=0.2)
     # a data set the model explains leaves an error at the floor of the map itself
     assert fitted.error_relative == pytest.approx(0.007, abs=1e-3)
+
+
+def test_commissioning_fits_the_friction_scales() -> None:
+    # a unit with its own mu_dry and tau_0 (the production spread is +- 30 %), no shape
+    # correction, through -20..40 C and 0.5..300 rad/s
+    truth = {**TRUTH, "shape_slope": 0.0, "shape_curvature": 0.0}
+    truth.update(dry_friction_scale=0.8, eyring_scale=1.25)
+    recording = _recording(2, truth, (-20.0, 40.0), (0.5, 2.0, 5.0, 20.0, 60.0, 150.0, 300.0))
+    config = load_config(None)
+    fitted = commission(recording, config, source="synthetic").baseline
+    # Each goes the unit's way. Not to its value: a higher tau_0 and a lower preload scale
+    # raise the torque nearly alike, and the priors (maximum a posteriori) take the nearer
+    # pair, here 0.96 / 1.10 for 0.90 / 1.25, with mu_dry 0.70; what counts is the torque.
+    assert fitted.dry_friction_scale < 0.9
+    assert fitted.eyring_scale > 1.05
+    # a twin without the response table fits the same recording several times worse
+    blind = UnitTwin(config)
+    blind.response = None
+    without = commission(recording, config, source="synthetic", twin=blind).baseline
+    assert (without.dry_friction_scale, without.eyring_scale) == (1.0, 1.0)
+    assert without.fit_rms > 2.5 * fitted.fit_rms
 
 
 def test_a_fit_that_ends_on_a_bound_says_which_value(fitted_result: CommissioningResult) -> None:
