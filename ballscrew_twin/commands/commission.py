@@ -2,7 +2,8 @@
 one healthy recording or several of the same unit, fitted together (a cold start and a run at
 the speeds and temperatures it serves at: the monitor is sharpest where the commissioning
 taught it). Several recordings fitted together raised false alarms in held-out testing where
-the cold start alone raised none (docs/benchmarks.md, round 23), and the command says so.
+the cold start alone raised none (docs/benchmarks.md, rounds 23 and 25: 8 and 1; round 24:
+none), and the command says so.
 
 The fit and its error model: :mod:`ballscrew_twin.health.commission`. The bags' topics are
 chosen as for ``detect``.
@@ -94,8 +95,9 @@ def run(args: argparse.Namespace) -> int:
     if len(recordings) > 1:
         print(
             "caution: fitted together, several recordings of a unit raised false alarms in "
-            "held-out testing where its cold start alone raised none (docs/health.md, round "
-            "23): prefer one healthy recording that covers the unit's speeds and temperatures"
+            "held-out testing where its cold start alone raised none (docs/health.md, rounds "
+            "23-25): prefer one healthy recording that covers the unit's speeds and "
+            "temperatures"
         )
     print(f"wrote {b.save(args.out)}")
     if args.plot:
