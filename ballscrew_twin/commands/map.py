@@ -16,10 +16,13 @@ import argparse
 import math
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import TypeVar
 
 from ..errors import MapError
 from ..models import friction_response, map_build, map_grid, map_store
+from ..models.map_build import Progress
 from ..params import TwinConfig, check_number, limits, load_config
 from .progress import progress_bar
 
@@ -78,18 +81,16 @@ def run(args: argparse.Namespace) -> int:
         print(f"{out}: already built for {config.source} (--force builds it again)")
         return 0
     start = time.monotonic()
-    try:
-        with progress_bar("steady map", "line", enabled=not args.no_progress) as advance:
-            table = map_build.build_map(
-                config,
-                grid,
-                workers=args.workers,
-                on_progress=lambda done, total, _elapsed: advance(done, total),
-            )
-    except KeyboardInterrupt:
-        print(f"interrupted: nothing written to {out}", file=sys.stderr)
+    table = _built(
+        "steady map",
+        out,
+        args.no_progress,
+        lambda progress: map_build.build_map(
+            config, grid, workers=args.workers, on_progress=progress
+        ),
+    )
+    if table is None:
         return 130
-    map_store.save_atomic(table, out)
     filled = int(table.filled.sum())
     print(
         f"wrote {out}: {table.node_count} nodes in {time.monotonic() - start:.1f} s, "
@@ -102,20 +103,37 @@ def _build_response(args: argparse.Namespace, config: TwinConfig) -> int:
     """``map response``: solve the friction response table of ``config`` and write it."""
     out = Path(args.out) if args.out else friction_response.cached_response_path(config)
     start = time.monotonic()
-    try:
-        with progress_bar("friction response", "line", enabled=not args.no_progress) as advance:
-            table = friction_response.build_response(
-                config,
-                workers=args.workers,
-                on_progress=lambda done, total, _elapsed: advance(done, total),
-            )
-    except KeyboardInterrupt:
-        print(f"interrupted: nothing written to {out}", file=sys.stderr)
+    table = _built(
+        "friction response",
+        out,
+        args.no_progress,
+        lambda progress: friction_response.build_response(
+            config, workers=args.workers, on_progress=progress
+        ),
+    )
+    if table is None:
         return 130
-    map_store.save_atomic(table, out)
     print(
         f"wrote {out}: {table.coefficients[..., 0, 0].size} nodes in "
         f"{time.monotonic() - start:.1f} s, {int(table.filled.sum())} filled from a neighbour "
         "(a solve failed or answered irregularly there)"
     )
     return 0
+
+
+_Table = TypeVar("_Table", bound=map_store.Saveable)
+
+
+def _built(
+    label: str, out: Path, no_progress: bool, build: Callable[[Progress], _Table]
+) -> _Table | None:
+    """Run ``build`` with a progress bar named ``label`` and save its table to ``out``
+    (atomically); None when interrupted, with nothing written."""
+    try:
+        with progress_bar(label, "line", enabled=not no_progress) as advance:
+            table = build(lambda done, total, _elapsed: advance(done, total))
+    except KeyboardInterrupt:
+        print(f"interrupted: nothing written to {out}", file=sys.stderr)
+        return None
+    map_store.save_atomic(table, out)
+    return table

@@ -202,7 +202,7 @@ class HealthMonitor:
         except MapError as err:
             self.twin = _SteadyTwin(self.predictor, baseline)
             self.twin_name = self.predictor.model.name
-            self.twin_note = f"no real-time map ({err}); the steady model predicts"
+            self.twin_note = f"real-time map not used ({err}); the steady model predicts"
         #: Time of the blocks gated near standstill / reversals, and of those compared [s].
         self.gated_time = 0.0
         self.compared_time = 0.0

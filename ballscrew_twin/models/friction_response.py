@@ -29,7 +29,7 @@ import math
 import multiprocessing
 import signal
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -39,6 +39,7 @@ from numpy.typing import NDArray
 from ..errors import MapError, SolverError
 from ..params import TwinConfig, config_fingerprint
 from .base import OperatingPoint
+from .map_build import Progress
 from .map_store import cache_dir
 from .steady import SteadyStateModel
 
@@ -224,10 +225,6 @@ def ensure_response(config: TwinConfig, workers: int = 2) -> tuple[FrictionRespo
     return table, path
 
 
-#: Progress callback of :func:`build_response`: (lines done, lines in all, seconds elapsed).
-Progress = Callable[[int, int, float], None]
-
-
 def _worker_init(config: TwinConfig) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER["config"] = config
@@ -259,7 +256,8 @@ def build_response(
     config: TwinConfig, workers: int = 2, on_progress: Progress | None = None
 ) -> FrictionResponse:
     """Solve every node of every variant (:func:`_variants`) with the symmetric steady model
-    (see the module docstring); ``on_progress`` after each line of speeds."""
+    (see the module docstring); ``on_progress`` (lines done, lines in all, seconds elapsed)
+    after each line of speeds."""
     speeds = _speed_nodes()
     temperatures = np.linspace(TEMPERATURE_RANGE[0], TEMPERATURE_RANGE[1], TEMPERATURE_NODES)
     low, high = (math.log(p) for p in PRELOAD_RANGE)
