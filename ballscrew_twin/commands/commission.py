@@ -21,10 +21,10 @@ from ..bags.bench import read_bench_bag
 from ..health.commission import ERROR_SCALE, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
-from ..models import friction_response
 from ..params import load_config
 from ..plots.commissioning import plot_commissioning
 from .detect import add_topic_arguments, bench_topics
+from .map import ensure_friction_response
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,9 +51,7 @@ def run(args: argparse.Namespace) -> int:
     """Fit, write the baseline (and the plot), print the fitted values."""
     recordings = [read_bench_bag(bag, bench_topics(args), required=CHANNELS) for bag in args.bag]
     config = load_config(args.config)
-    _, built = friction_response.ensure_response(config)
-    if built is not None:
-        print(f"built the friction response table of {config.source} into {built}")
+    ensure_friction_response(config)
     result = commission(
         [recording_channels(r) for r in recordings],
         config,

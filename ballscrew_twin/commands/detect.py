@@ -20,9 +20,9 @@ from ..health.offline import CHANNELS, recording_channels, run_monitor, summary,
 from ..health.residuals import shared_predictor
 from ..health.uncompared import why_nothing_compared
 from ..health.verdicts import FAULT, UNKNOWN
-from ..models import friction_response
 from ..params import load_config
 from ..plots.detection import plot
+from .map import ensure_friction_response
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -101,9 +101,7 @@ def run(args: argparse.Namespace) -> int:
     predictor = shared_predictor(config, settings.residual)
     baseline = load_baseline(args.baseline) if args.baseline else None
     if baseline is not None and (baseline.dry_friction_scale, baseline.eyring_scale) != (1, 1):
-        _, built = friction_response.ensure_response(config)
-        if built is not None:
-            print(f"built the friction response table of {config.source} into {built}")
+        ensure_friction_response(config)
     result = run_monitor(
         recording_channels(recording), config, settings, start, predictor, baseline
     )

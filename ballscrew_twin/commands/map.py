@@ -99,6 +99,14 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def ensure_friction_response(config: TwinConfig) -> None:
+    """Build ``config``'s friction response table into the user cache when there is none, and
+    say so (``commission``, and ``detect`` with a baseline that has friction scales)."""
+    _, built = friction_response.ensure_response(config)
+    if built is not None:
+        print(f"built the friction response table of {config.source} into {built}")
+
+
 def _build_response(args: argparse.Namespace, config: TwinConfig) -> int:
     """``map response``: solve the friction response table of ``config`` and write it."""
     out = Path(args.out) if args.out else friction_response.cached_response_path(config)

@@ -25,12 +25,13 @@ data, any other screw's goes to the user cache under its fingerprint. All SI: ra
 
 from __future__ import annotations
 
+import itertools
 import math
 import multiprocessing
 import signal
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -39,8 +40,8 @@ from numpy.typing import NDArray
 from ..errors import MapError, SolverError
 from ..params import TwinConfig, config_fingerprint
 from .base import OperatingPoint
-from .map_build import Progress
-from .map_store import cache_dir
+from .map_build import Progress, fill_failed
+from .map_store import cache_dir, save_atomic
 from .steady import SteadyStateModel
 
 FloatArray = NDArray[np.float64]
@@ -111,9 +112,6 @@ class FrictionResponse:
     coefficients: FloatArray
     filled: NDArray[np.bool_]
     fingerprint: str
-    _axes: tuple[FloatArray, FloatArray, FloatArray] = field(
-        default_factory=lambda: (np.zeros(1), np.zeros(1), np.zeros(1)), repr=False
-    )
 
     def __post_init__(self) -> None:
         shape = (len(self.speeds), len(self.temperatures), len(self.preloads), len(PARAMETERS), 2)
@@ -122,8 +120,6 @@ class FrictionResponse:
                 f"friction response: coefficients of shape {self.coefficients.shape} (need "
                 f"{shape}) or not finite"
             )
-        axes = (np.log(self.speeds), np.asarray(self.temperatures), np.log(self.preloads))
-        object.__setattr__(self, "_axes", axes)
 
     def log_factor(
         self, speeds: FloatArray, temperature: float, preload: float, log_scales: FloatArray
@@ -131,15 +127,15 @@ class FrictionResponse:
         """sum_p (a_p x_p + b_p x_p^2) [-] at each of ``speeds`` [rad/s], one ``temperature``
         [K] and contact ``preload`` [N], x = ``log_scales`` = ln k_p (:data:`PARAMETERS`)."""
         x = np.asarray(log_scales, dtype=np.float64)
-        ln_w, temps, ln_f = self._axes
         # Bilinear in temperature and ln preload first: one line of speed nodes.
-        line = np.zeros(len(ln_w))
-        weights = [_linear(temps, temperature), _linear(ln_f, math.log(max(preload, 1e-9)))]
-        for (t, wt), (p, wp) in ((t, p) for t in weights[0] for p in weights[1]):
+        line = np.zeros(len(self.speeds))
+        around_t = _linear(self.temperatures, temperature)
+        around_f = _linear(np.log(self.preloads), math.log(max(preload, 1e-9)))
+        for (t, wt), (p, wp) in itertools.product(around_t, around_f):
             c = self.coefficients[:, t, p]  # (S, 2, 2)
             line += wt * wp * (c[:, :, 0] @ x + c[:, :, 1] @ (x * x))
         query = np.log(np.maximum(np.abs(np.asarray(speeds, dtype=np.float64)), 1e-12))
-        return np.asarray(np.interp(query, ln_w, line))
+        return np.asarray(np.interp(query, np.log(self.speeds), line))
 
     def save(self, path: str | Path) -> None:
         """Write the table as a compressed ``.npz`` file."""
@@ -214,8 +210,6 @@ def find_response(config: TwinConfig) -> FrictionResponse | None:
 def ensure_response(config: TwinConfig, workers: int = 2) -> tuple[FrictionResponse, Path | None]:
     """The response table of ``config``, built into the user cache when there is none (a few
     seconds: 2640 steady solves); the path it was written to, or None when it was found."""
-    from .map_store import save_atomic
-
     found = find_response(config)
     if found is not None:
         return found, None
@@ -230,16 +224,20 @@ def _worker_init(config: TwinConfig) -> None:
     _WORKER["config"] = config
 
 
-def _solve_line(task: tuple[int, float, float]) -> tuple[tuple[int, float, float], FloatArray]:
-    """|T| [N m] along the speed nodes of one (variant, temperature, preload), warm-started
-    upwards; NaN where the solve fails."""
-    variant, temperature, preload = task
+def _solve_line(task: tuple[int, int, int]) -> tuple[tuple[int, int, int], FloatArray]:
+    """|T| [N m] along the speed nodes of one (variant, temperature node, preload node),
+    warm-started upwards; NaN where the solve fails."""
+    variant, t, p = task
+    speeds, temperatures, preloads = _nodes()
     config = _WORKER["config"]
     model = SteadyStateModel(scaled_config(config, _variants()[variant]), mode="symmetric")
-    speeds = _speed_nodes()
     out = np.full(len(speeds), np.nan)
     for i, speed in enumerate(speeds):
-        op = OperatingPoint(screw_speed=float(speed), temperature=temperature, preload=preload)
+        op = OperatingPoint(
+            screw_speed=float(speed),
+            temperature=float(temperatures[t]),
+            preload=float(preloads[p]),
+        )
         try:
             out[i] = abs(float(model.evaluate(op).drag_torque))
         except SolverError:
@@ -247,9 +245,15 @@ def _solve_line(task: tuple[int, float, float]) -> tuple[tuple[int, float, float
     return task, out
 
 
-def _speed_nodes() -> FloatArray:
-    low, high = (math.log(w) for w in SPEED_RANGE)
-    return np.exp(np.linspace(low, high, SPEED_NODES))
+def _nodes() -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The nodes: |speed| [rad/s], temperature [K], preload [N] (module constants)."""
+    low_w, high_w = (math.log(w) for w in SPEED_RANGE)
+    low_f, high_f = (math.log(f) for f in PRELOAD_RANGE)
+    return (
+        np.exp(np.linspace(low_w, high_w, SPEED_NODES)),
+        np.linspace(TEMPERATURE_RANGE[0], TEMPERATURE_RANGE[1], TEMPERATURE_NODES),
+        np.exp(np.linspace(low_f, high_f, PRELOAD_NODES)),
+    )
 
 
 def build_response(
@@ -258,26 +262,18 @@ def build_response(
     """Solve every node of every variant (:func:`_variants`) with the symmetric steady model
     (see the module docstring); ``on_progress`` (lines done, lines in all, seconds elapsed)
     after each line of speeds."""
-    speeds = _speed_nodes()
-    temperatures = np.linspace(TEMPERATURE_RANGE[0], TEMPERATURE_RANGE[1], TEMPERATURE_NODES)
-    low, high = (math.log(p) for p in PRELOAD_RANGE)
-    preloads = np.exp(np.linspace(low, high, PRELOAD_NODES))
+    speeds, temperatures, preloads = _nodes()
     variants = _variants()
-    tasks = [
-        (v, float(t), float(p))
-        for v in range(len(variants))
-        for t in temperatures
-        for p in preloads
-    ]
+    tasks = list(
+        itertools.product(range(len(variants)), range(len(temperatures)), range(len(preloads)))
+    )
     logs = np.full((len(variants), len(speeds), len(temperatures), len(preloads)), np.nan)
     start = time.monotonic()
 
-    def store(results: Iterable[tuple[tuple[int, float, float], FloatArray]]) -> None:
+    def store(results: Iterable[tuple[tuple[int, int, int], FloatArray]]) -> None:
         for done, ((v, t, p), torques) in enumerate(results, start=1):
-            ti = int(np.argmin(np.abs(temperatures - t)))
-            pi = int(np.argmin(np.abs(preloads - p)))
             with np.errstate(divide="ignore", invalid="ignore"):
-                logs[v, :, ti, pi] = np.where(torques > 0.0, np.log(torques), np.nan)
+                logs[v, :, t, p] = np.where(torques > 0.0, np.log(torques), np.nan)
             if on_progress is not None:
                 on_progress(done, len(tasks), time.monotonic() - start)
 
@@ -307,17 +303,14 @@ def build_response(
 
 def _fill_along_speed(table: FloatArray, failed: NDArray[np.bool_]) -> None:
     """Replace the ``failed`` (S, T, P) nodes of (S, T, P, ...) ``table`` by the nearest good
-    speed node of their line, in place.
+    speed node of their line (ties go down), in place: the steady map's
+    :func:`~.map_build.fill_failed` on one sign.
 
     Raises:
-        MapError: a whole line failed."""
-    for t in range(table.shape[1]):
-        for p in range(table.shape[2]):
-            bad = failed[:, t, p]
-            if not bad.any():
-                continue
-            good = np.flatnonzero(~bad)
-            if len(good) == 0:
-                raise MapError(f"friction response: every speed failed at node ({t}, {p})")
-            for i in np.flatnonzero(bad):
-                table[i, t, p] = table[good[np.argmin(np.abs(good - i))], t, p]
+        MapError: a whole line failed (the map would take a neighbouring preload's line; the
+            response of a screw that fails so is not trusted)."""
+    whole = np.argwhere(failed.all(axis=0))
+    if len(whole):
+        t, p = (int(k) for k in whole[0])
+        raise MapError(f"friction response: every speed failed at node ({t}, {p})")
+    fill_failed(table[None], failed[None])
