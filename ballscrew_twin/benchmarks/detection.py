@@ -230,15 +230,18 @@ def fault_effect(
 def compared_samples(monitor: HealthMonitor, data: BenchData) -> npt.NDArray[np.bool_]:
     """Per torque sample of ``data`` that ``monitor`` ran over: whether it lies in a block the
     monitor compared with the twin (a verdict other than UNKNOWN: not gated, not in the
-    warm-up) [-]. A block spans its mid time +- half the block duration."""
+    warm-up) [-]. A block spans its mid time +- half its span (of the samples it compared: a
+    block compared on its stroke past the gate spans less than the block duration)."""
     start = START_NS * 1e-9
-    half = 0.5 * monitor.settings.residual.block_duration
+    duration = monitor.settings.residual.block_duration
     mids = np.array([each.time - start for each in monitor.samples])
     looked = np.array([each.verdict != UNKNOWN for each in monitor.samples], dtype=bool)
     if len(mids) == 0:
         return np.zeros(len(data.torque_time), dtype=bool)
+    spans = np.array([each.span for each in monitor.samples])
+    half = 0.5 * np.where(np.isfinite(spans), spans, duration)
     block = np.clip(np.searchsorted(mids - half, data.torque_time, side="right") - 1, 0, None)
-    inside = np.abs(data.torque_time - mids[block]) <= half
+    inside = np.abs(data.torque_time - mids[block]) <= half[block]
     return inside & looked[block]
 
 

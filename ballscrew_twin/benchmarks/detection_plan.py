@@ -79,7 +79,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="also run a monitor with this one numeric setting changed, on the same recordings, "
         "reported beside the default (repeatable: one monitor each; e.g. "
-        "classification_patience=8)",
+        "classification_patience=8; residual.partial_share=1 for a field of the residual "
+        "settings; several changes to one monitor separated by commas)",
     )
 
 
@@ -105,16 +106,39 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSet
         names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
         extra.append((f"detectors {', '.join(names)} only", MonitorSettings(detectors=names)))
     defaults = MonitorSettings()
-    numeric = sorted(f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float)
+    numeric = sorted(
+        [f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float]
+        + [
+            f"residual.{f.name}"
+            for f in fields(defaults.residual)
+            if type(getattr(defaults.residual, f.name)) is float
+        ]
+    )
     for item in args.compare_setting:
-        name, _, text = item.partition("=")
-        name = name.strip()
-        if name not in numeric:
-            raise ConfigError(f"--compare-setting {item!r}: NAME must be one of {numeric}")
-        try:
-            value = float(text)
-        except ValueError:
-            raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
-        changed: dict[str, Any] = {name: value}
-        extra.append((f"{name} = {value:g}", replace(defaults, **changed)))
+        settings = defaults
+        for change in item.split(","):
+            settings = _changed(settings, change, item, numeric)
+        title = ", ".join(c.strip().replace("=", " = ") for c in item.split(","))
+        extra.append((title, settings))
     return tuple(extra)
+
+
+def _changed(
+    settings: MonitorSettings, change: str, item: str, numeric: list[str]
+) -> MonitorSettings:
+    """``settings`` with the one NAME=VALUE ``change`` of the ``--compare-setting`` ``item``;
+    ConfigError naming ``numeric`` for a name that is not one, or for a value that is not a
+    number."""
+    name, _, text = change.partition("=")
+    name = name.strip()
+    if name not in numeric:
+        raise ConfigError(f"--compare-setting {item!r}: NAME must be one of {numeric}")
+    try:
+        value = float(text)
+    except ValueError:
+        raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
+    group, _, field_name = name.rpartition(".")
+    changed: dict[str, Any] = {field_name: value}
+    if group:  # a field of the residual settings
+        return replace(settings, residual=replace(settings.residual, **changed))
+    return replace(settings, **changed)

@@ -108,6 +108,9 @@ class CusumStep:
     change_index: int
 
 
+#: The weight of one CUSUM input: in (0, 1] [-].
+_WEIGHT = limits("-", 0.0, 1.0, lo_open=True)
+
 #: Largest share of the threshold one input may add to the CUSUM beyond k [-]: no single
 #: block can raise an alarm from zero (a one-block transient the twin does not model, e.g.
 #: a start from standstill, is not a fault); two in a row at the clip can.
@@ -142,11 +145,20 @@ class Cusum:
         self._upper_zero = 0
         self._lower_zero = 0
 
-    def update(self, e: float) -> CusumStep:
-        """Take one normalised input ``e`` [-] (clipped to +-:attr:`clip`)."""
+    def update(self, e: float, weight: float = 1.0) -> CusumStep:
+        """Take one normalised input ``e`` [-] (clipped to +-:attr:`clip`) of relative
+        information ``weight`` in (0, 1] [-]: the shift the CUSUM is tuned for, in this
+        input's sigma, over its tuned size (an input whose sigma is inflated by terms a
+        fault does not change sees the same fault as a smaller shift). Each side moves by
+        the log-likelihood ratio of that smaller shift, w (e - k w), scaled by the tuned
+        shift: at w = 1 the plain e - k; a vague input neither raises the statistic nor pulls
+        it down by a whole k (a fast sine's strokes between reversals, whose sigma carries the
+        inertia's error, otherwise undid what the steady strokes added up)."""
+        check_number(weight, _WEIGHT, "CUSUM input weight", text=False)
         e = min(max(e, -self.clip), self.clip)
-        self.upper = max(0.0, self.upper + e - self.k)
-        self.lower = max(0.0, self.lower - e - self.k)
+        drift = self.k * weight
+        self.upper = max(0.0, self.upper + weight * (e - drift))
+        self.lower = max(0.0, self.lower + weight * (-e - drift))
         if self.upper == 0.0:
             self._upper_zero = self.count
         if self.lower == 0.0:

@@ -15,7 +15,9 @@ the inertia torque is the block mean of J dw/dt, (w_end - w_start) / span, from 
 the block's edges; every block carries its own uncertainty (:mod:`.baseline`). Blocks that
 reach below ``gate_speed`` or lie within ``gate_angle`` of screw rotation after a reversal are
 gated (UNKNOWN, counted in :attr:`HealthMonitor.gated_time`): there the unit's breakaway and
-presliding friction, which the quasi-static twin does not have, dominate.
+presliding friction, which the quasi-static twin does not have, dominate. A block whose longest
+run of samples that pass the gate holds at least ``partial_share`` of it is compared on that
+run alone (the stroke of a fast sine between its reversals; the rest counts as gated).
 
 Verdicts: UNKNOWN during the warm-up (the sensor noise is learnt then; the data must be healthy)
 and at standstill, gated blocks or an invalid operating point; OK; WARN when a detector's
@@ -335,6 +337,7 @@ class HealthMonitor:
             operating_point=op,
             state=tuple(self.tracker.state.tolist()),
             note=note,
+            span=block.span,
         )
 
     def following_error(self, angle: FloatArray, drag: FloatArray, stamps: FloatArray) -> float:
@@ -398,12 +401,18 @@ class HealthMonitor:
         if self._start is None:
             self._start = block.time
         in_warmup = block.time - self._start < s.warmup
-        speed = float(np.mean(block.speed))
-        op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
         angle = self.order.angle(block)
         gate = self.gate.check(block)
-        if not gate and "speed" in block.held:
-            gate = "gated: the speed was held past its last sample (late or ended)"
+        if "speed" in block.held:
+            gate = gate or "gated: the speed was held past its last sample (late or ended)"
+        elif gate and (part := self.gate.compared_part(block)) is not None:
+            # compared on its stroke between the gated samples (settings.partial_share)
+            whole = block.span
+            block, angle = block.part(*part), angle[part[0] : part[1]]
+            self.gated_time += whole - block.span
+            gate = ""
+        speed = float(np.mean(block.speed))
+        op = OperatingPoint(screw_speed=speed, temperature=block.temperature, preload=block.preload)
         if gate:
             self.gated_time += block.span
             return self._unknown(block, gate, op)
@@ -522,7 +531,11 @@ class HealthMonitor:
             self._local_stat = local_step.statistic
         # oriented by the direction of the friction: a fault that changes the friction moves
         # the residual with the drag's sign, and reversals must not undo what it accumulated
-        cusum = self.cusum.update(e if drag >= 0.0 else -e)
+        # the block's information on a change of the drag: its variance without the
+        # transient terms (which a fault does not change) over its whole variance
+        steady_share = max(noise_var - (b.torque_gain**2) * transient, 0.0) / noise_var
+        weight = max(math.sqrt(steady_share), s.cusum_min_weight)
+        cusum = self.cusum.update(e if drag >= 0.0 else -e, weight)
         chi_stat, chi_alarm = self.chi_square.update(e)
         if self.order.run(block.time) and self.alarm is not None and not self.alarm.final:
             for name, ratio in self.order.ratios.items():
@@ -659,6 +672,7 @@ class HealthMonitor:
             operating_point=op,
             state=tuple(self.tracker.state.tolist()),
             note=note,
+            span=block.span,
         )
 
     # ------------------------------------------------------------------ classification

@@ -67,6 +67,10 @@ class MonitorSettings:
         bin_agreement: largest z of each of a new memory bin's last blocks against their
             median for the bin to become the local test's reference [-] (:mod:`.memory`);
             inf takes a bin's first blocks as they come (the rule up to round 19).
+        cusum_min_weight: least weight of a block in the CUSUM [-]. A block's weight is the
+            share of its sigma that a change of the drag would be seen against (without the
+            inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1 weighs
+            every block alike (the CUSUM up to round 25).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -90,6 +94,7 @@ class MonitorSettings:
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
+    cusum_min_weight: float = field(default=0.01, metadata=limits("-", 0.0, 1.0, lo_open=True))
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's

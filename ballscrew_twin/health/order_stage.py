@@ -117,7 +117,9 @@ class OrderStage:
         self._pending = None
         stamps, residual, angle, drag = pending
         trail = list(self._speed_trail)
-        where = next(i for i, entry in enumerate(trail) if entry[0] is stamps)
+        # the block it came from (a compared part of a block holds some of its stamps)
+        where = next(i for i, entry in enumerate(trail) if entry[0][0] <= stamps[0] <= entry[0][-1])
+        offset = int(np.searchsorted(trail[where][0], stamps[0]))
         step = float(np.median(np.diff(stamps))) if len(stamps) > 1 else 0.0
         first, last = where, where
         while first > 0 and trail[first][0][0] - trail[first - 1][0][-1] <= 1.5 * step:
@@ -126,7 +128,7 @@ class OrderStage:
             last += 1
         times = np.concatenate([entry[0] for entry in trail[first : last + 1]])
         speeds = np.concatenate([entry[1] for entry in trail[first : last + 1]])
-        start = sum(len(entry[0]) for entry in trail[first:where])
+        start = sum(len(entry[0]) for entry in trail[first:where]) + offset
         acceleration = centred_acceleration(times, speeds, INERTIA_WINDOW)[
             start : start + len(stamps)
         ]

@@ -33,6 +33,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import (
+    ConfigError,
     MapError,
     OperatingPointError,
     SampleError,
@@ -130,6 +131,10 @@ class ResidualSettings:
             static twin [rad].
         slow_smoothing: causal moving average of temperature and preload [s]: both change
             slowly, their sensor noise would otherwise go into the prediction.
+        partial_share: a block some of whose samples fail the gate is compared on its
+            longest run of samples that pass, when that run holds at least this share of the
+            block's samples (1: only whole blocks are compared) [-]. A sine of 2.5 Hz and up
+            reverses in every 0.1 s block; its strokes between the reversals are compared.
     """
 
     block_duration: float = field(default=0.1, metadata=positive("s"))
@@ -145,12 +150,18 @@ class ResidualSettings:
     gate_speed: float = field(default=2.0, metadata=not_negative("rad/s"))
     gate_angle: float = field(default=2.0, metadata=not_negative("rad"))
     slow_smoothing: float = field(default=1.0, metadata=not_negative("s"))
+    partial_share: float = field(default=0.5, metadata=positive("-"))
 
     def __post_init__(self) -> None:
         """Reject non-finite, negative or zero values where they make no sense, through the
         package's one number check (:func:`~ballscrew_twin.params.validate_fields`: the
         message names the setting, its value, its unit and its range)."""
         validate_fields(self, "health settings", ": ")
+        if self.partial_share > 1.0:
+            raise ConfigError(
+                f"health settings: partial_share {self.partial_share:g} must be in (0, 1] "
+                "(a share of a block's samples)"
+            )
 
     def model_error(self, predicted: float) -> float:
         """1-sigma model error at a predicted torque [N m]."""
@@ -490,6 +501,40 @@ class Block:
         """Mid time of the block's samples [s]."""
         return 0.5 * float(self.stamps[0] + self.stamps[-1])
 
+    def part(self, start: int, stop: int) -> Block:
+        """The block's samples ``start:stop`` as a block of their own (same index, slow
+        signals and held names). An edge inside the block takes the speed half a torque
+        interval out from the part's end sample (the mean of the two samples there, the
+        speed being linear between its own samples) and |second difference| of the speed
+        over +-PART_CURVATURE_SPAN about it (the bend a straight line between speed samples
+        misses, as :meth:`SlowSignal.curvature_near` takes it at the block's own edges)."""
+        n = len(self.stamps)
+        if not 0 <= start < stop <= n:
+            raise ConfigError(f"block part {start}:{stop} of {n} samples")
+        if start == 0 and stop == n:
+            return self
+        w, t = self.speed, self.stamps
+        first = self.speed_edges[0] if start == 0 else 0.5 * float(w[start - 1] + w[start])
+        last = self.speed_edges[1] if stop == n else 0.5 * float(w[stop - 1] + w[stop])
+
+        def bend(at: float) -> float:
+            around = np.interp([at - PART_CURVATURE_SPAN, at, at + PART_CURVATURE_SPAN], t, w)
+            return abs(float(around[0] - 2.0 * around[1] + around[2]))
+
+        return replace(
+            self,
+            stamps=t[start:stop],
+            torque=self.torque[start:stop],
+            speed=w[start:stop],
+            speed_edges=(first, last),
+            edge_curvature=(
+                self.edge_curvature[0]
+                if start == 0
+                else bend(0.5 * float(t[start - 1] + t[start])),
+                self.edge_curvature[1] if stop == n else bend(0.5 * float(t[stop - 1] + t[stop])),
+            ),
+        )
+
 
 class BlockAligner:
     """Groups torque samples into blocks and aligns the slow signals at their stamps.
@@ -599,6 +644,11 @@ class BlockAligner:
         return out
 
 
+#: Half-span of the speed's second difference at an edge inside a block (:meth:`Block.part`)
+#: [s]: the interval of a 100 Hz speed signal, whose samples the speed is linear between.
+PART_CURVATURE_SPAN = 0.01
+
+
 class ReversalGate:
     """Which blocks the quasi-static twin may be compared on (see ``gate_speed`` and
     ``gate_angle`` of :class:`ResidualSettings`): it follows the screw rotation since the last
@@ -612,13 +662,21 @@ class ReversalGate:
         #: Least screw rotation since the last reversal or stop over the last block checked
         #: [rad] (inf before any).
         self.block_travel = math.inf
+        #: Screw rotation since the last reversal or stop at each sample of the last block
+        #: checked [rad], and whether each sample passed the gate [-].
+        self.travel = np.zeros(0)
+        self.passed = np.zeros(0, dtype=bool)
 
     def check(self, block: Block) -> str:
-        """Why ``block`` is not compared ("" when it is); updates the rotation count."""
+        """Why ``block`` is not compared ("" when it is: every sample passed); updates the
+        rotation count, :attr:`travel` and :attr:`passed`."""
         r = self.settings
         reason = ""
-        self.block_travel = math.inf
-        for stamp, w in zip(block.stamps.tolist(), block.speed.tolist(), strict=True):
+        travel = np.empty(len(block.stamps))
+        passed = np.zeros(len(block.stamps), dtype=bool)
+        for i, (stamp, w) in enumerate(
+            zip(block.stamps.tolist(), block.speed.tolist(), strict=True)
+        ):
             dt = stamp - self._last_stamp if math.isfinite(self._last_stamp) else 0.0
             self._last_stamp = stamp
             sign = math.copysign(1.0, w) if abs(w) >= r.min_speed else 0.0
@@ -626,17 +684,35 @@ class ReversalGate:
                 self._sign, self._travel = sign, 0.0
             else:
                 self._travel += abs(w) * max(dt, 0.0)
-            self.block_travel = min(self.block_travel, self._travel)
-            if reason:
-                continue
+            travel[i] = self._travel
             if abs(w) < r.gate_speed:
-                reason = f"gated: |speed| {abs(w):.3g} rad/s below {r.gate_speed:g} rad/s"
+                reason = reason or f"gated: |speed| {abs(w):.3g} rad/s below {r.gate_speed:g} rad/s"
             elif self._travel < r.gate_angle:
-                reason = (
+                reason = reason or (
                     f"gated: {self._travel:.3g} rad since the last reversal or stop "
                     f"(< {r.gate_angle:g} rad)"
                 )
+            else:
+                passed[i] = True
+        self.travel, self.passed = travel, passed
+        self.block_travel = float(np.min(travel)) if len(travel) else math.inf
         return reason
+
+    def compared_part(self, block: Block) -> tuple[int, int] | None:
+        """After :meth:`check` gated ``block``: the longest run of samples that passed as
+        (start, stop), when it holds at least ``partial_share`` of the block's samples (and
+        4, enough for a scatter); None otherwise. Sets :attr:`block_travel` to the run's."""
+        passed = self.passed
+        if len(passed) != len(block.stamps) or not np.any(passed):
+            return None
+        edges = np.flatnonzero(np.diff(np.concatenate([[0], passed.astype(np.int8), [0]])))
+        starts, stops = edges[0::2], edges[1::2]
+        k = int(np.argmax(stops - starts))
+        start, stop = int(starts[k]), int(stops[k])
+        if stop - start < max(self.settings.partial_share * len(passed), 4.0):
+            return None
+        self.block_travel = float(np.min(self.travel[start:stop]))
+        return start, stop
 
 
 def within_block_variance(block: Block) -> float | None:

@@ -3,6 +3,7 @@ of a run's first alarm (:class:`Alarm`)."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ..models.base import OperatingPoint
@@ -32,6 +33,8 @@ class HealthSample:
         operating_point: measured operating point of the block, None if none.
         state: tracked (bias [N m], friction scale [-], preload change [N]).
         note: why the verdict is UNKNOWN, or which detector alarmed.
+        span: time the block's compared samples stand for [s] (less than the block duration
+            for a block compared on its stroke past the gate; nan when not given).
     """
 
     time: float
@@ -49,6 +52,7 @@ class HealthSample:
     operating_point: OperatingPoint | None
     state: tuple[float, float, float]
     note: str = ""
+    span: float = math.nan
 
 
 @dataclass

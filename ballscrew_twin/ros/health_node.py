@@ -64,6 +64,7 @@ from ..health.monitor_settings import MonitorSettings as Settings
 from ..health.monitor_settings import check_detectors
 from ..health.residuals import ResidualSettings, StampOrderError
 from ..health.verdicts import FAULT, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
+from ..models import friction_response
 from ..params import load_config
 from ..units import celsius_to_kelvin, seconds_to_stamp, stamp_to_seconds
 from . import health_diagnostics
@@ -190,6 +191,19 @@ class HealthNode(TableNode):
             f" ({self.config.source}); false-alarm target {self.settings.false_alarm_rate:g}/h; "
             f"publishing {self._health_pub.topic_name}"
         )
+        if self.monitor.twin_note:
+            self.get_logger().warning(self.monitor.twin_note)
+        #: The screw's friction response table (:mod:`~ballscrew_twin.models.friction_response`):
+        #: a commissioning fits the unit's mu_dry and tau_0 scales with it, and the real-time
+        #: twin of a baseline with such scales needs it. Built on a thread when missing.
+        self.response_state = "found"
+        self._response_build: threading.Thread | None = None
+        if friction_response.find_response(self.config) is None:
+            self.response_state = "building"
+            self._response_build = threading.Thread(
+                target=self._build_response, name="friction-response", daemon=True
+            )
+            self._response_build.start()
 
     # ------------------------------------------------------------------ helpers
     def _detectors(self) -> tuple[str, ...]:
@@ -280,8 +294,36 @@ class HealthNode(TableNode):
         self.commission_result = f"commissioning on {span:.1f} s of samples"
         return True, f"commissioning started on {span:.1f} s of samples"
 
+    def _build_response(self) -> None:
+        """Build the screw's friction response table into the user cache (its own thread, one
+        process: the node's callbacks keep the other core); then a monitor that had to fall
+        back to the steady model for want of it restarts on the real-time map."""
+        self.get_logger().info(
+            f"no friction response table for {self.config.source}: building it (2640 steady "
+            "solves, seconds to a minute)"
+        )
+        start = time.monotonic()
+        try:
+            _, path = friction_response.ensure_response(self.config, workers=1)
+        except BallscrewTwinError as err:
+            self.response_state = f"build failed: {err}"
+            self.get_logger().error(f"friction response table: {self.response_state}")
+            return
+        self.response_state = f"built in {time.monotonic() - start:.0f} s into {path}"
+        self.get_logger().info(f"friction response table {self.response_state}")
+        if self.monitor.twin_name != "realtime_map":
+            self._replace_monitor(self._new_monitor())
+            self.get_logger().info(
+                f"the monitor restarts on {self.monitor.twin_name} (it predicted with the "
+                "steady model meanwhile)"
+            )
+
     def _commission(self, channels: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
-        """Fit, then restart the monitor with the baseline (runs in its own thread)."""
+        """Fit, then restart the monitor with the baseline (runs in its own thread; waits
+        for the friction response table if it is being built, so that the fit has the
+        unit's friction scales)."""
+        if self._response_build is not None:
+            self._response_build.join()
         try:
             result = commission(channels, self.config, self.settings.residual, source="live")
         except BallscrewTwinError as err:
@@ -477,6 +519,7 @@ class HealthNode(TableNode):
             ("dropped samples", str(self.dropped)),
             ("restarts", str(self.restarts)),
             ("baseline", self.commission_result),
+            ("friction response table", self.response_state),
         )
         health = health_diagnostics.health_check(self.monitor, self.last, counts)
         checks = [

@@ -83,6 +83,16 @@ def test_a_compared_setting_is_one_numeric_setting_changed() -> None:
         detection.comparison_settings(_arguments("--compare-setting", "warmup=-1"))
 
 
+def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -> None:
+    item = "residual.partial_share=1, cusum_min_weight=1"
+    ((title, settings),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    assert title == "residual.partial_share = 1, cusum_min_weight = 1"
+    assert settings.residual.partial_share == 1.0 and settings.cusum_min_weight == 1.0
+    assert settings.residual.gate_angle == detection.MonitorSettings().residual.gate_angle
+    with pytest.raises(ConfigError, match="partial_share 2 must be in"):
+        detection.comparison_settings(_arguments("--compare-setting", "residual.partial_share=2"))
+
+
 def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
     units, plan = detection.requested_plan(_arguments("--quick", "--units", "5000:5030"))
     assert units == range(2)  # --quick overrides --units: a smoke test on training units
@@ -222,19 +232,19 @@ def test_the_effect_where_compared_counts_only_the_flagged_samples(paper: TwinCo
 
 
 def test_the_compared_samples_are_those_of_blocks_with_a_verdict() -> None:
-    """Blocks of 0.1 s at mid times 10.05, 10.15, 10.25 (since the recording's start): the first
-    and last compared, the middle one gated; samples every 0.02 s from 9.99 to 10.33."""
+    """Blocks of 0.1 s from 10.0 s (since the recording's start): the first compared, the
+    second gated, the third compared on its stroke of the samples at 10.25, 10.27 and 10.29 s
+    alone (mid time 10.27 s, span three sample intervals, 0.06 s); samples every 0.02 s from
+    9.99 to 10.33."""
     start = detection.START_NS * 1e-9
-    verdicts = (OK, UNKNOWN, FAULT)
+    blocks = ((10.05, OK, math.nan), (10.15, UNKNOWN, math.nan), (10.27, FAULT, 0.06))
     monitor = SimpleNamespace(
         settings=MonitorSettings(),
-        samples=[
-            SimpleNamespace(time=start + 10.05 + 0.1 * k, verdict=v) for k, v in enumerate(verdicts)
-        ],
+        samples=[SimpleNamespace(time=start + t, verdict=v, span=w) for t, v, w in blocks],
     )
     data = SimpleNamespace(torque_time=9.99 + 0.02 * np.arange(18))
     flags = detection.compared_samples(monitor, data)  # type: ignore[arg-type]
-    expected = [(10.0 <= t < 10.1 or 10.2 <= t <= 10.3) for t in data.torque_time]
+    expected = [(10.0 <= t < 10.1 or 10.24 <= t <= 10.3) for t in data.torque_time]
     assert flags.tolist() == expected
 
 

@@ -3,7 +3,7 @@ under use_sim_time, and JointStates that do not name the screw's joint."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, cast
 
@@ -20,9 +20,12 @@ from std_srvs.srv import Trigger
 from ballscrew_twin.bags.bench import read_bench_bag
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health import monitor as monitor_module
+from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.classify import Classification
 from ballscrew_twin.health.offline import CHANNELS, recording_channels
 from ballscrew_twin.health.verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
+from ballscrew_twin.models import friction_response
+from ballscrew_twin.params import load_config
 from ballscrew_twin.ros import diagnostics, health_node
 from ballscrew_twin.ros.health_node import HealthNode
 
@@ -338,3 +341,45 @@ def test_a_baseline_file_that_is_not_one_stops_the_node_with_its_name(
             context=executor.context,
             parameter_overrides=[Parameter("baseline_file", value=str(bad))],
         )
+
+
+def test_a_missing_friction_response_table_is_built_and_the_monitor_moves_onto_the_map(
+    executor: SingleThreadedExecutor,
+    spin_until: SpinUntil,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # the paper screw without its packaged response table, and a baseline with the unit's
+    # own mu_dry scale: until the table is built the map cannot take that scale, so the
+    # monitor predicts with the steady model; once built, it restarts on the map
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(friction_response, "DEFAULT_RESPONSE_PATH", tmp_path / "none.npz")
+    config = load_config(None)
+    baseline = replace(Baseline.nominal(config), dry_friction_scale=1.2, source="bench")
+    path = baseline.save(tmp_path / "baseline.yaml")
+    node = HealthNode(
+        context=executor.context,
+        parameter_overrides=[Parameter("baseline_file", value=str(path))],
+    )
+    executor.add_node(node)
+    assert node.monitor.twin_name != "realtime_map"
+    assert "real-time map not used" in node.monitor.twin_note
+    assert node._response_build is not None
+    node._response_build.join(timeout=300.0)
+    assert node.response_state.startswith("built in ")
+    assert friction_response.cached_response_path(config).is_file()
+    assert node.monitor.twin_name == "realtime_map" and node.monitor.twin_note == ""
+    assert node.monitor.baseline.dry_friction_scale == 1.2
+    values = dict(next(c for c in node.checks() if c.name == "health").values)
+    assert values["friction response table"] == node.response_state
+    # a node started now finds the table: nothing to build
+    again = HealthNode(
+        context=executor.context,
+        node_name="ballscrew_health_again",
+        parameter_overrides=[Parameter("baseline_file", value=str(path))],
+    )
+    assert again._response_build is None and again.response_state == "found"
+    assert again.monitor.twin_name == "realtime_map"
+    again.destroy_node()
+    executor.remove_node(node)
+    node.destroy_node()
