@@ -15,9 +15,10 @@ the inertia torque is the block mean of J dw/dt, (w_end - w_start) / span, from 
 the block's edges; every block carries its own uncertainty (:mod:`.baseline`). Blocks that
 reach below ``gate_speed`` or lie within ``gate_angle`` of screw rotation after a reversal are
 gated (UNKNOWN, counted in :attr:`HealthMonitor.gated_time`): there the unit's breakaway and
-presliding friction, which the quasi-static twin does not have, dominate. A block whose longest
-run of samples that pass the gate holds at least ``partial_share`` of it is compared on that
-run alone (the stroke of a fast sine between its reversals; the rest counts as gated).
+presliding friction, which the quasi-static twin does not have, dominate. With
+``partial_share`` < 1 a block whose longest run of samples that pass the gate holds at least
+that share of it is compared on that run alone (the stroke of a fast sine between its
+reversals; the rest counts as gated).
 
 Verdicts: UNKNOWN during the warm-up (the sensor noise is learnt then; the data must be healthy)
 and at standstill, gated blocks or an invalid operating point; OK; WARN when a detector's

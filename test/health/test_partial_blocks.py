@@ -18,6 +18,8 @@ from ballscrew_twin.health.residuals import ResidualSettings, ReversalGate, Unit
 from ballscrew_twin.params import load_config
 
 from .synthetic import PRELOAD, TEMPERATURE, bench_channels
+from .test_order_test import ONSET as REVERSING_ONSET
+from .test_order_test import _reversing
 from .test_trajectory_residuals import _blocks
 
 #: A sine of 3 Hz at 60 rad/s peak: a reversal every 0.17 s, 6.4 rad of stroke between them.
@@ -84,7 +86,7 @@ def test_a_partial_share_above_one_is_refused() -> None:
 
 
 def test_the_compared_part_is_the_stroke_past_the_gate() -> None:
-    settings = ResidualSettings()
+    settings = ResidualSettings(partial_share=0.5)
     whole = ReversalGate(replace(settings, partial_share=1.0))
     gate = ReversalGate(settings)
     parts = 0
@@ -134,10 +136,20 @@ def _fast_sine_recording(friction: float) -> tuple[object, UnitTwin, dict]:
     return config, twin, bench_channels(t, torque, w)
 
 
+def _settings(share: float, weight: float, **others: object) -> MonitorSettings:
+    """Monitor settings with ``partial_share`` and ``cusum_min_weight`` set."""
+    settings = MonitorSettings(cusum_min_weight=weight, **others)  # type: ignore[arg-type]
+    return replace(settings, residual=replace(settings.residual, partial_share=share))
+
+
+def test_whole_blocks_and_a_plain_cusum_are_the_default() -> None:
+    settings = MonitorSettings()
+    assert settings.residual.partial_share == 1.0 and settings.cusum_min_weight == 1.0
+
+
 @pytest.mark.parametrize("share", [1.0, 0.5])
 def test_a_fast_sine_is_compared_on_its_strokes(share: float) -> None:
-    settings = MonitorSettings()
-    settings = replace(settings, residual=replace(settings.residual, partial_share=share))
+    settings = _settings(share, 0.01 if share < 1.0 else 1.0)
     config, twin, healthy = _fast_sine_recording(1.0)
     monitor = HealthMonitor(config, settings, twin=twin)
     feed(monitor, healthy)
@@ -150,3 +162,19 @@ def test_a_fast_sine_is_compared_on_its_strokes(share: float) -> None:
         return
     assert monitor.compared_time > 0.3 * (monitor.compared_time + monitor.gated_time)
     assert found.alarm is not None and ONSET < found.alarm.time <= ONSET + 5.0
+
+
+@pytest.mark.parametrize("weight", [1.0, 0.01])
+def test_compared_ramps_need_the_weighted_cusum(weight: float) -> None:
+    # 15 % less friction on a trapezoidal cycle reversing every 0.6 s (the cycle of
+    # test_order_test): with partial blocks its ramps are compared, each with four times a
+    # cruise block's sigma; unweighted they take about k off the CUSUM each and the loss is
+    # not found; weighted it is found within a second
+    config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
+    monitor = HealthMonitor(config, _settings(0.5, weight, detectors=("cusum",)), twin=twin)
+    feed(monitor, channels)
+    if weight == 1.0:
+        assert monitor.alarm is None or monitor.alarm.time > REVERSING_ONSET + 5.0
+        return
+    assert monitor.alarm is not None
+    assert REVERSING_ONSET < monitor.alarm.time <= REVERSING_ONSET + 1.0
