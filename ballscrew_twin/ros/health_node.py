@@ -305,17 +305,20 @@ class HealthNode(TableNode):
         start = time.monotonic()
         try:
             _, path = friction_response.ensure_response(self.config, workers=1)
-        except BallscrewTwinError as err:
+        except (BallscrewTwinError, OSError) as err:  # a failed solve line, a full disk
             self.response_state = f"build failed: {err}"
             self.get_logger().error(f"friction response table: {self.response_state}")
             return
         self.response_state = f"built in {time.monotonic() - start:.0f} s into {path}"
         self.get_logger().info(f"friction response table {self.response_state}")
-        if self.monitor.twin_name != "realtime_map":
-            self._replace_monitor(self._new_monitor())
+        if self.monitor.twin_name == "realtime_map":
+            return
+        fresh = self._new_monitor()
+        if fresh.twin_name == "realtime_map":  # else the map itself is missing: keep on
+            self._replace_monitor(fresh)
             self.get_logger().info(
-                f"the monitor restarts on {self.monitor.twin_name} (it predicted with the "
-                "steady model meanwhile)"
+                "the monitor restarts on the real-time map (it predicted with the steady "
+                "model meanwhile)"
             )
 
     def _commission(self, channels: dict[str, tuple[np.ndarray, np.ndarray]]) -> None:
