@@ -79,8 +79,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="also run a monitor with this one numeric setting changed, on the same recordings, "
         "reported beside the default (repeatable: one monitor each; e.g. "
-        "classification_patience=8; residual.partial_share=1 for a field of the residual "
-        "settings; several changes to one monitor separated by commas)",
+        "classification_patience=8; residual.partial_share=1 or tracker.temperature_drift=0.02 "
+        "for a field of the residual or tracker settings; several changes to one monitor "
+        "separated by commas)",
     )
 
 
@@ -109,9 +110,10 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSet
     numeric = sorted(
         [f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float]
         + [
-            f"residual.{f.name}"
-            for f in fields(defaults.residual)
-            if type(getattr(defaults.residual, f.name)) is float
+            f"{group}.{f.name}"
+            for group in ("residual", "tracker")
+            for f in fields(getattr(defaults, group))
+            if type(getattr(getattr(defaults, group), f.name)) is float
         ]
     )
     for item in args.compare_setting:
@@ -139,6 +141,6 @@ def _changed(
         raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
     group, _, field_name = name.rpartition(".")
     changed: dict[str, Any] = {field_name: value}
-    if group:  # a field of the residual settings
-        return replace(settings, residual=replace(settings.residual, **changed))
+    if group:  # a field of the residual or tracker settings
+        return replace(settings, **{group: replace(getattr(settings, group), **changed)})
     return replace(settings, **changed)

@@ -99,6 +99,8 @@ LAG_ANGLES_TO_SETTLE = 3.0
 STANDSTILL_SHIFT = 0.5
 #: Relative preload step of the preload sensitivity [-].
 PRELOAD_STEP = 0.05
+#: Temperature step of the temperature sensitivity dT/dTh of the tracker [K].
+TEMPERATURE_STEP = 1.0
 
 
 @dataclass(frozen=True)
@@ -109,6 +111,7 @@ class _Record:
     measured: float
     predicted: float
     preload_sensitivity: float
+    temperature_sensitivity: float
     operating_point: OperatingPoint
     noise_variance: float
     state: FloatArray
@@ -217,6 +220,8 @@ class HealthMonitor:
         self.gate = ReversalGate(gate_settings)
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
+        tracked = self.tracker.settings
+        self._tracks_temperature = tracked.temperature_prior > 0 or tracked.temperature_drift > 0
         #: Blocks that share one error of the twin in the tracker's update [-].
         self._shared_blocks = max(s.drift_error_time / s.residual.block_duration, 1.0)
         block_rate = 1.0 / s.residual.block_duration
@@ -440,6 +445,13 @@ class HealthMonitor:
             # the drag curve shifted STANDSTILL_SHIFT towards standstill, at the same samples
             toward = block.speed[few] - np.sign(block.speed[few]) * STANDSTILL_SHIFT
             shifted = self.twin.drag(toward, block.temperature, block.preload) * factor[picked]
+            # the tracker's temperature sensitivity, at the same samples
+            warm = block.temperature + TEMPERATURE_STEP
+            warmer = (
+                self.twin.drag(block.speed[few], warm, block.preload) * factor[picked]
+                if self._tracks_temperature
+                else None
+            )
             # outside the temperatures commissioned at this speed: the drag at the nearest one
             edge = b.nearest_commissioned(block.temperature, speed)
             at_edge = (
@@ -455,6 +467,11 @@ class HealthMonitor:
         load = max(block.preload, 1e-9)
         preload_sensitivity = (
             b.torque_gain * (heavy - float(np.mean(lighter))) / (PRELOAD_STEP * load)
+        )
+        temperature_sensitivity = (
+            b.torque_gain * (float(np.mean(warmer)) - heavy) / TEMPERATURE_STEP
+            if warmer is not None
+            else 0.0
         )
         self.compared_time += block.span
 
@@ -500,6 +517,7 @@ class HealthMonitor:
             noise_var,
             gap * s.residual.block_duration,
             update_variance=sensor_var / n + self._shared_blocks * model_sigma**2,
+            temperature_sensitivity=temperature_sensitivity,
         )
         own = b.torque_gain * math.sqrt(transient)
         local, local_change = self._local(block, speed, residual, drag, own, sensor_var / n)
@@ -509,6 +527,7 @@ class HealthMonitor:
                 measured,
                 predicted,
                 preload_sensitivity,
+                temperature_sensitivity,
                 op,
                 noise_var,
                 prior_state,
@@ -698,8 +717,12 @@ class HealthMonitor:
                 residuals.append(r.local[0])
                 sigmas.append(math.sqrt(r.local[1]))
             else:
-                expected = self.tracker.expected(r.predicted, r.preload_sensitivity, base.state)
-                h = np.array([1.0, r.predicted, r.preload_sensitivity])
+                expected = self.tracker.expected(
+                    r.predicted, r.preload_sensitivity, base.state, r.temperature_sensitivity
+                )
+                h = self.tracker.observation(
+                    r.predicted, r.preload_sensitivity, r.temperature_sensitivity
+                )
                 residuals.append(r.measured - expected)
                 sigmas.append(math.sqrt(r.noise_variance + float(h @ base.covariance @ h)))
             preload.append(-r.operating_point.preload * r.preload_sensitivity)

@@ -1,13 +1,17 @@
 """Kalman filter of slowly drifting quantities between the twin and the bench.
 
-State x = (b, s, dF):
+State x = (b, s, dF, dTh):
     b   torque-sensor bias [N m],
     s   friction scale factor minus one [-] (all friction mechanisms scaled by 1 + s),
-    dF  change of the effective preload from the measured one [N].
-Measurement (one torque block mean z [N m] at a predicted torque T and preload sensitivity
-dT/dF of the twin at the measured operating point):
+    dF  change of the effective preload from the measured one [N],
+    dTh offset of the unit's effective temperature from the thermometer's reading [K] (a
+        thermometer that drifts, or a nut whose lubricant runs warmer or colder than the point
+        measured; tracked only with ``temperature_prior`` or ``temperature_drift`` > 0).
+Measurement (one torque block mean z [N m] at a predicted torque T and the twin's preload and
+temperature sensitivities dT/dF and dT/dTh at the measured operating point):
 
-    z = b + (1 + s) T + (dT/dF) dF + v,   so   z - T = H x + v,   H = [1, T, dT/dF],
+    z = b + (1 + s) T + (dT/dF) dF + (dT/dTh) dTh + v,   so   z - T = H x + v,
+    H = [1, T, dT/dF, dT/dTh],
 
 v of variance R = sigma_s^2 / n + sigma_m^2 (sensor noise of the block mean plus the twin's
 error there). The twin's error is not white: it is a function of the operating point and stays
@@ -25,8 +29,11 @@ Each state is a random walk whose spectral density is set from the drift rate it
 innovations; a sudden fault is much faster than the walk and shows in the innovations ``nu = z -
 T - H x-`` with variance ``S = H P- H' + R`` until the filter catches up (time constant of hours
 with the defaults). The filter can be frozen (after an alarm) so that it does not learn a fault
-as normal. The three states are told apart only when the operating point moves (T and dT/dF
-change in different proportions); at one constant operating point only their sum is observed.
+as normal. The states are told apart only when the operating point moves (T, dT/dF and dT/dTh
+change in different proportions: the temperature's share of the drag is the lubricant's, large
+at speed and nil near standstill, where the scale still acts); at one constant operating point
+only their sum is observed. A temperature offset and a loss of viscosity change the drag alike;
+the offset's walk is slow (1 K in minutes), so a sudden loss still shows in the innovations.
 """
 
 from __future__ import annotations
@@ -38,11 +45,11 @@ import numpy as np
 from filterpy.kalman import KalmanFilter
 
 from ..errors import ConfigError
-from ..params import positive, validate_fields
+from ..params import not_negative, positive, validate_fields
 from .residuals import FloatArray
 
-STATE_NAMES: tuple[str, ...] = ("bias", "friction_scale", "preload_change")
-STATE_UNITS: tuple[str, ...] = ("N m", "-", "N")
+STATE_NAMES: tuple[str, ...] = ("bias", "friction_scale", "preload_change", "temperature_offset")
+STATE_UNITS: tuple[str, ...] = ("N m", "-", "N", "K")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -56,6 +63,9 @@ class TrackerSettings:
         bias_drift: random-walk density of the bias [N m / sqrt(s)].
         scale_drift: random-walk density of the scale factor [1 / sqrt(s)].
         preload_drift: random-walk density of the preload change [N / sqrt(s)].
+        temperature_prior: initial uncertainty of the temperature offset [K] (0 with
+            ``temperature_drift`` 0: not tracked).
+        temperature_drift: random-walk density of the temperature offset [K / sqrt(s)].
     """
 
     bias_prior: float = field(default=2.0e-3, metadata=positive("N m"))
@@ -64,10 +74,12 @@ class TrackerSettings:
     bias_drift: float = field(default=2.0e-6, metadata=positive("N m/sqrt(s)"))
     scale_drift: float = field(default=2.0e-4, metadata=positive("1/sqrt(s)"))
     preload_drift: float = field(default=0.05, metadata=positive("N/sqrt(s)"))
+    temperature_prior: float = field(default=0.0, metadata=not_negative("K"))
+    temperature_drift: float = field(default=0.0, metadata=not_negative("K/sqrt(s)"))
 
     def __post_init__(self) -> None:
-        """All values finite and > 0, through the package's one number check
-        (:func:`~ballscrew_twin.params.validate_fields`)."""
+        """All values finite and > 0 (the temperature offset's >= 0), through the package's
+        one number check (:func:`~ballscrew_twin.params.validate_fields`)."""
         validate_fields(self, "tracker settings", ": ")
 
 
@@ -78,7 +90,8 @@ class Innovation:
     Attributes:
         innovation: nu, measured minus predicted by the twin and the tracked state [N m].
         variance: S, its predicted variance [N m^2].
-        state: posterior state (b [N m], s [-], dF [N]) after the step (prior when frozen).
+        state: posterior state (b [N m], s [-], dF [N], dTh [K]) after the step (prior when
+            frozen).
     """
 
     innovation: float
@@ -92,24 +105,25 @@ class Innovation:
 
 
 class DriftTracker:
-    """Linear Kalman filter (filterpy) of bias, friction scale and effective preload change."""
+    """Linear Kalman filter (filterpy) of bias, friction scale, effective preload change and
+    temperature offset."""
 
     def __init__(self, settings: TrackerSettings) -> None:
         self.settings = settings
-        self.kf = KalmanFilter(dim_x=3, dim_z=1)
-        self.kf.x = np.zeros((3, 1))
-        self.kf.P = np.diag([settings.bias_prior, settings.scale_prior, settings.preload_prior])
-        self.kf.P = self.kf.P**2
-        self.kf.F = np.eye(3)
-        self._density = (
-            np.array([settings.bias_drift, settings.scale_drift, settings.preload_drift]) ** 2
-        )
+        t = settings
+        self.kf = KalmanFilter(dim_x=len(STATE_NAMES), dim_z=1)
+        self.kf.x = np.zeros((len(STATE_NAMES), 1))
+        priors = [t.bias_prior, t.scale_prior, t.preload_prior, t.temperature_prior]
+        self.kf.P = np.diag(priors) ** 2
+        self.kf.F = np.eye(len(STATE_NAMES))
+        drifts = [t.bias_drift, t.scale_drift, t.preload_drift, t.temperature_drift]
+        self._density = np.array(drifts) ** 2
         #: While True the state is not updated (predictions and innovations still computed).
         self.frozen = False
 
     @property
     def state(self) -> FloatArray:
-        """Current state (b [N m], s [-], dF [N])."""
+        """Current state (b [N m], s [-], dF [N], dTh [K])."""
         return np.asarray(self.kf.x[:, 0], dtype=float).copy()
 
     @property
@@ -125,6 +139,7 @@ class DriftTracker:
         noise_variance: float,
         dt: float,
         update_variance: float | None = None,
+        temperature_sensitivity: float = 0.0,
     ) -> Innovation:
         """Advance by ``dt`` [s] and take one measurement.
 
@@ -137,6 +152,7 @@ class DriftTracker:
             update_variance: R of the state update [N m^2] (>= ``noise_variance``; default
                 ``noise_variance``): larger where the block's error is shared with its
                 neighbours (see the module docstring).
+            temperature_sensitivity: dT/dTh there [N m / K].
         """
         if not (math.isfinite(dt) and dt > 0.0):
             raise ConfigError(f"tracker step: dt = {dt!r} s must be finite and > 0")
@@ -151,7 +167,7 @@ class DriftTracker:
             )
         self.kf.Q = np.diag(self._density * dt)
         self.kf.predict()
-        h = np.array([[1.0, predicted, preload_sensitivity]])
+        h = self.observation(predicted, preload_sensitivity, temperature_sensitivity)[None, :]
         self.kf.H = h
         self.kf.R = np.array([[update_variance]])
         innovation = float(measured - predicted - (h @ self.kf.x)[0, 0])
@@ -160,6 +176,21 @@ class DriftTracker:
             self.kf.update(np.array([[measured - predicted]]))
         return Innovation(innovation, variance, self.state)
 
-    def expected(self, predicted: float, preload_sensitivity: float, state: FloatArray) -> float:
+    @staticmethod
+    def observation(
+        predicted: float, preload_sensitivity: float, temperature_sensitivity: float = 0.0
+    ) -> FloatArray:
+        """H, the torque [N m] per unit of each state at a predicted torque T [N m] and the
+        sensitivities dT/dF [N m / N] and dT/dTh [N m / K]."""
+        return np.array([1.0, predicted, preload_sensitivity, temperature_sensitivity])
+
+    def expected(
+        self,
+        predicted: float,
+        preload_sensitivity: float,
+        state: FloatArray,
+        temperature_sensitivity: float = 0.0,
+    ) -> float:
         """Torque the twin plus a tracked ``state`` expect [N m]."""
-        return float(predicted + state[0] + state[1] * predicted + state[2] * preload_sensitivity)
+        h = self.observation(predicted, preload_sensitivity, temperature_sensitivity)
+        return float(predicted + h @ state)

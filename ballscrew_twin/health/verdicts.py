@@ -31,7 +31,8 @@ class HealthSample:
         fault_class: likely class (FAULT only), else "".
         confidence: 0..1, see :meth:`HealthMonitor._verdict`.
         operating_point: measured operating point of the block, None if none.
-        state: tracked (bias [N m], friction scale [-], preload change [N]).
+        state: tracked (bias [N m], friction scale [-], preload change [N], temperature
+            offset [K]).
         note: why the verdict is UNKNOWN, or which detector alarmed.
         span: time the block's compared samples stand for [s] (less than the block duration
             for a block compared on its stroke past the gate; nan when not given).
@@ -50,7 +51,7 @@ class HealthSample:
     fault_class: str
     confidence: float
     operating_point: OperatingPoint | None
-    state: tuple[float, float, float]
+    state: tuple[float, float, float, float]
     note: str = ""
     span: float = math.nan
 

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 
 from ..health.monitor import HealthMonitor
+from ..health.tracker import STATE_NAMES, STATE_UNITS
 from ..health.verdicts import FAULT, OK, UNKNOWN, VERDICT_NAMES, WARN, HealthSample
 from . import diagnostics
 from .diagnostics import STALE, Check
@@ -61,7 +62,8 @@ def health_check(
     counts: tuple[tuple[str, str], ...],
 ) -> Check:
     """The verdict of the last sample (STALE before the first comparison), with the
-    monitor's state and the node's ``counts`` (key, value)."""
+    monitor's state (the drift tracked, once a block was compared) and the node's ``counts``
+    (key, value)."""
     values = [("blocks", str(len(monitor.samples))), *counts]
     values.append(
         (
@@ -72,6 +74,15 @@ def health_check(
     noise = monitor.sensor_variance
     if noise is not None:
         values.append(("sensor noise [N m]", f"{math.sqrt(noise):.3g}"))
+    tracker = monitor.tracker
+    if monitor.compared_time > 0.0:
+        # the drift tracked so far, each state with its 1-sigma (an untracked one has none)
+        for name, unit, value, std in zip(
+            STATE_NAMES, STATE_UNITS, tracker.state, tracker.std, strict=True
+        ):
+            if std > 0.0:
+                label = f"tracked {name.replace('_', ' ')} [{unit}]"
+                values.append((label, f"{value:.3g} +- {std:.2g}"))
     alarm = monitor.alarm
     if alarm is not None:
         values += [

@@ -93,6 +93,18 @@ def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -
         detection.comparison_settings(_arguments("--compare-setting", "residual.partial_share=2"))
 
 
+def test_a_compared_monitor_may_change_tracker_settings() -> None:
+    item = "tracker.temperature_prior=1,tracker.temperature_drift=0.02"
+    ((_, settings),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    assert settings.tracker.temperature_prior == 1.0
+    assert settings.tracker.temperature_drift == 0.02
+    assert settings.tracker.scale_drift == detection.MonitorSettings().tracker.scale_drift
+    with pytest.raises(ConfigError, match="temperature_drift"):
+        detection.comparison_settings(
+            _arguments("--compare-setting", "tracker.temperature_drift=-1")
+        )
+
+
 def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
     units, plan = detection.requested_plan(_arguments("--quick", "--units", "5000:5030"))
     assert units == range(2)  # --quick overrides --units: a smoke test on training units

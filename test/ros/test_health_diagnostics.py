@@ -4,9 +4,13 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
-from ballscrew_twin.health.monitor import HealthMonitor
+from ballscrew_twin.health.monitor import HealthMonitor, feed
+from ballscrew_twin.health.monitor_settings import MonitorSettings
+from ballscrew_twin.health.residuals import UnitTwin
+from ballscrew_twin.health.tracker import TrackerSettings
 from ballscrew_twin.params import load_config
 from ballscrew_twin.ros import diagnostics
 from ballscrew_twin.ros.health_diagnostics import (
@@ -66,3 +70,30 @@ def test_health_check_before_the_first_comparison() -> None:
     assert check.level == diagnostics.STALE
     assert check.message == "no comparison yet: waiting for speed, temperature, preload"
     assert [k for k, _ in check.values] == ["blocks", "dropped samples", "gated [s]"]
+
+
+@pytest.mark.parametrize("offset_drift", [0.0, 0.02])
+def test_health_check_shows_the_drift_tracked(offset_drift: float) -> None:
+    config = load_config(None)
+    twin = UnitTwin(config)
+    t = np.arange(0.0, 12.0, 1e-3)
+    w = np.full(len(t), 30.0)
+    torque = twin.drag(w, 293.15, 1500.0) + np.random.default_rng(2).normal(0, 2e-4, len(t))
+    slow = t[::100]  # s, 10 Hz speed, temperature [K] and preload [N]
+    channels = {
+        "torque": (t, torque),
+        "speed": (slow, w[::100]),
+        "temperature": (slow, np.full(len(slow), 293.15)),
+        "preload": (slow, np.full(len(slow), 1500.0)),
+    }
+    settings = MonitorSettings(tracker=TrackerSettings(temperature_drift=offset_drift))
+    monitor = HealthMonitor(config, settings, twin=twin)
+    feed(monitor, channels)
+    values = dict(health_check(monitor, monitor.samples[-1], ()).values)
+    tracked = [k for k in values if k.startswith("tracked ")]
+    expected = ["tracked bias [N m]", "tracked friction scale [-]", "tracked preload change [N]"]
+    if offset_drift > 0.0:
+        expected.append("tracked temperature offset [K]")
+    assert tracked == expected
+    value, std = values["tracked friction scale [-]"].split(" +- ")
+    assert float(std) > 0.0 and abs(float(value)) < 3.0 * float(std)
