@@ -69,11 +69,12 @@ class MonitorSettings:
             inf takes a bin's first blocks as they come (the rule up to round 19).
         cusum_min_weight: least weight of a block in the CUSUM [-]. A block's weight is the
             share of its sigma that a change of the drag would be seen against (without the
-            inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1, the
-            default, weighs every block alike. Below 1 a block's allowance k w shrinks with
-            its weight, so that a systematic twin error of e sigma accumulates wherever
-            w < e / k (held-out unit 25019 of round 26: strokes of a 3 Hz sine near
-            standstill, 3 % below the twin at 0.75 sigma, raised a false alarm at 0.01).
+            inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1 weighs
+            every block alike. Below 1 a block's allowance k w shrinks with its weight, so
+            that a systematic twin error of e sigma accumulates wherever w < e / k (held-out
+            unit 25019 of round 26: strokes of a 3 Hz sine near standstill, 3 % below the
+            twin at 0.75 sigma, raised a false alarm at 0.01); the default 0.5 keeps the
+            allowance at >= 1.25 sigma (round 27).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -97,7 +98,7 @@ class MonitorSettings:
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
-    cusum_min_weight: float = field(default=1.0, metadata=limits("-", 0.0, 1.0, lo_open=True))
+    cusum_min_weight: float = field(default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True))
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's

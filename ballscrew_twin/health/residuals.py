@@ -133,10 +133,10 @@ class ResidualSettings:
             slowly, their sensor noise would otherwise go into the prediction.
         partial_share: a block some of whose samples fail the gate is compared on its
             longest run of samples that pass, when that run holds at least this share of the
-            block's samples (1, the default: only whole blocks are compared) [-]. A sine of
-            2.5 Hz and up reverses in every 0.1 s block; with 0.5 its strokes between the
-            reversals are compared (use with ``MonitorSettings.cusum_min_weight`` < 1; off by
-            default: round 26 of issue 13, docs/model.md section 15).
+            block's samples (1: only whole blocks are compared) [-]. A sine of 2.5 Hz and up
+            reverses in every 0.1 s block; with 0.5, the default since round 27 of issue 13,
+            its strokes between the reversals are compared (with
+            ``MonitorSettings.cusum_min_weight`` < 1; docs/model.md section 15).
     """
 
     block_duration: float = field(default=0.1, metadata=positive("s"))
@@ -152,7 +152,7 @@ class ResidualSettings:
     gate_speed: float = field(default=2.0, metadata=not_negative("rad/s"))
     gate_angle: float = field(default=2.0, metadata=not_negative("rad"))
     slow_smoothing: float = field(default=1.0, metadata=not_negative("s"))
-    partial_share: float = field(default=1.0, metadata=positive("-"))
+    partial_share: float = field(default=0.5, metadata=positive("-"))
 
     def __post_init__(self) -> None:
         """Reject non-finite, negative or zero values where they make no sense, through the

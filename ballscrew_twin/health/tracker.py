@@ -63,9 +63,11 @@ class TrackerSettings:
         bias_drift: random-walk density of the bias [N m / sqrt(s)].
         scale_drift: random-walk density of the scale factor [1 / sqrt(s)].
         preload_drift: random-walk density of the preload change [N / sqrt(s)].
-        temperature_prior: initial uncertainty of the temperature offset [K] (0 with
-            ``temperature_drift`` 0: not tracked).
-        temperature_drift: random-walk density of the temperature offset [K / sqrt(s)].
+        temperature_prior: initial uncertainty of the temperature offset [K] (0, the
+            default: the commissioning has fitted the unit's temperature shift; a prior adds
+            to the innovations' variance at the start of every run, docs/model.md section 15).
+        temperature_drift: random-walk density of the temperature offset [K / sqrt(s)] (0
+            with ``temperature_prior`` 0: not tracked).
     """
 
     bias_prior: float = field(default=2.0e-3, metadata=positive("N m"))
@@ -75,7 +77,7 @@ class TrackerSettings:
     scale_drift: float = field(default=2.0e-4, metadata=positive("1/sqrt(s)"))
     preload_drift: float = field(default=0.05, metadata=positive("N/sqrt(s)"))
     temperature_prior: float = field(default=0.0, metadata=not_negative("K"))
-    temperature_drift: float = field(default=0.0, metadata=not_negative("K/sqrt(s)"))
+    temperature_drift: float = field(default=0.02, metadata=not_negative("K/sqrt(s)"))
 
     def __post_init__(self) -> None:
         """All values finite and > 0 (the temperature offset's >= 0), through the package's

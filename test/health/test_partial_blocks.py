@@ -142,9 +142,9 @@ def _settings(share: float, weight: float, **others: object) -> MonitorSettings:
     return replace(settings, residual=replace(settings.residual, partial_share=share))
 
 
-def test_whole_blocks_and_a_plain_cusum_are_the_default() -> None:
+def test_parts_and_a_weight_floor_of_a_half_are_the_default() -> None:
     settings = MonitorSettings()
-    assert settings.residual.partial_share == 1.0 and settings.cusum_min_weight == 1.0
+    assert settings.residual.partial_share == 0.5 and settings.cusum_min_weight == 0.5
 
 
 @pytest.mark.parametrize("share", [1.0, 0.5])
@@ -164,12 +164,12 @@ def test_a_fast_sine_is_compared_on_its_strokes(share: float) -> None:
     assert found.alarm is not None and ONSET < found.alarm.time <= ONSET + 5.0
 
 
-@pytest.mark.parametrize("weight", [1.0, 0.01])
+@pytest.mark.parametrize("weight", [1.0, 0.5, 0.01])
 def test_compared_ramps_need_the_weighted_cusum(weight: float) -> None:
     # 15 % less friction on a trapezoidal cycle reversing every 0.6 s (the cycle of
     # test_order_test): with partial blocks its ramps are compared, each with four times a
     # cruise block's sigma; unweighted they take about k off the CUSUM each and the loss is
-    # not found; weighted it is found within a second
+    # not found; weighted (the default floor of 0.5, or 0.01) it is found within a second
     config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
     monitor = HealthMonitor(config, _settings(0.5, weight, detectors=("cusum",)), twin=twin)
     feed(monitor, channels)

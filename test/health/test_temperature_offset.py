@@ -89,7 +89,9 @@ def test_a_temperature_offset_is_told_apart_from_a_friction_scale() -> None:
 def test_a_negative_temperature_setting_is_named() -> None:
     with pytest.raises(ConfigError, match="temperature_drift"):
         TrackerSettings(temperature_drift=-0.01)
-    assert TrackerSettings().temperature_prior == 0.0  # off unless asked for
+    # tracked by default, from the commissioned shift (no prior uncertainty)
+    assert TrackerSettings().temperature_prior == 0.0
+    assert TrackerSettings().temperature_drift == 0.02
 
 
 #: Thermometer drift of the monitor test [K/s]: 2 K in 200 s.

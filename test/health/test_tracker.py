@@ -28,7 +28,7 @@ def test_moving_operating_point_separates_bias_scale_and_preload() -> None:
     n = 1500
     torque, sensitivity = _ops(n)
     rng = np.random.default_rng(7)
-    tracker = DriftTracker(TrackerSettings())
+    tracker = DriftTracker(TrackerSettings(temperature_drift=0.0))
     for i in range(n):
         z = truth[0] + (1 + truth[1]) * torque[i] + truth[2] * sensitivity[i]
         tracker.step(z + rng.normal(0, NOISE), torque[i], sensitivity[i], NOISE**2, DT)
