@@ -33,7 +33,8 @@ as normal. The states are told apart only when the operating point moves (T, dT/
 change in different proportions: the temperature's share of the drag is the lubricant's, large
 at speed and nil near standstill, where the scale still acts); at one constant operating point
 only their sum is observed. A temperature offset and a loss of viscosity change the drag alike;
-the offset's walk is slow (1 K in minutes), so a sudden loss still shows in the innovations.
+the offset's walk is slow (0.05 K in 5 s with the default 0.02 K/sqrt(s), where a 20 % loss
+moves the drag as 4-5 K do), so a sudden loss still shows in the innovations.
 """
 
 from __future__ import annotations
