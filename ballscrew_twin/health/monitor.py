@@ -220,8 +220,6 @@ class HealthMonitor:
         self.gate = ReversalGate(gate_settings)
         self.aligner = BlockAligner(s.residual)
         self.tracker = DriftTracker(self._tracker_settings())
-        tracked = self.tracker.settings
-        self._tracks_temperature = tracked.temperature_prior > 0 or tracked.temperature_drift > 0
         #: Blocks that share one error of the twin in the tracker's update [-].
         self._shared_blocks = max(s.drift_error_time / s.residual.block_duration, 1.0)
         block_rate = 1.0 / s.residual.block_duration
@@ -449,7 +447,7 @@ class HealthMonitor:
             warm = block.temperature + TEMPERATURE_STEP
             warmer = (
                 self.twin.drag(block.speed[few], warm, block.preload) * factor[picked]
-                if self._tracks_temperature
+                if self.tracker.settings.tracks_temperature
                 else None
             )
             # outside the temperatures commissioned at this speed: the drag at the nearest one

@@ -80,6 +80,11 @@ class TrackerSettings:
     temperature_prior: float = field(default=0.0, metadata=not_negative("K"))
     temperature_drift: float = field(default=0.02, metadata=not_negative("K/sqrt(s)"))
 
+    @property
+    def tracks_temperature(self) -> bool:
+        """Whether the temperature offset is a tracked state (a prior or a walk > 0)."""
+        return self.temperature_prior > 0.0 or self.temperature_drift > 0.0
+
     def __post_init__(self) -> None:
         """All values finite and > 0 (the temperature offset's >= 0), through the package's
         one number check (:func:`~ballscrew_twin.params.validate_fields`)."""

@@ -15,7 +15,7 @@ from ballscrew_twin.health.residuals import UnitTwin
 from ballscrew_twin.health.tracker import DriftTracker, TrackerSettings
 from ballscrew_twin.params import load_config
 
-from .synthetic import PRELOAD, TEMPERATURE
+from .synthetic import PRELOAD, TEMPERATURE, bench_channels
 
 NOISE = 5e-5  # N m, standard deviation of one block mean
 DT = 0.1  # s
@@ -92,6 +92,8 @@ def test_a_negative_temperature_setting_is_named() -> None:
     # tracked by default, from the commissioned shift (no prior uncertainty)
     assert TrackerSettings().temperature_prior == 0.0
     assert TrackerSettings().temperature_drift == 0.02
+    assert TrackerSettings().tracks_temperature
+    assert not TrackerSettings(temperature_drift=0.0).tracks_temperature
 
 
 #: Thermometer drift of the monitor test [K/s]: 2 K in 200 s.
@@ -107,14 +109,9 @@ def _drifting_thermometer() -> tuple[object, UnitTwin, dict]:
     w = np.array([3.0, 20.0, 60.0])[(np.floor(t / 4.0) % 3).astype(int)]
     torque = twin.drag(w, TEMPERATURE, PRELOAD)
     torque += np.random.default_rng(13).normal(0.0, 2e-4, len(t))
-    ts = t[::10]
-    reading = TEMPERATURE + DRIFT * ts[::10]
-    channels = {
-        "torque": (t, torque),
-        "speed": (ts, w[::10]),
-        "temperature": (ts[::10], reading),
-        "preload": (ts[::5], np.full(len(ts[::5]), PRELOAD)),
-    }
+    channels = bench_channels(t, torque, w)
+    stamps, _ = channels["temperature"]
+    channels["temperature"] = (stamps, TEMPERATURE + DRIFT * stamps)
     return config, twin, channels
 
 
