@@ -55,7 +55,7 @@ import json
 import math
 import multiprocessing
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -64,10 +64,11 @@ import numpy as np
 import numpy.typing as npt
 
 from ..errors import ConfigError
+from ..health.baseline import Baseline
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
 from ..health.bench_units import draw_unit
 from ..health.classify import FAULT_CLASSES
-from ..health.commission import commission
+from ..health.commission import ERROR_SCALE, UNSEEN_ERROR, Channels, commission
 from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import HealthMonitor, feed
@@ -76,7 +77,7 @@ from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
 from ..health.verdicts import UNKNOWN, HealthSample
 from ..params import TwinConfig, load_config
-from .detection_plan import TRAINING_UNITS, Plan
+from .detection_plan import TRAINING_UNITS, Contender, Keywords, Plan
 from .detection_plan import add_arguments as add_arguments
 from .detection_plan import comparison_settings as comparison_settings
 from .detection_plan import requested_plan as requested_plan
@@ -363,13 +364,14 @@ def _fault(number: int, k: int, length: float, rng: np.random.Generator) -> Faul
 
 
 def run_unit(
-    number: int, plan: Plan, config: TwinConfig, settings: tuple[MonitorSettings, ...]
+    number: int, plan: Plan, config: TwinConfig, contenders: tuple[Contender, ...]
 ) -> list[list[Run]]:
     """Commission unit ``number`` on a recording of its own (and a service recording, see
-    :class:`.detection_plan.Plan`), then run a monitor of each of ``settings`` over its healthy
-    and fault recordings (the same recordings for each: a side by side comparison); one list
-    of runs per settings, and with a service recording one more: the first settings with the
-    unit commissioned on its cold start alone."""
+    :class:`.detection_plan.Plan`), then run a monitor of each of ``contenders`` over its
+    healthy and fault recordings (the same recordings for each: a side by side comparison;
+    the unit commissioned once per distinct set of commissioning keywords); one list of runs
+    per contender, and with a service recording one more: the first contender with the unit
+    commissioned on its cold start alone."""
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench detection sensors")
     unit = draw_unit(number)
@@ -400,11 +402,27 @@ def run_unit(
             )
         )
     channels = [_channels(data) for data in healthy_recordings]
-    baseline = commission(channels, config, settings[0].residual, twin=twin).baseline
-    monitors = [(each, baseline) for each in settings]
+    residual = contenders[0].settings.residual
+
+    def commissioned(recordings: Sequence[Channels], keywords: Keywords) -> Baseline:
+        given = dict(keywords)
+        return commission(
+            recordings,
+            config,
+            residual,
+            twin=twin,
+            error_scale=given.get("error_scale", ERROR_SCALE),
+            unseen_error=given.get("unseen_error", UNSEEN_ERROR),
+        ).baseline
+
+    baselines: dict[Keywords, Baseline] = {}
+    for each in contenders:
+        if each.commissioning not in baselines:
+            baselines[each.commissioning] = commissioned(channels, each.commissioning)
+    monitors = [(each.settings, baselines[each.commissioning]) for each in contenders]
     if len(channels) > 1:  # beside it, on the same recordings: the cold start alone
-        alone = commission(channels[:1], config, settings[0].residual, twin=twin).baseline
-        monitors.append((settings[0], alone))
+        alone = commissioned(channels[:1], contenders[0].commissioning)
+        monitors.append((contenders[0].settings, alone))
     runs: list[list[Run]] = [[] for _ in monitors]
     healthy = _with_preload(draw_trajectory(int(seeds[2]), plan.healthy), set_preload)
     recordings: list[tuple[Trajectory, tuple[FaultSpec, ...], int]] = [(healthy, (), int(seeds[2]))]
@@ -426,17 +444,17 @@ def run_unit(
                 config, unit, trajectory, sensors=sensors, seed=seed, name="run"
             )
             effect = fault_effect(data, clean)
-        for k, (each, used) in enumerate(monitors):
-            monitor = HealthMonitor(config, each, baseline=used, twin=twin)
+        for k, (settings, used) in enumerate(monitors):
+            monitor = HealthMonitor(config, settings, baseline=used, twin=twin)
             feed(monitor, _channels(data))
             visible = math.nan
             if clean is not None:
                 visible = fault_effect(data, clean, compared_samples(monitor, data))
-            runs[k].append(score(data, monitor, number, each.warmup, effect, visible))
+            runs[k].append(score(data, monitor, number, settings.warmup, effect, visible))
     return runs
 
 
-def _worker(job: tuple[int, Plan, TwinConfig, tuple[MonitorSettings, ...]]) -> list[list[Run]]:
+def _worker(job: tuple[int, Plan, TwinConfig, tuple[Contender, ...]]) -> list[list[Run]]:
     return run_unit(*job)
 
 
@@ -444,11 +462,11 @@ def run_units(
     units: range,
     plan: Plan,
     config: TwinConfig,
-    settings: tuple[MonitorSettings, ...],
+    contenders: tuple[Contender, ...],
     workers: int,
 ) -> Iterator[list[list[Run]]]:
     """Runs of every unit, in parallel processes when ``workers`` > 1."""
-    jobs = [(n, plan, config, settings) for n in units]
+    jobs = [(n, plan, config, contenders) for n in units]
     if workers <= 1:
         yield from map(_worker, jobs)
         return
@@ -703,15 +721,17 @@ def run(args: argparse.Namespace) -> int:
 
     config = load_config(args.config)
     extra = comparison_settings(args)
-    settings = (MonitorSettings(), *(each for _, each in extra))
+    contenders = (Contender(), *(each for _, each in extra))
     units, plan = requested_plan(args)
-    reported = [(title, each, plan) for title, each in extra]
+    reported = [(title, each.settings, plan) for title, each in extra]
     if plan.service:
         alone = replace(plan, service=0.0)
-        reported.append(("the unit commissioned on its cold start alone", settings[0], alone))
+        reported.append(
+            ("the unit commissioned on its cold start alone", contenders[0].settings, alone)
+        )
     every: list[list[Run]] = [[] for _ in range(1 + len(reported))]
     for unit_runs in tqdm(
-        run_units(units, plan, config, settings, args.workers),
+        run_units(units, plan, config, contenders, args.workers),
         total=len(units),
         desc="units",
         file=sys.stderr,
@@ -719,7 +739,7 @@ def run(args: argparse.Namespace) -> int:
         for k, each in enumerate(unit_runs):
             every[k].extend(each)
     runs = every[0]
-    text = report(runs, units, plan, settings[0])
+    text = report(runs, units, plan, contenders[0].settings)
     for (title, each, used), other in zip(reported, every[1:], strict=True):
         text += f"\n\n### The same recordings, {title}\n\n" + report(other, units, used, each)
     print(text)

@@ -4,15 +4,21 @@ its command-line arguments (:mod:`.detection` runs it)."""
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from ..errors import ConfigError
 from ..health.monitor_settings import MonitorSettings
+from ..params import check_number, positive
 
 #: Default unit ranges: the held-out test units and the training units tuning may use.
 TEST_UNITS = (2000, 2030)
 TRAINING_UNITS = (0, 30)
+#: Keywords of :func:`~ballscrew_twin.health.commission.commission` that a compared monitor
+#: may change (``--compare-setting commission.unseen_error=0.015``), all positive numbers [-].
+COMMISSION_KEYWORDS = ("error_scale", "unseen_error")
+#: Commissioning keywords as (name, value) pairs, sorted by name.
+Keywords = tuple[tuple[str, float], ...]
 
 
 @dataclass(frozen=True)
@@ -27,6 +33,16 @@ class Plan:
     faults: int
     fault_length: float
     service: float = 0.0
+
+
+@dataclass(frozen=True)
+class Contender:
+    """One monitor of a side-by-side run: its settings, and the keywords (name, value) its
+    unit's commissioning is run with (none: the defaults). Monitors whose keywords are equal
+    share one commissioning of the unit."""
+
+    settings: MonitorSettings = field(default_factory=MonitorSettings)
+    commissioning: Keywords = ()
 
 
 def unit_range(text: str) -> range:
@@ -80,8 +96,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also run a monitor with this one numeric setting changed, on the same recordings, "
         "reported beside the default (repeatable: one monitor each; e.g. "
         "classification_patience=8; residual.partial_share=1 or tracker.temperature_drift=0.02 "
-        "for a field of the residual or tracker settings; several changes to one monitor "
-        "separated by commas)",
+        "for a field of the residual or tracker settings; commission.unseen_error=0.015 or "
+        "commission.error_scale=2 for a keyword of the unit's commissioning, which is then run "
+        "again for that monitor; several changes to one monitor separated by commas)",
     )
 
 
@@ -98,14 +115,16 @@ def requested_plan(args: argparse.Namespace) -> tuple[range, Plan]:
     return unit_range(args.units), plan
 
 
-def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSettings], ...]:
+def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, Contender], ...]:
     """The extra monitors ``--compare-detectors`` and ``--compare-setting`` ask for, each
     with the title of its report; ConfigError naming the numeric settings for a name that is
     not one, or for a value that is not a number."""
-    extra: list[tuple[str, MonitorSettings]] = []
+    extra: list[tuple[str, Contender]] = []
     if args.compare_detectors:
         names = tuple(n.strip() for n in args.compare_detectors.split(",") if n.strip())
-        extra.append((f"detectors {', '.join(names)} only", MonitorSettings(detectors=names)))
+        extra.append(
+            (f"detectors {', '.join(names)} only", Contender(MonitorSettings(detectors=names)))
+        )
     defaults = MonitorSettings()
     numeric = sorted(
         [f.name for f in fields(defaults) if type(getattr(defaults, f.name)) is float]
@@ -115,22 +134,21 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, MonitorSet
             for f in fields(getattr(defaults, group))
             if type(getattr(getattr(defaults, group), f.name)) is float
         ]
+        + [f"commission.{name}" for name in COMMISSION_KEYWORDS]
     )
     for item in args.compare_setting:
-        settings = defaults
+        contender = Contender()
         for change in item.split(","):
-            settings = _changed(settings, change, item, numeric)
+            contender = _changed(contender, change, item, numeric)
         title = ", ".join(c.strip().replace("=", " = ") for c in item.split(","))
-        extra.append((title, settings))
+        extra.append((title, contender))
     return tuple(extra)
 
 
-def _changed(
-    settings: MonitorSettings, change: str, item: str, numeric: list[str]
-) -> MonitorSettings:
-    """``settings`` with the one NAME=VALUE ``change`` of the ``--compare-setting`` ``item``;
+def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -> Contender:
+    """``contender`` with the one NAME=VALUE ``change`` of the ``--compare-setting`` ``item``;
     ConfigError naming ``numeric`` for a name that is not one, or for a value that is not a
-    number."""
+    number (or, for a commissioning keyword, not a positive one)."""
     name, _, text = change.partition("=")
     name = name.strip()
     if name not in numeric:
@@ -140,7 +158,14 @@ def _changed(
     except ValueError:
         raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
     group, _, field_name = name.rpartition(".")
+    if group == "commission":
+        check_number(value, positive("-"), f"--compare-setting {item!r}: {name}", text=False)
+        keywords = dict(contender.commissioning) | {field_name: value}
+        return replace(contender, commissioning=tuple(sorted(keywords.items())))
+    settings = contender.settings
     changed: dict[str, Any] = {field_name: value}
     if group:  # a field of the residual or tracker settings
-        return replace(settings, **{group: replace(getattr(settings, group), **changed)})
-    return replace(settings, **changed)
+        settings = replace(settings, **{group: replace(getattr(settings, group), **changed)})
+    else:
+        settings = replace(settings, **changed)
+    return replace(contender, settings=settings)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bags.bench import read_bench_bag
-from ..health.commission import ERROR_SCALE, commission
+from ..health.commission import ERROR_SCALE, UNSEEN_ERROR, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
 from ..params import load_config
@@ -44,6 +44,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=ERROR_SCALE,
         help="model error = this x the fit's 95th-percentile error / 1.96 [-]",
     )
+    parser.add_argument(
+        "--unseen-error",
+        type=float,
+        default=UNSEEN_ERROR,
+        help="least 1-sigma relative model error where the recording did not teach the twin "
+        "(speeds and temperatures it hardly visited) [-]",
+    )
     add_topic_arguments(parser)
 
 
@@ -57,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
         config,
         source=" + ".join(Path(bag).name for bag in args.bag),
         error_scale=args.error_scale,
+        unseen_error=args.unseen_error,
     )
     for bag, recording in zip(args.bag, recordings, strict=True):
         where = f"{Path(bag).name}: " if len(recordings) > 1 else ""

@@ -84,7 +84,7 @@ ERROR_SCALE = 1.5
 #: Floor of e_rel [-]: the real-time map's own interpolation error (bench accuracy: 0.7 %).
 ERROR_FLOOR = 0.007
 #: Fewest blocks in a speed band for its own error; below, the band's error is at least
-#: UNSEEN_ERROR (the spread of the training units' error there) [-].
+#: ``unseen_error``, by default UNSEEN_ERROR (the spread of the training units' error there) [-].
 BAND_BLOCKS = 20
 UNSEEN_ERROR = 0.03
 #: Quantile of the parametric fit's |relative residual| taken as the error where the residual
@@ -436,12 +436,15 @@ def commission(
     *,
     source: str = "",
     error_scale: float = ERROR_SCALE,
+    unseen_error: float = UNSEEN_ERROR,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
     """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
     recording's channels, or a sequence of several healthy recordings of the same unit (say a
     cold start and a warm run at the speeds it serves at), fitted together. Each recording is
     cut into blocks and gated on its own, so that nothing is compared across the seam.
+    ``unseen_error`` [-] is the least 1-sigma relative error taken where the recording did not
+    teach the twin (a speed band with too few blocks, the residual surface's thin nodes).
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -449,6 +452,7 @@ def commission(
     """
     settings = settings or ResidualSettings()
     check_number(error_scale, positive("-"), "commission: error_scale", text=False)
+    check_number(unseen_error, positive("-"), "commission: unseen_error", text=False)
     twin = twin or UnitTwin(config)
     every: list[Block] = []
     usable: list[Block] = []
@@ -565,8 +569,8 @@ def commission(
     )
     # Where the surface was not learnt, the twin is as wrong as the parametric fit alone was
     # at its worst on this unit (training unit 9: 23 % at -10 C and 3 rad/s, a corner the
-    # warm-up passed in seconds), at least UNSEEN_ERROR.
-    unseen = max(float(np.quantile(np.abs(study.residual), UNSEEN_QUANTILE)), UNSEEN_ERROR)
+    # warm-up passed in seconds), at least unseen_error.
+    unseen = max(float(np.quantile(np.abs(study.residual), UNSEEN_QUANTILE)), unseen_error)
     judged = np.isfinite(out_of_fold)
     if np.count_nonzero(judged) < BAND_BLOCKS:  # too short to cross-validate: in sample
         out_of_fold = study.residual - study.design @ np.ravel(surface.values)
@@ -575,7 +579,7 @@ def commission(
 
     def band_error(inside: NDArray[np.bool_]) -> float:
         if np.count_nonzero(inside) < BAND_BLOCKS:  # a regime the recording hardly saw
-            return max(error_scale * float(np.percentile(relative, 95)) / 1.96, UNSEEN_ERROR)
+            return max(error_scale * float(np.percentile(relative, 95)) / 1.96, unseen_error)
         return max(error_scale * float(np.percentile(relative[inside], 95)) / 1.96, ERROR_FLOOR)
 
     band = np.searchsorted(ERROR_BAND_EDGES, study.speeds[judged])

@@ -16,6 +16,7 @@ import math
 from dataclasses import replace
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -28,8 +29,10 @@ from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.bench_data import BenchData, generate_unit_data
 from ballscrew_twin.health.bench_units import draw_unit
 from ballscrew_twin.health.classify import FAULT_CLASSES
+from ballscrew_twin.health.commission import ERROR_SCALE, UNSEEN_ERROR
 from ballscrew_twin.health.duty_cycles import draw_trajectory
 from ballscrew_twin.health.fault_profiles import FaultSpec
+from ballscrew_twin.health.monitor import HealthMonitor
 from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.sensors import sensors_from_mapping
 from ballscrew_twin.health.verdicts import FAULT, OK, UNKNOWN
@@ -75,7 +78,9 @@ def test_a_compared_setting_is_one_numeric_setting_changed() -> None:
     argv = ("--compare-setting", "classification_patience=8", "--compare-setting", "warmup=2")
     extra = detection.comparison_settings(_arguments(*argv))
     assert [title for title, _ in extra] == ["classification_patience = 8", "warmup = 2"]
-    assert extra[0][1].classification_patience == 8.0 and extra[1][1].warmup == 2.0
+    assert extra[0][1].settings.classification_patience == 8.0
+    assert extra[1][1].settings.warmup == 2.0
+    assert extra[0][1].commissioning == extra[1][1].commissioning == ()
     for bad, reason in (("detectors=cusum", "NAME"), ("warmup=soon", "VALUE"), ("x", "NAME")):
         with pytest.raises(ConfigError, match=reason):
             detection.comparison_settings(_arguments("--compare-setting", bad))
@@ -85,7 +90,8 @@ def test_a_compared_setting_is_one_numeric_setting_changed() -> None:
 
 def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -> None:
     item = "residual.partial_share=1, cusum_min_weight=1"
-    ((title, settings),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    ((title, contender),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    settings = contender.settings
     assert title == "residual.partial_share = 1, cusum_min_weight = 1"
     assert settings.residual.partial_share == 1.0 and settings.cusum_min_weight == 1.0
     assert settings.residual.gate_angle == detection.MonitorSettings().residual.gate_angle
@@ -95,7 +101,8 @@ def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -
 
 def test_a_compared_monitor_may_change_tracker_settings() -> None:
     item = "tracker.temperature_prior=1,tracker.temperature_drift=0.02"
-    ((_, settings),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    ((_, contender),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    settings = contender.settings
     assert settings.tracker.temperature_prior == 1.0
     assert settings.tracker.temperature_drift == 0.02
     assert settings.tracker.scale_drift == detection.MonitorSettings().tracker.scale_drift
@@ -103,6 +110,20 @@ def test_a_compared_monitor_may_change_tracker_settings() -> None:
         detection.comparison_settings(
             _arguments("--compare-setting", "tracker.temperature_drift=-1")
         )
+
+
+def test_a_compared_monitor_may_change_its_units_commissioning() -> None:
+    item = "commission.unseen_error=0.015, warmup=2, commission.error_scale=2"
+    ((_, contender),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    assert contender.commissioning == (("error_scale", 2.0), ("unseen_error", 0.015))
+    assert contender.settings == replace(MonitorSettings(), warmup=2.0)
+    for bad in ("commission.unseen_error=0", "commission.error_scale=-1"):
+        with pytest.raises(
+            ConfigError, match=r"commission\.\w+ = -?[01]\.0 is outside the allowed range \(0, "
+        ):
+            detection.comparison_settings(_arguments("--compare-setting", bad))
+    with pytest.raises(ConfigError, match="NAME"):  # not a keyword of the commissioning
+        detection.comparison_settings(_arguments("--compare-setting", "commission.source=1"))
 
 
 def test_quick_asks_for_two_training_units_and_short_recordings() -> None:
@@ -165,7 +186,7 @@ def test_a_service_run_joins_the_commissioning_and_leaves_the_other_recordings_a
     for service in (0.0, 30.0):
         made.clear()
         runs[service] = (
-            detection.run_unit(1, replace(plan, service=service), paper, (MonitorSettings(),)),
+            detection.run_unit(1, replace(plan, service=service), paper, (detection.Contender(),)),
             list(made),
         )
     assert fitted == [1, 2, 1]  # with the service run, and beside it the cold start alone
@@ -178,6 +199,40 @@ def test_a_service_run_joins_the_commissioning_and_leaves_the_other_recordings_a
     # the same runs, scored alike by every monitor (each with the nominal baseline here)
     assert len(runs[0.0][0]) == 1 and len(runs[30.0][0]) == 2
     assert runs[0.0][0][0] == runs[30.0][0][0] == runs[30.0][0][1]
+
+
+def test_each_set_of_commissioning_keywords_commissions_the_unit_once(
+    paper: TwinConfig, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Monitors that differ only in their settings share one commissioning; a monitor with a
+    commissioning keyword of its own gets the unit commissioned again with it, and its
+    monitor runs on that baseline."""
+    asked: list[tuple[float, float]] = []
+    used: list[float] = []
+
+    def nominal(channels: list[object], config: TwinConfig, *_: object, **given: Any) -> object:
+        asked.append((given["error_scale"], given["unseen_error"]))
+        baseline = replace(Baseline.nominal(config), unseen_error=given["unseen_error"])
+        return SimpleNamespace(baseline=baseline)
+
+    class Seen(HealthMonitor):
+        def __init__(self, *args: Any, baseline: Baseline, **kwargs: Any) -> None:
+            used.append(baseline.unseen_error)
+            super().__init__(*args, baseline=baseline, **kwargs)
+
+    monkeypatch.setattr(detection, "commission", nominal)
+    monkeypatch.setattr(detection, "HealthMonitor", Seen)
+    plan = detection.Plan(commission=25.0, healthy=20.0, faults=0, fault_length=15.0)
+    contenders = (
+        detection.Contender(),
+        detection.Contender(replace(MonitorSettings(), warmup=2.0)),
+        detection.Contender(commissioning=(("unseen_error", 0.015),)),
+    )
+    runs = detection.run_unit(1, plan, paper, contenders)
+    default = (ERROR_SCALE, UNSEEN_ERROR)
+    assert asked == [default, (ERROR_SCALE, 0.015)]
+    assert used == [UNSEEN_ERROR, UNSEEN_ERROR, 0.015]
+    assert len(runs) == 3
 
 
 @pytest.mark.parametrize("fault_class", FAULT_CLASSES)
