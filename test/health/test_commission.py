@@ -20,6 +20,7 @@ from ballscrew_twin.health.commission import (
     FIT_BLOCKS,
     FOLD_CHUNK,
     RECORDING_GAP,
+    UNSEEN_ERROR,
     CommissioningResult,
     SurfaceStudy,
     _settling_angle,
@@ -223,10 +224,28 @@ def test_two_recordings_of_a_unit_commission_it_together(fitted: Baseline) -> No
         assert getattr(both, edges)[band] == pytest.approx(getattr(fitted, edges)[band], abs=0.3)
 
 
+@pytest.mark.parametrize("name", ["error_scale", "unseen_error"])
 @pytest.mark.parametrize("scale", [0.0, -1.5, math.inf, math.nan])
-def test_an_error_scale_that_is_not_a_positive_number_is_refused(scale: float) -> None:
-    with pytest.raises(ConfigError, match=r"^commission: error_scale"):
-        commission({}, load_config(None), error_scale=scale)
+def test_an_error_scale_that_is_not_a_positive_number_is_refused(scale: float, name: str) -> None:
+    with pytest.raises(ConfigError, match=rf"^commission: {name}"):
+        commission({}, load_config(None), **{name: scale})
+
+
+def test_the_unseen_error_is_the_least_error_where_the_recording_did_not_teach(
+    fitted: Baseline,
+) -> None:
+    """The same recording with another ``unseen_error``: the same fit and the same bands
+    where it taught the twin, the new floor where it did not (the twin made the recording, so
+    the fit's own 99th percentile lies far below either floor)."""
+    wider = commission(_recording(1), load_config(None), source="synthetic", unseen_error=0.08)
+    b = wider.baseline
+    assert fitted.unseen_error == UNSEEN_ERROR and b.unseen_error == 0.08
+    assert b.preload_scale == fitted.preload_scale and b.error_relative == fitted.error_relative
+    # below 3 rad/s the recording (5-300 rad/s) has no blocks: that band takes the floor
+    assert fitted.error_bands[0] == UNSEEN_ERROR and b.error_bands[0] == 0.08
+    assert b.error_bands[1:] == fitted.error_bands[1:]
+    # and so does the error where the surface has no support (-30 C, never seen)
+    assert b.error_at(60.0, 243.15) == pytest.approx(math.hypot(b.error_bands[3], 0.08))
 
 
 def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> None:
