@@ -85,6 +85,11 @@ class TrackerSettings:
         """Whether the temperature offset is a tracked state (a prior or a walk > 0)."""
         return self.temperature_prior > 0.0 or self.temperature_drift > 0.0
 
+    @property
+    def tracked(self) -> tuple[bool, ...]:
+        """Whether each state of STATE_NAMES is tracked (the first three always are)."""
+        return (True, True, True, self.tracks_temperature)
+
     def __post_init__(self) -> None:
         """All values finite and > 0 (the temperature offset's >= 0), through the package's
         one number check (:func:`~ballscrew_twin.params.validate_fields`)."""

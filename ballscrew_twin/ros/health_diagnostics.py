@@ -76,11 +76,17 @@ def health_check(
         values.append(("sensor noise [N m]", f"{math.sqrt(noise):.3g}"))
     tracker = monitor.tracker
     if monitor.compared_time > 0.0:
-        # the drift tracked so far, each state with its 1-sigma (an untracked one has none)
-        for name, unit, value, std in zip(
-            STATE_NAMES, STATE_UNITS, tracker.state, tracker.std, strict=True
+        # the drift tracked so far, each tracked state with its 1-sigma (0 before the filter's
+        # first step for a state without a prior)
+        for name, unit, value, std, tracked in zip(
+            STATE_NAMES,
+            STATE_UNITS,
+            tracker.state,
+            tracker.std,
+            tracker.settings.tracked,
+            strict=True,
         ):
-            if std > 0.0:
+            if tracked:
                 label = f"tracked {name.replace('_', ' ')} [{unit}]"
                 values.append((label, f"{value:.3g} +- {std:.2g}"))
     alarm = monitor.alarm

@@ -87,13 +87,21 @@ def test_health_check_shows_the_drift_tracked(offset_drift: float) -> None:
         "preload": (slow, np.full(len(slow), 1500.0)),
     }
     settings = MonitorSettings(tracker=TrackerSettings(temperature_drift=offset_drift))
+    expected = ["tracked bias [N m]", "tracked friction scale [-]", "tracked preload change [N]"]
+    if offset_drift > 0.0:
+        expected.append("tracked temperature offset [K]")
+    # a block compared before the filter's first step (the sensor noise not learnt yet):
+    # every tracked state listed, the offset (no prior) at 0 +- 0
+    first = HealthMonitor(config, settings, twin=twin)
+    first.compared_time = 0.1
+    values = dict(health_check(first, None, ()).values)
+    assert [k for k in values if k.startswith("tracked ")] == expected
+    if offset_drift > 0.0:
+        assert values["tracked temperature offset [K]"] == "0 +- 0"
     monitor = HealthMonitor(config, settings, twin=twin)
     feed(monitor, channels)
     values = dict(health_check(monitor, monitor.samples[-1], ()).values)
     tracked = [k for k in values if k.startswith("tracked ")]
-    expected = ["tracked bias [N m]", "tracked friction scale [-]", "tracked preload change [N]"]
-    if offset_drift > 0.0:
-        expected.append("tracked temperature offset [K]")
     assert tracked == expected
     value, std = values["tracked friction scale [-]"].split(" +- ")
     assert float(std) > 0.0 and abs(float(value)) < 3.0 * float(std)
