@@ -21,7 +21,9 @@ temperatures the unit will see: commission through a warm-up), one healthy recor
 (``--fault-length`` s, onset uniform in the middle third) of the classes in turn at the
 severities of :data:`SEVERITIES`. ``--service`` s adds a second healthy recording, an ambient
 run of new duty cycles with seeds of its own, commissioned together with the first (every
-other recording stays as it was: the two plans compare on the same runs).
+other recording stays as it was: the two plans compare on the same runs). ``--compare-setting``
+runs further monitors on the same recordings, each with a setting of the monitor changed or a
+keyword of the commissioning (the unit is then commissioned again for that monitor).
 
 Measured: false alarms per hour on the healthy recordings (95 % upper bound 3 / hours when
 none), the share of time gated; per class x severity: detected within :data:`DELAY_GOAL` s,
