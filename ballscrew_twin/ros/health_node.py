@@ -328,7 +328,13 @@ class HealthNode(TableNode):
         if self._response_build is not None:
             self._response_build.join()
         try:
-            result = commission(channels, self.config, self.settings.residual, source="live")
+            result = commission(
+                channels,
+                self.config,
+                self.settings.residual,
+                source="live",
+                unseen_error=self._float("commission_unseen_error"),
+            )
         except BallscrewTwinError as err:
             self.commission_result = f"commissioning failed: {err}"
             self.get_logger().error(self.commission_result)

@@ -6,6 +6,7 @@ are those of :class:`~ballscrew_twin.health.monitor_settings.MonitorSettings` an
 
 from __future__ import annotations
 
+from ..health.commission import UNSEEN_ERROR
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
 from ..units import SCREW_FRAME_ID
@@ -159,6 +160,14 @@ HEALTH_PARAMETERS: tuple[ParameterSpec, ...] = (
         "~/commission fits the samples of the last this many seconds",
         10.0,
         3600.0,
+    ),
+    ParameterSpec(
+        "commission_unseen_error",
+        UNSEEN_ERROR,
+        "-",
+        "~/commission: least twin error (1 sigma, relative) where the samples did not teach it",
+        0.001,
+        1.0,
     ),
     ParameterSpec(
         "commission_out",

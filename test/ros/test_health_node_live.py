@@ -292,7 +292,10 @@ def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseli
     out = tmp_path / "live.yaml"
     node = HealthNode(
         context=executor.context,
-        parameter_overrides=[Parameter("commission_out", value=str(out))],
+        parameter_overrides=[
+            Parameter("commission_out", value=str(out)),
+            Parameter("commission_unseen_error", value=0.5),
+        ],
     )
     executor.add_node(node)
     client_node = Node("operator", context=executor.context)
@@ -317,6 +320,8 @@ def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseli
     assert node._commissioning is not None
     node._commissioning.join(timeout=120.0)
     assert node.baseline is not None and node.baseline.source == "live"
+    # the node's floor of the untaught error, far above this recording's own misfit
+    assert node.baseline.unseen_error == 0.5
     assert node.monitor is not before and node.monitor.baseline is node.baseline
     assert out.exists() and "commissioned on" in node.commission_result
     # the saved file is the node's baseline, and a node started with it uses it
