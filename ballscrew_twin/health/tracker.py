@@ -81,14 +81,24 @@ class TrackerSettings:
     temperature_drift: float = field(default=0.02, metadata=not_negative("K/sqrt(s)"))
 
     @property
-    def tracks_temperature(self) -> bool:
-        """Whether the temperature offset is a tracked state (a prior or a walk > 0)."""
-        return self.temperature_prior > 0.0 or self.temperature_drift > 0.0
+    def priors(self) -> tuple[float, ...]:
+        """Initial 1-sigma of each state of STATE_NAMES, in its unit (STATE_UNITS)."""
+        return (self.bias_prior, self.scale_prior, self.preload_prior, self.temperature_prior)
+
+    @property
+    def drifts(self) -> tuple[float, ...]:
+        """Random-walk density of each state of STATE_NAMES [its unit / sqrt(s)]."""
+        return (self.bias_drift, self.scale_drift, self.preload_drift, self.temperature_drift)
 
     @property
     def tracked(self) -> tuple[bool, ...]:
-        """Whether each state of STATE_NAMES is tracked (the first three always are)."""
-        return (True, True, True, self.tracks_temperature)
+        """Whether each state of STATE_NAMES is tracked (a prior or a walk > 0)."""
+        return tuple(p > 0.0 or d > 0.0 for p, d in zip(self.priors, self.drifts, strict=True))
+
+    @property
+    def tracks_temperature(self) -> bool:
+        """Whether the temperature offset is a tracked state."""
+        return self.tracked[STATE_NAMES.index("temperature_offset")]
 
     def __post_init__(self) -> None:
         """All values finite and > 0 (the temperature offset's >= 0), through the package's
@@ -123,14 +133,11 @@ class DriftTracker:
 
     def __init__(self, settings: TrackerSettings) -> None:
         self.settings = settings
-        t = settings
         self.kf = KalmanFilter(dim_x=len(STATE_NAMES), dim_z=1)
         self.kf.x = np.zeros((len(STATE_NAMES), 1))
-        priors = [t.bias_prior, t.scale_prior, t.preload_prior, t.temperature_prior]
-        self.kf.P = np.diag(priors) ** 2
+        self.kf.P = np.diag(settings.priors) ** 2
         self.kf.F = np.eye(len(STATE_NAMES))
-        drifts = [t.bias_drift, t.scale_drift, t.preload_drift, t.temperature_drift]
-        self._density = np.array(drifts) ** 2
+        self._density = np.array(settings.drifts) ** 2
         #: While True the state is not updated (predictions and innovations still computed).
         self.frozen = False
 
