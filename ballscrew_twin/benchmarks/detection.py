@@ -70,7 +70,13 @@ from ..health.baseline import Baseline
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
 from ..health.bench_units import draw_unit
 from ..health.classify import FAULT_CLASSES
-from ..health.commission import ERROR_SCALE, UNSEEN_ERROR, Channels, commission
+from ..health.commission import (
+    ERROR_SCALE,
+    UNSEEN_ERROR,
+    UNSEEN_QUANTILE,
+    Channels,
+    commission,
+)
 from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import HealthMonitor, feed
@@ -415,6 +421,7 @@ def run_unit(
             twin=twin,
             error_scale=given.get("error_scale", ERROR_SCALE),
             unseen_error=given.get("unseen_error", UNSEEN_ERROR),
+            unseen_quantile=given.get("unseen_quantile", UNSEEN_QUANTILE),
         ).baseline
 
     baselines: dict[Keywords, Baseline] = {}

@@ -15,8 +15,9 @@ from ..params import check_number, positive
 TEST_UNITS = (2000, 2030)
 TRAINING_UNITS = (0, 30)
 #: Keywords of :func:`~ballscrew_twin.health.commission.commission` that a compared monitor
-#: may change (``--compare-setting commission.unseen_error=0.015``), all positive numbers [-].
-COMMISSION_KEYWORDS = ("error_scale", "unseen_error")
+#: may change (``--compare-setting commission.unseen_error=0.015``), all positive numbers [-];
+#: the quantile at most 1.
+COMMISSION_KEYWORDS = ("error_scale", "unseen_error", "unseen_quantile")
 #: Commissioning keywords as (name, value) pairs, sorted by name.
 Keywords = tuple[tuple[str, float], ...]
 
@@ -96,9 +97,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also run a monitor with this one numeric setting changed, on the same recordings, "
         "reported beside the default (repeatable: one monitor each; e.g. "
         "classification_patience=8; residual.partial_share=1 or tracker.temperature_drift=0.02 "
-        "for a field of the residual or tracker settings; commission.unseen_error=0.015 or "
-        "commission.error_scale=2 for a keyword of the unit's commissioning, which is then run "
-        "again for that monitor; several changes to one monitor separated by commas)",
+        "for a field of the residual or tracker settings; commission.unseen_error=0.015, "
+        "commission.unseen_quantile=0.95 or commission.error_scale=2 for a keyword of the "
+        "unit's commissioning, which is then run again for that monitor; several changes to "
+        "one monitor separated by commas)",
     )
 
 
@@ -148,7 +150,7 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, Contender]
 def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -> Contender:
     """``contender`` with the one NAME=VALUE ``change`` of the ``--compare-setting`` ``item``;
     ConfigError naming ``numeric`` for a name that is not one, or for a value that is not a
-    number (or, for a commissioning keyword, not a positive one)."""
+    number (or, for a commissioning keyword, not a positive one; a quantile above 1)."""
     name, _, text = change.partition("=")
     name = name.strip()
     if name not in numeric:
@@ -160,6 +162,8 @@ def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -
     group, _, field_name = name.rpartition(".")
     if group == "commission":
         check_number(value, positive("-"), f"--compare-setting {item!r}: {name}", text=False)
+        if field_name == "unseen_quantile" and value > 1.0:
+            raise ConfigError(f"--compare-setting {item!r}: {name} must be at most 1")
         keywords = dict(contender.commissioning) | {field_name: value}
         return replace(contender, commissioning=tuple(sorted(keywords.items())))
     settings = contender.settings

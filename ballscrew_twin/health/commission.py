@@ -439,6 +439,7 @@ def commission(
     source: str = "",
     error_scale: float = ERROR_SCALE,
     unseen_error: float = UNSEEN_ERROR,
+    unseen_quantile: float = UNSEEN_QUANTILE,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
     """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
@@ -446,7 +447,9 @@ def commission(
     cold start and a warm run at the speeds it serves at), fitted together. Each recording is
     cut into blocks and gated on its own, so that nothing is compared across the seam.
     ``unseen_error`` [-] is the least 1-sigma relative error taken where the recording did not
-    teach the twin (a speed band with too few blocks, the residual surface's thin nodes).
+    teach the twin (a speed band with too few blocks, the residual surface's thin nodes);
+    there the unit's own ``unseen_quantile`` [-] of the parametric fit's |relative residual|
+    is taken where it is larger.
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -455,6 +458,10 @@ def commission(
     settings = settings or ResidualSettings()
     check_number(error_scale, positive("-"), "commission: error_scale", text=False)
     check_number(unseen_error, positive("-"), "commission: unseen_error", text=False)
+    if not 0.0 < unseen_quantile <= 1.0:
+        raise ConfigError(
+            f"commission: unseen_quantile {unseen_quantile!r} must be in (0, 1] (a quantile)"
+        )
     twin = twin or UnitTwin(config)
     every: list[Block] = []
     usable: list[Block] = []
@@ -572,7 +579,7 @@ def commission(
     # Where the surface was not learnt, the twin is as wrong as the parametric fit alone was
     # at its worst on this unit (training unit 9: 23 % at -10 C and 3 rad/s, a corner the
     # warm-up passed in seconds), at least unseen_error.
-    unseen = max(float(np.quantile(np.abs(study.residual), UNSEEN_QUANTILE)), unseen_error)
+    unseen = max(float(np.quantile(np.abs(study.residual), unseen_quantile)), unseen_error)
     judged = np.isfinite(out_of_fold)
     if np.count_nonzero(judged) < BAND_BLOCKS:  # too short to cross-validate: in sample
         out_of_fold = study.residual - study.design @ np.ravel(surface.values)

@@ -29,7 +29,7 @@ from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.bench_data import BenchData, generate_unit_data
 from ballscrew_twin.health.bench_units import draw_unit
 from ballscrew_twin.health.classify import FAULT_CLASSES
-from ballscrew_twin.health.commission import ERROR_SCALE, UNSEEN_ERROR
+from ballscrew_twin.health.commission import ERROR_SCALE, UNSEEN_ERROR, UNSEEN_QUANTILE
 from ballscrew_twin.health.duty_cycles import draw_trajectory
 from ballscrew_twin.health.fault_profiles import FaultSpec
 from ballscrew_twin.health.monitor import HealthMonitor
@@ -122,6 +122,13 @@ def test_a_compared_monitor_may_change_its_units_commissioning() -> None:
             ConfigError, match=r"commission\.\w+ = -?[01]\.0 is outside the allowed range \(0, "
         ):
             detection.comparison_settings(_arguments("--compare-setting", bad))
+    quantile = "commission.unseen_quantile=0.95"
+    ((_, contender),) = detection.comparison_settings(_arguments("--compare-setting", quantile))
+    assert contender.commissioning == (("unseen_quantile", 0.95),)
+    with pytest.raises(ConfigError, match="unseen_quantile must be at most 1"):
+        detection.comparison_settings(
+            _arguments("--compare-setting", "commission.unseen_quantile=1.5")
+        )
     with pytest.raises(ConfigError, match="NAME"):  # not a keyword of the commissioning
         detection.comparison_settings(_arguments("--compare-setting", "commission.source=1"))
 
@@ -207,11 +214,11 @@ def test_each_set_of_commissioning_keywords_commissions_the_unit_once(
     """Monitors that differ only in their settings share one commissioning; a monitor with a
     commissioning keyword of its own gets the unit commissioned again with it, and its
     monitor runs on that baseline."""
-    asked: list[tuple[float, float]] = []
+    asked: list[tuple[float, float, float]] = []
     used: list[float] = []
 
     def nominal(channels: list[object], config: TwinConfig, *_: object, **given: Any) -> object:
-        asked.append((given["error_scale"], given["unseen_error"]))
+        asked.append((given["error_scale"], given["unseen_error"], given["unseen_quantile"]))
         baseline = replace(Baseline.nominal(config), unseen_error=given["unseen_error"])
         return SimpleNamespace(baseline=baseline)
 
@@ -227,12 +234,17 @@ def test_each_set_of_commissioning_keywords_commissions_the_unit_once(
         detection.Contender(),
         detection.Contender(replace(MonitorSettings(), warmup=2.0)),
         detection.Contender(commissioning=(("unseen_error", 0.015),)),
+        detection.Contender(commissioning=(("unseen_quantile", 0.9),)),
     )
     runs = detection.run_unit(1, plan, paper, contenders)
-    default = (ERROR_SCALE, UNSEEN_ERROR)
-    assert asked == [default, (ERROR_SCALE, 0.015)]
-    assert used == [UNSEEN_ERROR, UNSEEN_ERROR, 0.015]
-    assert len(runs) == 3
+    default = (ERROR_SCALE, UNSEEN_ERROR, UNSEEN_QUANTILE)
+    assert asked == [
+        default,
+        (ERROR_SCALE, 0.015, UNSEEN_QUANTILE),
+        (ERROR_SCALE, UNSEEN_ERROR, 0.9),
+    ]
+    assert used == [UNSEEN_ERROR, UNSEEN_ERROR, 0.015, UNSEEN_ERROR]
+    assert len(runs) == 4
 
 
 @pytest.mark.parametrize("fault_class", FAULT_CLASSES)

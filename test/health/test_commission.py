@@ -231,6 +231,25 @@ def test_an_error_scale_that_is_not_a_positive_number_is_refused(scale: float, n
         commission({}, load_config(None), **{name: scale})
 
 
+@pytest.mark.parametrize("quantile", [0.0, -0.5, 1.5, math.nan])
+def test_an_unseen_quantile_outside_zero_to_one_is_refused(quantile: float) -> None:
+    with pytest.raises(ConfigError, match=r"^commission: unseen_quantile .* must be in \(0, 1\]"):
+        commission({}, load_config(None), unseen_quantile=quantile)
+
+
+def test_the_unseen_quantile_sets_the_untaught_error_above_its_floor(fitted: Baseline) -> None:
+    """With a floor far below the fit's misfit the untaught error is the misfit's quantile:
+    the median below the largest, both above the floor, and the median below the default
+    floor that the default 99th percentile did not pass; where it taught, nothing changes."""
+    recording = _recording(1)
+    config = load_config(None)
+    median = commission(recording, config, unseen_error=1e-6, unseen_quantile=0.5).baseline
+    largest = commission(recording, config, unseen_error=1e-6, unseen_quantile=1.0).baseline
+    assert 1e-6 < median.unseen_error < largest.unseen_error
+    assert fitted.unseen_error == UNSEEN_ERROR and median.unseen_error < UNSEEN_ERROR
+    assert median.error_bands[1:] == largest.error_bands[1:] == fitted.error_bands[1:]
+
+
 def test_the_unseen_error_is_the_least_error_where_the_recording_did_not_teach(
     fitted: Baseline,
 ) -> None:
