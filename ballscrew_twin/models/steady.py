@@ -55,6 +55,7 @@ from .steady_problem import (
     make_ball_set,
     nut_axial_loads,
     rolling_kinematics,
+    unloaded_nut,
 )
 from .steady_reference import ReadableNewton
 from .steady_types import (
@@ -267,8 +268,18 @@ class SteadyStateModel:
         return self._reference.solve(scene, balls, state, loads, max_iterations, limit)
 
     def solve(self, op: OperatingPoint, warm_start: SteadyState | None = None) -> SteadySolution:
-        """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one)."""
+        """Solve the steady state at ``op`` (warm-started from ``warm_start`` or the last one);
+        SolverError when it fails, naming a nearly unloaded nut (:func:`unloaded_nut`)."""
         op.validate()
+        try:
+            return self._solve(op, warm_start)
+        except SolverError as err:
+            hint = unloaded_nut(self.config, op)
+            if not hint:
+                raise
+            raise SolverError(f"{err}; {hint}") from err
+
+    def _solve(self, op: OperatingPoint, warm_start: SteadyState | None) -> SteadySolution:
         requested = op
         if 0.0 < abs(op.screw_speed) < STANDSTILL_SPEED:
             op = replace(op, screw_speed=0.0)

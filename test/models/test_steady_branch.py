@@ -17,6 +17,7 @@ from ballscrew_twin.models.scenario import load_scenario
 from ballscrew_twin.models.simulation import build_config, simulate
 from ballscrew_twin.models.steady import SteadyStateModel
 from ballscrew_twin.models.steady_continuation import speed_continuation
+from ballscrew_twin.models.steady_problem import UNLOADED_SPHERE_WEIGHTS, unloaded_nut
 from ballscrew_twin.params import default_config_path, load_config
 
 RPM = 2 * math.pi / 60
@@ -154,3 +155,22 @@ def test_the_cold_solution_is_the_dynamic_models_after_a_slow_start() -> None:
     dynamic = simulate(scenario).summary["nut_torque_Nm"]
     assert dynamic["master"] == pytest.approx(steady[0], rel=0.01)
     assert dynamic["slave"] == pytest.approx(steady[1], rel=0.01)
+
+
+def test_a_failed_solve_names_the_nearly_unloaded_nut() -> None:
+    """The 32 mm screw near its nut's 8.3 N weight: the master nut's spheres carry almost no
+    axial load and the solve fails (measured at 6.5-10.5 N, 40 rpm, 25 C); its error says so,
+    with each sphere's share in sphere weights. Far from it (20 N: 0.32 N a sphere, 31 sphere
+    weights) no nut is named."""
+    screw = load_config(default_config_path().parent / "screw_32x10.yaml")
+    weight = screw.ball_mass * screw.environment.gravity
+    nut = screw.screw.nut_mass * screw.environment.gravity
+    point = op(40.0, 25.0, nut)
+    assert unloaded_nut(screw, point).startswith("the master nut's spheres carry 0 N each")
+    with pytest.raises(SolverError, match=r"did not converge .*; the master nut's spheres carry"):
+        SteadyStateModel(screw, mode="symmetric").solve(point)
+    heavier = op(40.0, 25.0, 20.0)
+    share = (20.0 - nut) / screw.screw.balls_per_nut
+    assert share > UNLOADED_SPHERE_WEIGHTS * weight
+    assert unloaded_nut(screw, heavier) == ""
+    assert SteadyStateModel(screw, mode="symmetric").solve(heavier).output.drag_torque > 0.0
