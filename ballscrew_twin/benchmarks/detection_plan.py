@@ -8,16 +8,17 @@ from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from ..errors import ConfigError
+from ..health.commission import KEYWORD_LIMITS
 from ..health.monitor_settings import MonitorSettings
-from ..params import check_number, positive
+from ..params import check_number
 
 #: Default unit ranges: the held-out test units and the training units tuning may use.
 TEST_UNITS = (2000, 2030)
 TRAINING_UNITS = (0, 30)
 #: Keywords of :func:`~ballscrew_twin.health.commission.commission` that a compared monitor
-#: may change (``--compare-setting commission.unseen_error=0.015``), all positive numbers [-];
-#: the quantile at most 1.
-COMMISSION_KEYWORDS = ("error_scale", "unseen_error", "unseen_quantile")
+#: may change (``--compare-setting commission.unseen_error=0.015``), each within its limits
+#: (:data:`~ballscrew_twin.health.commission.KEYWORD_LIMITS`) [-].
+COMMISSION_KEYWORDS = tuple(KEYWORD_LIMITS)
 #: Commissioning keywords as (name, value) pairs, sorted by name.
 Keywords = tuple[tuple[str, float], ...]
 
@@ -150,7 +151,7 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, Contender]
 def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -> Contender:
     """``contender`` with the one NAME=VALUE ``change`` of the ``--compare-setting`` ``item``;
     ConfigError naming ``numeric`` for a name that is not one, or for a value that is not a
-    number (or, for a commissioning keyword, not a positive one; a quantile above 1)."""
+    number (or, for a commissioning keyword, one outside its limits)."""
     name, _, text = change.partition("=")
     name = name.strip()
     if name not in numeric:
@@ -161,9 +162,8 @@ def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -
         raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
     group, _, field_name = name.rpartition(".")
     if group == "commission":
-        check_number(value, positive("-"), f"--compare-setting {item!r}: {name}", text=False)
-        if field_name == "unseen_quantile" and value > 1.0:
-            raise ConfigError(f"--compare-setting {item!r}: {name} must be at most 1")
+        limits = KEYWORD_LIMITS[field_name]
+        check_number(value, limits, f"--compare-setting {item!r}: {name}", text=False)
         keywords = dict(contender.commissioning) | {field_name: value}
         return replace(contender, commissioning=tuple(sorted(keywords.items())))
     settings = contender.settings

@@ -34,13 +34,14 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import ConfigError
-from ..params import TwinConfig, check_number, config_fingerprint, positive
+from ..params import TwinConfig, check_number, config_fingerprint, limits, positive
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
     LOG_SPEED_NODES,
@@ -92,6 +93,13 @@ UNSEEN_ERROR = 0.015
 #: Quantile of the parametric fit's |relative residual| taken as the error where the residual
 #: surface has no support [-].
 UNSEEN_QUANTILE = 0.99
+#: The numeric keywords of :func:`commission` and the limits each is checked against
+#: (:func:`~ballscrew_twin.params.check_number`; ``bench detection --compare-setting`` too).
+KEYWORD_LIMITS: dict[str, dict[str, Any]] = {
+    "error_scale": positive("-"),
+    "unseen_error": positive("-"),
+    "unseen_quantile": limits("-", 0.0, 1.0, lo_open=True),
+}
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
 #: surface (the inertia's own error would) [-].
 SURFACE_INERTIA = 0.3
@@ -456,12 +464,13 @@ def commission(
             the time), or no real-time map for ``config``.
     """
     settings = settings or ResidualSettings()
-    check_number(error_scale, positive("-"), "commission: error_scale", text=False)
-    check_number(unseen_error, positive("-"), "commission: unseen_error", text=False)
-    if not 0.0 < unseen_quantile <= 1.0:
-        raise ConfigError(
-            f"commission: unseen_quantile {unseen_quantile!r} must be in (0, 1] (a quantile)"
-        )
+    given = {
+        "error_scale": error_scale,
+        "unseen_error": unseen_error,
+        "unseen_quantile": unseen_quantile,
+    }
+    for name, value in given.items():
+        check_number(value, KEYWORD_LIMITS[name], f"commission: {name}", text=False)
     twin = twin or UnitTwin(config)
     every: list[Block] = []
     usable: list[Block] = []

@@ -125,7 +125,9 @@ def test_a_compared_monitor_may_change_its_units_commissioning() -> None:
     quantile = "commission.unseen_quantile=0.95"
     ((_, contender),) = detection.comparison_settings(_arguments("--compare-setting", quantile))
     assert contender.commissioning == (("unseen_quantile", 0.95),)
-    with pytest.raises(ConfigError, match="unseen_quantile must be at most 1"):
+    with pytest.raises(
+        ConfigError, match=r"unseen_quantile = 1\.5 is outside the allowed range \(0, 1\]"
+    ):
         detection.comparison_settings(
             _arguments("--compare-setting", "commission.unseen_quantile=1.5")
         )
