@@ -40,7 +40,7 @@ from ..errors import (
     StampOrderError,
 )
 from ..models.base import OperatingPoint, SteadyStateModel
-from ..params import TwinConfig, not_negative, positive, validate_fields
+from ..params import TwinConfig, limits, not_negative, positive, validate_fields
 
 FloatArray = NDArray[np.float64]
 
@@ -152,18 +152,16 @@ class ResidualSettings:
     gate_speed: float = field(default=2.0, metadata=not_negative("rad/s"))
     gate_angle: float = field(default=2.0, metadata=not_negative("rad"))
     slow_smoothing: float = field(default=1.0, metadata=not_negative("s"))
-    partial_share: float = field(default=0.5, metadata=positive("-"))
+    partial_share: float = field(
+        default=0.5,
+        metadata=limits("-", 0.0, 1.0, lo_open=True, hint="a share of a block's samples"),
+    )
 
     def __post_init__(self) -> None:
         """Reject non-finite, negative or zero values where they make no sense, through the
         package's one number check (:func:`~ballscrew_twin.params.validate_fields`: the
         message names the setting, its value, its unit and its range)."""
         validate_fields(self, "health settings", ": ")
-        if self.partial_share > 1.0:
-            raise ConfigError(
-                f"health settings: partial_share {self.partial_share:g} must be in (0, 1] "
-                "(a share of a block's samples)"
-            )
 
     def model_error(self, predicted: float) -> float:
         """1-sigma model error at a predicted torque [N m]."""

@@ -95,7 +95,9 @@ def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -
     assert title == "residual.partial_share = 1, cusum_min_weight = 1"
     assert settings.residual.partial_share == 1.0 and settings.cusum_min_weight == 1.0
     assert settings.residual.gate_angle == detection.MonitorSettings().residual.gate_angle
-    with pytest.raises(ConfigError, match="partial_share 2 must be in"):
+    with pytest.raises(
+        ConfigError, match=r"partial_share = 2\.0 is outside the allowed range \(0, 1\]"
+    ):
         detection.comparison_settings(_arguments("--compare-setting", "residual.partial_share=2"))
 
 

@@ -81,7 +81,9 @@ def test_a_bad_cusum_weight_is_named(weight: float) -> None:
 
 
 def test_a_partial_share_above_one_is_refused() -> None:
-    with pytest.raises(ConfigError, match=r"partial_share 1\.5 must be in"):
+    with pytest.raises(
+        ConfigError, match=r"partial_share = 1\.5 is outside the allowed range \(0, 1\]"
+    ):
         ResidualSettings(partial_share=1.5)
 
 
