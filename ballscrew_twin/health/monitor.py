@@ -84,19 +84,6 @@ EVALUATED_SAMPLES = 20
 SIGNATURE_SPEEDS = 5
 #: Tracker priors of a commissioned unit relative to the nominal ones [-].
 COMMISSIONED_PRIOR = 0.05
-#: Lag angles in the settling angle of a reversal [-]: a first-order lag over the rotation
-#: has decayed to exp(-3) = 5 % of its jump after three lag angles, so the rotation the unit
-#: needs to settle after a reversal (the gate angle, or the commissioned settling angle) is
-#: taken as three times the angle by which its friction trails the quasi-static drag
-#: (:meth:`HealthMonitor.following_error`).
-LAG_ANGLES_TO_SETTLE = 3.0
-#: Speed by which the unit's drag curve near standstill may sit away from the twin's [rad/s]:
-#: breakaway and the rise of the film within a few rad/s of standstill are where the twin is
-#: weakest, and its error there is ~ |dT/dw| times this shift (training units 4 and 9, -10 to
-#: -1 C: 0.4-0.6 mN m at 2.4-3.5 rad/s and 1.9 mN m at 3.7 rad/s, steady, inside the gate speed
-#: band's error of the commissioning; the shift makes that <= 2.5 sigma there and nothing at
-#: speed, where the curve is flat).
-STANDSTILL_SHIFT = 0.5
 #: Relative preload step of the preload sensitivity [-].
 PRELOAD_STEP = 0.05
 #: Temperature step of the temperature sensitivity dT/dTh of the tracker [K].
@@ -347,13 +334,13 @@ class HealthMonitor:
     def following_error(self, angle: FloatArray, drag: FloatArray, stamps: FloatArray) -> float:
         """How far a friction that trails the screw rotation trails the quasi-static twin
         over a block [N m]: the time mean of |dT/dphi| times the lag angle (the gate angle
-        over LAG_ANGLES_TO_SETTLE). Where the speed sweeps the drag (a step, a stop, a sine),
-        the unit's friction follows it over its presliding angle, which the twin does not
-        model: for a first-order lag over the rotation, T - T_ss = -phi_c dT_ss/dphi once
-        the sweep has run for a few phi_c. At speed the drag changes little per radian (a
-        sine at 200 rad/s: ~0.5 mN m/rad); into a stop it changes a lot (the drag falls
-        steeply near standstill while little rotation is left), so a stop keeps its large
-        error and a fast stroke does not.
+        over the settings' ``settling_lag_angles``). Where the speed sweeps the drag (a step,
+        a stop, a sine), the unit's friction follows it over its presliding angle, which the
+        twin does not model: for a first-order lag over the rotation, T - T_ss = -phi_c
+        dT_ss/dphi once the sweep has run for a few phi_c. At speed the drag changes little
+        per radian (a sine at 200 rad/s: ~0.5 mN m/rad); into a stop it changes a lot (the
+        drag falls steeply near standstill while little rotation is left), so a stop keeps
+        its large error and a fast stroke does not.
 
         Args:
             angle: screw angle at the evaluated samples [rad].
@@ -366,7 +353,7 @@ class HealthMonitor:
         slope = np.abs(np.diff(drag)) / turned
         span = float(stamps[-1] - stamps[0])
         mean_slope = float(np.sum(slope * np.diff(stamps)) / span) if span > 0.0 else 0.0
-        return mean_slope * self.gate.settings.gate_angle / LAG_ANGLES_TO_SETTLE
+        return mean_slope * self.gate.settings.gate_angle / self.settings.settling_lag_angles
 
     def transient_variance(
         self, block: Block, inertia: float, lag: float, standstill: float
@@ -374,7 +361,8 @@ class HealthMonitor:
         """Variance of the twin's block mean from the block's motion [N^2 m^2], before the
         torque gain: the inertia torque's error, the edge curvature of the speed, ``lag``
         [N m], the friction's following error (:meth:`following_error`), and ``standstill``
-        [N m], the error near standstill (the drag curve shifted STANDSTILL_SHIFT)."""
+        [N m], the error near standstill (the drag curve shifted ``standstill_shift`` of the
+        settings)."""
         b = self.baseline
         span = block.span
         edge = (
@@ -440,8 +428,8 @@ class HealthMonitor:
                 )
                 * factor[picked]
             )
-            # the drag curve shifted STANDSTILL_SHIFT towards standstill, at the same samples
-            toward = block.speed[few] - np.sign(block.speed[few]) * STANDSTILL_SHIFT
+            # the drag curve shifted standstill_shift towards standstill, at the same samples
+            toward = block.speed[few] - np.sign(block.speed[few]) * s.standstill_shift
             shifted = self.twin.drag(toward, block.temperature, block.preload) * factor[picked]
             # the tracker's temperature sensitivity, at the same samples
             warm = block.temperature + TEMPERATURE_STEP

@@ -8,7 +8,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from ..errors import ConfigError
-from ..params import limits, positive, validate_fields
+from ..params import limits, not_negative, positive, validate_fields
 from .detectors import check_rate
 from .residuals import ResidualSettings
 from .tracker import TrackerSettings
@@ -75,6 +75,20 @@ class MonitorSettings:
             unit 25019 of round 26: strokes of a 3 Hz sine near standstill, 3 % below the
             twin at 0.75 sigma, raised a false alarm at 0.01); the default 0.5 keeps the
             allowance at >= 1.25 sigma (round 27).
+        settling_lag_angles: lag angles in the settling angle of a reversal [-]: the
+            friction's following error (:meth:`.monitor.HealthMonitor.following_error`) takes
+            the angle by which the unit's friction trails the quasi-static drag as the gate
+            angle (or the commissioned settling angle) over this. A first-order lag over the
+            rotation has decayed to exp(-3) = 5 % of its jump after three lag angles, hence
+            the default 3: an upper bound, since the settling angle is measured in steps of
+            0.1 rad and the gate is no smaller than it.
+        standstill_shift: speed by which the unit's drag curve near standstill may sit away
+            from the twin's [rad/s]: breakaway and the rise of the film within a few rad/s of
+            standstill are where the twin is weakest, and its error there is taken as |dT/dw|
+            times this shift (training units 4 and 9, -10 to -1 C: 0.4-0.6 mN m at 2.4-3.5
+            rad/s and 1.9 mN m at 3.7 rad/s, steady, inside the gate speed band's error of
+            the commissioning; 0.5 makes that <= 2.5 sigma there and nothing at speed, where
+            the curve is flat).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -99,6 +113,8 @@ class MonitorSettings:
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
     cusum_min_weight: float = field(default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True))
+    settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
+    standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's
