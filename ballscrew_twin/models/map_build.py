@@ -99,18 +99,22 @@ class _LineResult:
 _WORKER: dict[str, SteadyStateModel | MapGrid] = {}
 
 
-def _pool_worker_init(config: TwinConfig, grid: MapGrid, niceness: int) -> None:
+def _pool_worker_init(
+    config: TwinConfig, grid: MapGrid, niceness: int, follow_folds: bool = True
+) -> None:
     """Initialiser of a worker process (never of the calling process: its handler stays)."""
     # Ctrl-C reaches the whole process group: the parent alone stops the build (it terminates
     # the pool), so a worker does not print a KeyboardInterrupt traceback of its own.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if niceness:
         os.nice(niceness)
-    _worker_init(config, grid)
+    _worker_init(config, grid, follow_folds)
 
 
-def _worker_init(config: TwinConfig, grid: MapGrid) -> None:
-    _WORKER["model"] = SteadyStateModel(config, mode="symmetric", tolerance=MAP_TOLERANCE)
+def _worker_init(config: TwinConfig, grid: MapGrid, follow_folds: bool = True) -> None:
+    _WORKER["model"] = SteadyStateModel(
+        config, mode="symmetric", tolerance=MAP_TOLERANCE, follow_folds=follow_folds
+    )
     _WORKER["grid"] = grid
 
 
@@ -208,6 +212,7 @@ def build_map(
     workers: int = 2,
     on_progress: Progress | None = None,
     niceness: int = 0,
+    follow_folds: bool = True,
 ) -> SteadyMap:
     """Solve every node of ``grid`` with the symmetric steady model.
 
@@ -243,7 +248,7 @@ def build_map(
                 on_progress(done, len(lines), time.monotonic() - start)
 
     if workers <= 1:
-        _worker_init(config, grid)
+        _worker_init(config, grid, follow_folds)
         store(_solve_line(line) for line in lines)
     else:
         context = multiprocessing.get_context("spawn")
@@ -253,7 +258,7 @@ def build_map(
             os.setpriority(
                 os.PRIO_PROCESS, thread, os.getpriority(os.PRIO_PROCESS, thread) + niceness
             )
-        init = (config, grid, 0 if inherited else niceness)
+        init = (config, grid, 0 if inherited else niceness, follow_folds)
         with context.Pool(workers, initializer=_pool_worker_init, initargs=init) as pool:
             store(pool.imap_unordered(_solve_line, lines, chunksize=2))
     if failed.any():

@@ -125,6 +125,11 @@ class SteadyStateModel:
             solve keeps the branch of its start while it moves continuously
             (:func:`continues_branch`; otherwise cold): the quasi-static history of the
             commanded path, which can differ from the start-up state (hysteresis).
+        follow_folds: where the start-up path's jump from the end of its state lands on
+            another state, take the state the curve of steady states reaches past that fold
+            instead (:func:`~ballscrew_twin.models.steady_fold.follow_fold`; docs/model.md 7a,
+            "Past a fold"). Default True; False is the rule before it (cheaper: the preview
+            table).
     """
 
     def __init__(
@@ -135,7 +140,9 @@ class SteadyStateModel:
         backend: Backend = "compiled",
         inertial_terms: bool = True,
         branch: Branch = "start-up",
+        follow_folds: bool = True,
     ) -> None:
+        self.follow_folds = follow_folds
         if branch not in ("start-up", "path"):
             raise ConfigError(f"branch = {branch!r} must be start-up or path")
         self.branch = branch

@@ -24,6 +24,7 @@ from ..errors import SolverError
 from ..kernels.solver_settings import NEWTON_MAX_ITER
 from ..units import RPM
 from .base import OperatingPoint
+from .steady_fold import follow_fold
 from .steady_problem import initial_state
 from .steady_types import (
     BRANCH_JUMP,
@@ -189,6 +190,17 @@ def startup_continuation(
                 step = startup_step(
                     model, op, balls, loads, (previous, state), speed, ratio, jump=True
                 )
+            if (
+                model.follow_folds
+                and rate_change(state, step[0][0]) > BRANCH_JUMP
+                and (past := fold_step(model, op, balls, loads, path, state))
+            ):
+                # The jump reached another state: where the curve of steady states through
+                # the ended one goes past its fold instead (a screw leaves a fold along it).
+                total += step[0][2] + past[0][2]
+                previous, state, speed, ratio = None, past[0][0], past[1], STARTUP_MIN_RATIO
+                solve, tried = past[0], max(tried, speed)
+                continue
         solve = step[0]
         total += solve[2]
         previous, state, speed, ratio = state, solve[0], step[1], step[2]
@@ -239,6 +251,9 @@ class StartupPath:
             residual scales or None), in the path's order.
         stop: where the path stops (no step converges) for every target above the highest
             |speed| tried until then: (that speed, the |speed| it stops at) [rad/s], or None.
+        folds: the state :func:`follow_fold` reached past each fold of the path (None: it
+            reached none), by the |speed| [rad/s] of the path's state at the fold: a path
+            resumed before a fold passes it again in the same state.
     """
 
     key: tuple[float, float, bytes]
@@ -247,6 +262,7 @@ class StartupPath:
         field(default_factory=list)
     )
     stop: tuple[float, float] | None = None
+    folds: dict[float, SteadyState | None] = field(default_factory=dict)
 
     def record(self, model: SteadyStateModel, start: PathStart, tried: float) -> None:
         """Keep ``start`` (reached after speeds up to ``tried`` [rad/s]) with a copy of
@@ -267,6 +283,44 @@ class StartupPath:
         start, tried, blocks = self.starts.pop()  # recorded again as the path passes it
         model._jacobian = None if blocks is None else (blocks[0].copy(), blocks[1])
         return start, tried
+
+
+def fold_step(
+    model: SteadyStateModel,
+    op: OperatingPoint,
+    balls: BallSet,
+    loads: FloatArray,
+    path: StartupPath,
+    state: SteadyState,
+) -> tuple[Solve, float] | None:
+    """Past the fold where the start-up ``path``'s ``state`` ends (:func:`follow_fold`, once
+    per fold of the path: :attr:`StartupPath.folds`), solved to :data:`STARTUP_TOLERANCE`
+    there, or followed back down to ``op``'s speed (:func:`startup_return`) where it lies past
+    it: (solve, |speed| reached) or None."""
+    at = abs(state.screw_speed)
+    if at not in path.folds:
+        path.folds[at] = follow_fold(model, op, balls, loads, state)
+    landed = path.folds[at]
+    if landed is None:
+        return None
+    scene = model.scene(op.temperature, landed.screw_speed)
+    try:
+        solve = model._newton(
+            scene,
+            balls,
+            landed,
+            loads,
+            max_iterations=STARTUP_MAX_ITER,
+            tolerance=STARTUP_TOLERANCE,
+        )
+    except SolverError:
+        return None
+    reached = abs(landed.screw_speed)
+    target = abs(op.screw_speed)
+    if reached <= target:
+        return solve, reached
+    returned = startup_return(model, op, balls, loads, solve, reached)
+    return None if returned is None else (returned, target)
 
 
 def startup_path(

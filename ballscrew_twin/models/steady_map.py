@@ -83,10 +83,13 @@ from .map_interpolation import (
 
 FloatArray = NDArray[np.float64]
 
-#: Format version of the saved file; a file of another version is refused. 3: temperature nodes
-#: uniform in :func:`~.map_grid.temperature_coordinate` (2: uniform in temperature); 2: preload
-#: nodes uniform in :func:`~.map_grid.preload_coordinate` (1: in the square root of the preload).
-FORMAT_VERSION = 3
+#: Format version of the saved file; a file of another version is refused. 4: the same nodes
+#: and arrays as 3, solved with the fold rule (docs/model.md 7a, "Past a fold"): a node past a
+#: fold of the start-up path may hold another state than before, so a table built earlier is
+#: built again; 3: temperature nodes uniform in :func:`~.map_grid.temperature_coordinate` (2:
+#: uniform in temperature); 2: preload nodes uniform in :func:`~.map_grid.preload_coordinate`
+#: (1: in the square root of the preload).
+FORMAT_VERSION = 4
 #: Speed planes :meth:`SteadyMap._speed_planes` keeps (one per block of a commissioning
 #: fit's 600) [-].
 PLANE_CACHE = 2048
