@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.benchmarks import detection
-from ballscrew_twin.benchmarks.detection import Run
+from ballscrew_twin.benchmarks.detection import Run, false_alarm_upper_bound
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import Baseline
@@ -441,3 +441,17 @@ def test_the_effect_table_counts_each_run_in_its_band() -> None:
     assert rows["preload_loss"] == "| preload_loss | 0/1 | - | 1/2 | - | 1/1 |"
     assert rows["jam_onset"] == "| jam_onset | - | - | - | 1/1 | - |"
     assert rows["all"] == "| all | 0/1 | - | 1/2 | 1/1 | 1/1 |"
+
+
+@pytest.mark.parametrize(
+    ("alarms", "limit"),
+    # the exact one-sided 95 % upper limits of a Poisson mean after 0, 1, 2 and 3 events
+    # (Garwood 1936, as tabulated by Gehrels 1986, Table 1)
+    [(0, 2.996), (1, 4.744), (2, 6.296), (3, 7.754)],
+)
+def test_the_false_alarm_rates_upper_bound_is_the_poisson_limit(alarms: int, limit: float) -> None:
+    assert false_alarm_upper_bound(alarms, 10.0) == pytest.approx(limit / 10.0, rel=2e-3)
+
+
+def test_no_healthy_hours_give_no_bound() -> None:
+    assert math.isnan(false_alarm_upper_bound(0, 0.0))
