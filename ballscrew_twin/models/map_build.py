@@ -99,9 +99,7 @@ class _LineResult:
 _WORKER: dict[str, SteadyStateModel | MapGrid] = {}
 
 
-def _pool_worker_init(
-    config: TwinConfig, grid: MapGrid, niceness: int, follow_folds: bool = True
-) -> None:
+def _pool_worker_init(config: TwinConfig, grid: MapGrid, niceness: int, follow_folds: bool) -> None:
     """Initialiser of a worker process (never of the calling process: its handler stays)."""
     # Ctrl-C reaches the whole process group: the parent alone stops the build (it terminates
     # the pool), so a worker does not print a KeyboardInterrupt traceback of its own.
@@ -111,7 +109,7 @@ def _pool_worker_init(
     _worker_init(config, grid, follow_folds)
 
 
-def _worker_init(config: TwinConfig, grid: MapGrid, follow_folds: bool = True) -> None:
+def _worker_init(config: TwinConfig, grid: MapGrid, follow_folds: bool) -> None:
     _WORKER["model"] = SteadyStateModel(
         config, mode="symmetric", tolerance=MAP_TOLERANCE, follow_folds=follow_folds
     )
@@ -226,6 +224,8 @@ def build_map(
             is added to the calling thread's niceness before the workers start, so that they
             start niced (their imports included; a dedicated build thread stays niced);
             elsewhere each worker lowers its own priority once started.
+        follow_folds: solve with the fold rule (``SteadyStateModel(follow_folds=)``; False
+            for the preview table, a cheaper stopgap).
     """
     grid = grid if grid is not None else MapGrid()
     grid.check_buildable()
