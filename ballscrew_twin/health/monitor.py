@@ -74,6 +74,7 @@ from .residuals import (
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
+from .transient_terms import following_error, presliding_remainder
 from .verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
 
 #: Blocks of history kept for classification after an alarm.
@@ -331,36 +332,20 @@ class HealthMonitor:
             span=block.span,
         )
 
-    def following_error(self, angle: FloatArray, drag: FloatArray, stamps: FloatArray) -> float:
-        """How far a friction that trails the screw rotation trails the quasi-static twin
-        over a block [N m]: the time mean of |dT/dphi| times the lag angle (the gate angle
-        over the settings' ``settling_lag_angles``). Where the speed sweeps the drag (a step,
-        a stop, a sine), the unit's friction follows it over its presliding angle, which the
-        twin does not model: for a first-order lag over the rotation, T - T_ss = -phi_c
-        dT_ss/dphi once the sweep has run for a few phi_c. At speed the drag changes little
-        per radian (a sine at 200 rad/s: ~0.5 mN m/rad); into a stop it changes a lot (the
-        drag falls steeply near standstill while little rotation is left), so a stop keeps
-        its large error and a fast stroke does not.
-
-        Args:
-            angle: screw angle at the evaluated samples [rad].
-            drag: quasi-static drag there [N m].
-            stamps: their times [s].
-        """
-        if len(stamps) < 2:
-            return 0.0
-        turned = np.maximum(np.abs(np.diff(angle)), 1e-12)
-        slope = np.abs(np.diff(drag)) / turned
-        span = float(stamps[-1] - stamps[0])
-        mean_slope = float(np.sum(slope * np.diff(stamps)) / span) if span > 0.0 else 0.0
-        return mean_slope * self.gate.settings.gate_angle / self.settings.settling_lag_angles
+    @property
+    def lag_angle(self) -> float:
+        """phi_l, the angle over which the unit's friction follows the drag [rad]: the gate
+        angle (or the commissioned settling angle) over the settings' ``settling_lag_angles``
+        (:mod:`.transient_terms`)."""
+        return self.gate.settings.gate_angle / self.settings.settling_lag_angles
 
     def transient_variance(
         self, block: Block, inertia: float, lag: float, standstill: float
     ) -> float:
         """Variance of the twin's block mean from the block's motion [N^2 m^2], before the
         torque gain: the inertia torque's error, the edge curvature of the speed, ``lag``
-        [N m], the friction's following error (:meth:`following_error`), and ``standstill``
+        [N m], the friction's following error and presliding remainder
+        (:mod:`.transient_terms`), and ``standstill``
         [N m], the error near standstill (the drag curve shifted ``standstill_shift`` of the
         settings)."""
         b = self.baseline
@@ -395,12 +380,14 @@ class HealthMonitor:
         in_warmup = block.time - self._start < s.warmup
         angle = self.order.angle(block)
         gate = self.gate.check(block)
+        travel = self.gate.travel
         if "speed" in block.held:
             gate = gate or "gated: the speed was held past its last sample (late or ended)"
         elif gate and (part := self.gate.compared_part(block)) is not None:
             # compared on its stroke between the gated samples (settings.partial_share)
             whole = block.span
             block, angle = block.part(*part), angle[part[0] : part[1]]
+            travel = travel[part[0] : part[1]]
             self.gated_time += whole - block.span
             gate = ""
         speed = float(np.mean(block.speed))
@@ -485,11 +472,14 @@ class HealthMonitor:
         predicted = b.torque_gain * (drag + inertia) + b.torque_bias
         residual = measured - predicted
         # the lag outlasts the sweep by a block: this block's following error or the last one's
-        lag = self.following_error(angle[at], evaluated * factor, block.stamps[at])
+        following = following_error(angle[at], evaluated * factor, block.stamps[at], self.lag_angle)
+        # and what is left of a reversal's presliding jump, times the settings' share of it
+        remainder = s.presliding_remainder * presliding_remainder(travel, drags, self.lag_angle)
+        lag = math.hypot(max(following, self._last_lag), remainder)
         standstill = float(np.mean(np.abs(drags[few] - shifted)))
-        transient = self.transient_variance(block, inertia, max(lag, self._last_lag), standstill)
+        transient = self.transient_variance(block, inertia, lag, standstill)
         model_sigma = self.block_sigma(block, drag, transient, edge_change)
-        self._last_lag = lag
+        self._last_lag = following
         noise_var = sensor_var / n + model_sigma**2
         normalized = residual / math.sqrt(noise_var)
         gap = 1 if self._last_index is None else max(block.index - self._last_index, 1)

@@ -19,6 +19,7 @@ from ballscrew_twin.health.residuals import (
     ReversalGate,
     UnitTwin,
 )
+from ballscrew_twin.health.transient_terms import following_error, presliding_remainder
 from ballscrew_twin.params import load_config
 
 from .synthetic import PRELOAD, bench_channels
@@ -122,6 +123,7 @@ def test_following_error_is_the_lag_of_a_friction_trailing_the_rotation(lag_angl
     settings = MonitorSettings(settling_lag_angles=lag_angles)
     monitor = HealthMonitor(config, settings, twin=twin)
     lag_angle = monitor.gate.settings.gate_angle / lag_angles
+    assert monitor.lag_angle == pytest.approx(lag_angle)
     # sampled at 10 kHz: the oracle steps the lag sample by sample, and at 1 kHz a sample
     # turns the screw by up to 0.16 rad, not small against a lag angle of 0.22 rad
     t = np.arange(0.0, 3.0, 1e-4)
@@ -133,7 +135,7 @@ def test_following_error_is_the_lag_of_a_friction_trailing_the_rotation(lag_angl
     for start in range(10000, 29000, 1000):  # after the first second: the lag has settled
         block = slice(start, start + 1000)
         at = np.arange(start, start + 1000, 50)  # the block's 20 evaluated samples
-        estimate = monitor.following_error(angle[at], steady[at], t[at])
+        estimate = following_error(angle[at], steady[at], t[at], lag_angle)
         actual = abs(float(np.mean(trailing[block] - steady[block])))
         if np.all(np.diff(steady[block]) > 0) or np.all(np.diff(steady[block]) < 0):
             assert estimate == pytest.approx(actual, rel=0.15), (start, estimate, actual)
@@ -142,8 +144,42 @@ def test_following_error_is_the_lag_of_a_friction_trailing_the_rotation(lag_angl
             assert estimate >= actual
     assert checked >= 10
     # the same sweep of the drag done with little rotation (into a stop) is far less certain
-    slow = monitor.following_error(angle[at] * 0.05, steady[at], t[at])
-    assert slow == pytest.approx(20.0 * monitor.following_error(angle[at], steady[at], t[at]))
+    slow = following_error(angle[at] * 0.05, steady[at], t[at], monitor.lag_angle)
+    assert slow == pytest.approx(
+        20.0 * following_error(angle[at], steady[at], t[at], monitor.lag_angle)
+    )
+
+
+def test_presliding_remainder_is_what_a_trailing_friction_has_left_of_a_reversal() -> None:
+    # Oracle: the same Dahl lag, stepped exactly by the bench units' reference, through a
+    # reversal from +20 to -20 rad/s (a 10 ms ramp through standstill). After the reversal
+    # the quasi-static drag is constant and the friction closes the jump from -T to T as
+    # 2 |T| exp(-phi / phi_l): the term must match the block mean of what is left, from the
+    # gate angle on, and vanish once the unit has turned many lag angles.
+    config = load_config(None)
+    twin = UnitTwin(config)
+    lag_angle = 0.15
+    t = np.arange(0.0, 1.5, 1e-4)
+    w = np.clip(-2000.0 * (t - 0.5), -20.0, 20.0)
+    angle = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
+    steady = twin.drag(w, 293.15, 1500.0)
+    trailing = presliding_reference(steady, angle, lag_angle)
+    after = t >= 0.5
+    travel = np.where(after, np.abs(angle - angle[np.argmin(np.abs(t - 0.5))]), np.inf)
+    checked = 0
+    for start in range(5200, 6000, 100):  # 10 ms blocks from 0.3 rad after the reversal
+        block = slice(start, start + 100)
+        estimate = presliding_remainder(travel[block], steady[block], lag_angle)
+        actual = abs(float(np.mean(trailing[block] - steady[block])))
+        assert estimate == pytest.approx(actual, rel=0.05), (start, estimate, actual)
+        checked += 1
+    assert checked == 8
+    # many lag angles on (4 rad after the reversal) nothing is left, and before any reversal
+    # (no travel counted) there is nothing to close
+    far = slice(7000, 7100)
+    assert presliding_remainder(travel[far], steady[far], lag_angle) < 1e-6 * abs(steady[far][0])
+    assert presliding_remainder(travel[:100], steady[:100], lag_angle) == 0.0
+    assert presliding_remainder(travel[block], steady[block], 0.0) == 0.0
 
 
 @pytest.mark.parametrize("shift", [0.0, 8.0])
