@@ -271,6 +271,10 @@ def test_an_open_upper_end_refuses_the_end_and_shows_it_open() -> None:
             {"standstill_shift": -0.1},
             "standstill_shift = -0.1 is outside the allowed range [0, inf] rad/s",
         ),
+        (
+            {"presliding_remainder": -0.5},
+            "presliding_remainder = -0.5 is outside the allowed range [0, inf] -",
+        ),
     ],
 )
 def test_a_health_setting_out_of_range_is_refused_naming_it_its_unit_and_range(
@@ -334,6 +338,7 @@ def test_health_settings_at_their_ends_are_accepted() -> None:
     assert (settings.confident_class, settings.chi_square_window) == (1.0, 2)
     assert MonitorSettings(warmup=1e-9).warmup == 1e-9
     assert MonitorSettings(standstill_shift=0.0).standstill_shift == 0.0
+    assert MonitorSettings(presliding_remainder=0.0).presliding_remainder == 0.0
 
 
 def test_the_bounds_grid_and_rows_answer_through_the_one_check(tmp_path: Path) -> None:
