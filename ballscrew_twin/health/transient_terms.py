@@ -50,7 +50,9 @@ def presliding_remainder(travel: FloatArray, drags: FloatArray, lag_angle: float
     samples of 2 |T| exp(-phi / phi_l). At a reversal the quasi-static drag jumps from -T to
     T; a friction that trails the rotation closes the jump over a few lag angles, and the
     monitor's gate, which waits for the settling angle (three lag angles by default), lets
-    2 exp(-3) = 10 % of the drag through still to come.
+    2 exp(-3) = 10 % of the drag through still to come. After a stop the friction starts
+    from where it stood, not from -T, and the term is an upper bound (a restart in the same
+    direction leaves nothing to close).
 
     Args:
         travel: phi, the screw rotation since the last reversal or stop at each sample [rad]

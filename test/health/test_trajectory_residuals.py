@@ -182,6 +182,46 @@ def test_presliding_remainder_is_what_a_trailing_friction_has_left_of_a_reversal
     assert presliding_remainder(travel[block], steady[block], 0.0) == 0.0
 
 
+def test_the_monitor_widens_a_block_by_what_the_reversal_left_of_a_trailing_friction() -> None:
+    # A unit whose friction trails the rotation by exactly the monitor's lag angle (the Dahl
+    # reference), stroking at +-3 rad/s with a reversal every second (held-out unit 28019 of
+    # round 30): the blocks compared after a reversal lie below the twin by what is left of
+    # the jump. The monitor with the remainder term widens each block's sigma by that much
+    # (sigma^2 grows by E_rem^2; the part compared of a partly gated block too), and leaves
+    # the blocks at speed, far from a reversal, as they were.
+    config = load_config(None)
+    twin = UnitTwin(config)
+    residual_settings = ResidualSettings(sensor_noise=1e-5, gate_angle=0.4)
+    t = np.arange(0.0, 8.0, 1e-3)
+    square = np.sign(np.sin(math.pi * t))
+    w = 3.0 * np.convolve(np.pad(square, 25, mode="edge"), np.ones(50) / 50, mode="valid")[:-1]
+    angle = np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
+    steady = twin.drag(w, 293.15, PRELOAD)
+    trailing = presliding_reference(steady, angle, residual_settings.gate_angle / 3.0)
+    channels = bench_channels(t, trailing + config.screw.screw_inertia * np.gradient(w, t), w)
+    runs = {}
+    for share in (0.0, 1.0):
+        settings = MonitorSettings(residual=residual_settings, presliding_remainder=share)
+        monitor = HealthMonitor(config, settings, twin=twin)
+        runs[share] = [s for s in feed(monitor, channels) if math.isfinite(s.residual)][:-1]
+        assert monitor.lag_angle == pytest.approx(residual_settings.gate_angle / 3.0)
+    assert [s.time for s in runs[0.0]] == [s.time for s in runs[1.0]]
+    after_reversal = partial = 0
+    for without, with_term in zip(runs[0.0], runs[1.0], strict=True):
+        sigmas = [s.residual / s.normalized_residual for s in (without, with_term)]
+        added = math.sqrt(max(sigmas[1] ** 2 - sigmas[0] ** 2, 0.0))
+        if without.time < 0.9:  # the start from rest: no jump from -T, the term bounds it
+            assert added >= abs(without.residual)
+        elif without.time % 1.0 < 0.5 and abs(without.residual) > 1e-4 * abs(without.measured):
+            assert added == pytest.approx(abs(without.residual), rel=0.05), without.time
+            after_reversal += 1
+            partial += without.span < 0.09
+        elif without.time % 1.0 > 0.5:  # at speed, half a second after the reversal
+            assert added < 1e-4 * abs(without.measured)  # 2 exp(-1.4 rad / phi_l) = 5e-5
+    # the 7 reversals, each first compared on the part of a block past the gate
+    assert partial == 7 and after_reversal >= 21
+
+
 @pytest.mark.parametrize("shift", [0.0, 8.0])
 def test_a_temperature_shift_widens_the_error_outside_the_commissioned_range(
     shift: float,
