@@ -95,8 +95,9 @@ class MonitorSettings:
             angle above); 0 leaves it out (the rule up to round 30). A unit stroking at +-3
             rad/s, reversing every second, came out of the gate 3.5-5.5 % below the twin
             after every reversal, with 8 % of each jump still to come, and raised a false
-            alarm (held-out unit 28019 of round 30); with 1 it raised none, and the training
-            units kept every detection (round 31).
+            alarm (held-out unit 28019 of round 30); with 1 it raised none, the training
+            units kept every detection, and held-out units 29000-29029 gave the same report
+            as without it, with no false alarm in 10.82 h (round 31).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
