@@ -97,7 +97,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="NAME=VALUE",
         help="also run a monitor with this one numeric setting changed, on the same recordings, "
         "reported beside the default (repeatable: one monitor each; e.g. "
-        "classification_patience=8; residual.partial_share=1 or tracker.temperature_drift=0.02 "
+        "classification_patience=8; unit_friction_responses=1 (0 or 1) for a switch; "
+        "residual.partial_share=1 or tracker.temperature_drift=0.02 "
         "for a field of the residual or tracker settings; commission.unseen_error=0.015, "
         "commission.unseen_quantile=0.95 or commission.error_scale=2 for a keyword of the "
         "unit's commissioning, which is then run again for that monitor; several changes to "
@@ -138,6 +139,7 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, Contender]
             if type(getattr(getattr(defaults, group), f.name)) is float
         ]
         + [f"commission.{name}" for name in COMMISSION_KEYWORDS]
+        + switches(defaults)
     )
     for item in args.compare_setting:
         contender = Contender()
@@ -146,6 +148,11 @@ def comparison_settings(args: argparse.Namespace) -> tuple[tuple[str, Contender]
         title = ", ".join(c.strip().replace("=", " = ") for c in item.split(","))
         extra.append((title, contender))
     return tuple(extra)
+
+
+def switches(settings: MonitorSettings) -> list[str]:
+    """The on/off settings of the monitor (``--compare-setting NAME=0`` or ``NAME=1``)."""
+    return [f.name for f in fields(settings) if type(getattr(settings, f.name)) is bool]
 
 
 def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -> Contender:
@@ -161,6 +168,11 @@ def _changed(contender: Contender, change: str, item: str, numeric: list[str]) -
     except ValueError:
         raise ConfigError(f"--compare-setting {item!r}: VALUE must be a number") from None
     group, _, field_name = name.rpartition(".")
+    if name in switches(contender.settings):
+        if value not in (0.0, 1.0):
+            raise ConfigError(f"--compare-setting {item!r}: {name} is a switch: 0 or 1")
+        switched: dict[str, Any] = {name: value == 1.0}
+        return replace(contender, settings=replace(contender.settings, **switched))
     if group == "commission":
         limits = KEYWORD_LIMITS[field_name]
         check_number(value, limits, f"--compare-setting {item!r}: {name}", text=False)

@@ -71,6 +71,7 @@ from .residuals import (
     TwinPredictor,
     UnitTwin,
     make_twin_model,
+    with_friction_scales,
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
@@ -182,8 +183,16 @@ class HealthMonitor:
         self.twin: UnitTwin | _SteadyTwin
         #: Why the twin is what it is (e.g. no real-time map for this screw).
         self.twin_note = ""
+        scales = (baseline.dry_friction_scale, baseline.eyring_scale)
+        #: The twin the fault classes' responses are read from (:meth:`_classify`): the
+        #: nominal screw, or the unit's commissioned friction (settings'
+        #: ``unit_friction_responses``).
+        self.fault_predictor = self.predictor
+        if s.unit_friction_responses and scales != (1.0, 1.0):
+            self.fault_predictor = TwinPredictor(
+                with_friction_scales(config, *scales), s.residual, model_factory
+            )
         try:
-            scales = (baseline.dry_friction_scale, baseline.eyring_scale)
             if twin is not None:
                 self.twin = twin.adjusted(
                     baseline.preload_scale, baseline.temperature_shift, scales
@@ -714,7 +723,7 @@ class HealthMonitor:
                     op = self.baseline.unit_point(r.operating_point)
                     self._fault_changes[(name, r.time)] = np.array(
                         [
-                            gain * r.correction * self.predictor.fault_change(name, op, a)
+                            gain * r.correction * self.fault_predictor.fault_change(name, op, a)
                             for a in severities
                         ]
                     )

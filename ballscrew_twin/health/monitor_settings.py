@@ -98,6 +98,14 @@ class MonitorSettings:
             alarm (held-out unit 28019 of round 30); with 1 it raised none, the training
             units kept every detection, and held-out units 29000-29029 gave the same report
             as without it, with no false alarm in 10.82 h (round 31).
+        unit_friction_responses: read the fault classes' responses (the torque change of a
+            thinner oil and of debris) from the twin with the unit's commissioned friction
+            scales of mu_dry and tau_0, not from the nominal screw. A jam's change bends
+            with mu_dry: dev unit 29006 (mu_dry 0.74 x nominal, fitted 0.89) at 4.5 rad/s and
+            -3.8 C lost 0.23 mN m to a jam x1.3, where the nominal twin's response was
+            -0.03 mN m and the fitted unit's -0.19 mN m; named ``preload_loss`` at 0.99
+            (round 31). Off by default until held out (round 19 tried a fit of its own, and
+            on held-out units it made as many classes wrong as right).
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -125,6 +133,7 @@ class MonitorSettings:
     settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
     presliding_remainder: float = field(default=1.0, metadata=not_negative("-"))
+    unit_friction_responses: bool = False
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's

@@ -101,6 +101,16 @@ def test_a_compared_monitor_may_change_residual_settings_and_several_at_once() -
         detection.comparison_settings(_arguments("--compare-setting", "residual.partial_share=2"))
 
 
+def test_a_compared_monitor_may_turn_a_switch() -> None:
+    item = "unit_friction_responses=1"
+    ((title, contender),) = detection.comparison_settings(_arguments("--compare-setting", item))
+    assert title == "unit_friction_responses = 1"
+    assert contender.settings.unit_friction_responses is True
+    assert detection.MonitorSettings().unit_friction_responses is False
+    with pytest.raises(ConfigError, match="unit_friction_responses is a switch: 0 or 1"):
+        detection.comparison_settings(_arguments("--compare-setting", "unit_friction_responses=2"))
+
+
 def test_a_compared_monitor_may_change_tracker_settings() -> None:
     item = "tracker.temperature_prior=1,tracker.temperature_drift=0.02"
     ((_, contender),) = detection.comparison_settings(_arguments("--compare-setting", item))
