@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import BallscrewTwinError, ConfigError, MapError
 from ..models.base import OperatingPoint
+from ..models.friction_response import scaled_config
 from ..params import TwinConfig
 from .baseline import Baseline
 from .classify import (
@@ -71,7 +72,6 @@ from .residuals import (
     TwinPredictor,
     UnitTwin,
     make_twin_model,
-    with_friction_scales,
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
@@ -190,7 +190,7 @@ class HealthMonitor:
         self.fault_predictor = self.predictor
         if s.unit_friction_responses and scales != (1.0, 1.0):
             self.fault_predictor = TwinPredictor(
-                with_friction_scales(config, *scales), s.residual, model_factory
+                scaled_config(config, scales), s.residual, model_factory
             )
         try:
             if twin is not None:

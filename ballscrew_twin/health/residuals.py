@@ -95,22 +95,6 @@ def debris(config: TwinConfig, rise: float) -> TwinConfig:
     )
 
 
-def with_friction_scales(config: TwinConfig, dry_friction: float, eyring: float) -> TwinConfig:
-    """``config`` with the dry friction coefficient mu_dry (Eq. 36) and the Eyring stress
-    tau_0 (Eq. 35) scaled by ``dry_friction`` and ``eyring`` [-]: a unit's commissioned
-    friction (:class:`.baseline.Baseline`'s ``dry_friction_scale`` and ``eyring_scale``)."""
-    if (dry_friction, eyring) == (1.0, 1.0):
-        return config
-    contact, lubricant = config.contact, config.lubricant
-    return replace(
-        config,
-        contact=replace(
-            contact, dry_friction_coefficient=contact.dry_friction_coefficient * dry_friction
-        ),
-        lubricant=replace(lubricant, eyring_stress=lubricant.eyring_stress * eyring),
-    )
-
-
 #: Fault changes of the twin: class -> (config change taking the severity [-], severities at
 #: which the changed twin is evaluated [-]; the classifier interpolates between them, because
 #: the torque's response is far from linear: at 23.8 C, 760 N, 30 rad/s a 30 % viscosity loss

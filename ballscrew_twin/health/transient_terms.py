@@ -13,9 +13,8 @@ and after a reversal, where T_ss jumps from -T to T, the friction closes the jum
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
-FloatArray = NDArray[np.float64]
+from .residuals import FloatArray
 
 
 def following_error(
@@ -57,9 +56,9 @@ def presliding_remainder(travel: FloatArray, drags: FloatArray, lag_angle: float
     Args:
         travel: phi, the screw rotation since the last reversal or stop at each sample [rad]
             (:attr:`.residuals.ReversalGate.travel`; inf where none was seen).
-        drags: the twin's drag at the same samples [N m].
+        drags: the twin's drag at the same samples [N m] (as many as ``travel``).
         lag_angle: phi_l [rad]; 0 gives 0 (no lag).
     """
-    if len(travel) != len(drags) or len(travel) == 0 or lag_angle <= 0.0:
+    if len(travel) == 0 or lag_angle <= 0.0:
         return 0.0
     return float(np.mean(2.0 * np.abs(drags) * np.exp(-np.asarray(travel) / lag_angle)))
