@@ -496,3 +496,33 @@ def solve_compiled(
         summary,
         states,
     )
+
+
+def evaluate_compiled(
+    z: FloatArray,
+    nut_offset: FloatArray,
+    nut: NDArray[np.int64],
+    weight: FloatArray,
+    gravity: FloatArray,
+    loads: FloatArray,
+    scales: tuple[float, float, float],
+    inertial_terms: bool,
+    scene: FloatArray,
+    partials: bool,
+) -> tuple[FloatArray, FloatArray, FloatArray | None]:
+    """One evaluation of the scaled residuals at (``z`` (B, 6), ``nut_offset`` (2,) [m]), the
+    other arguments as :func:`newton_kernel`'s: (sphere residuals (B, 6), nut residuals (2,),
+    the exact sphere Jacobian blocks (B, 7, 7) of :func:`linearise` when ``partials``, else
+    None). The pseudo-arclength curve of :mod:`ballscrew_twin.models.steady_fold` uses it."""
+    if not _checked_cache:
+        ensure_fresh_cache()
+    count = z.shape[0]
+    args = (nut, weight, gravity, loads, scales, inertial_terms, scene)
+    res = np.empty((count, 6))
+    if partials:
+        jac = np.empty((count, 7, 7))
+        nut_res = linearise(z, nut_offset, *args, res, np.empty(count), jac)
+        return res, nut_res, jac
+    active = np.zeros((count, 4), dtype=np.bool_)
+    out = np.zeros((N_ROWS, count, 4))
+    return res, residuals(z, nut_offset, *args, res, active, out), None

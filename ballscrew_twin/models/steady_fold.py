@@ -13,10 +13,13 @@ state reached flickered between two at neighbouring preloads (32 mm screw, 407.5
 17, 18.5 and 20 N rolling, 18, 19 and 21 N travelling with the nut).
 
 The unknowns of the curve are the sphere and nut offsets over :data:`LENGTH_SCALE` and the
-rates over the speed, with ln |speed|; the residuals are the readable reference's scaled ones
-(:class:`~ballscrew_twin.models.steady_reference.ReadableNewton`), differentiated by forward
-differences. So it serves the two-sphere problems (one sphere per nut: the symmetric one and
-the averaged one of a full cold solve), not the full one (:data:`SPHERES`). Units: SI (m, rad/s, N).
+rates over the speed, with ln |speed|; the residuals are the steady solver's scaled ones: with
+the compiled backend the compiled solver's, whose exact sphere Jacobian blocks give the
+curve's Jacobian but for one forward difference along ln |speed|; with the readable backends
+the readable reference's (:class:`~ballscrew_twin.models.steady_reference.ReadableNewton`),
+differentiated by forward differences. The curve's dense bordered system (a null vector by
+SVD) serves the two-sphere problems (one sphere per nut: the symmetric one and the averaged one
+of a full cold solve), not the full one (:data:`SPHERES`). Units: SI (m, rad/s, N).
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .base import OperatingPoint
+from .steady_compiled import kernel_inputs
 from .steady_types import BallSet, SteadyState
 
 if TYPE_CHECKING:
@@ -64,7 +68,7 @@ WINDOW = 2.0
 #: (section 6), so along some curves a spin about the contact chord grows without bound.
 RATE_LIMIT = 20.0
 #: Sphere count of the problems followed so: one per nut (the symmetric and the averaged
-#: problems of a cold solve; :meth:`_Curve.jacobian` relies on it) [-].
+#: problems of a cold solve; :meth:`_Curve.jacobian`'s differences rely on it) [-].
 SPHERES = 2
 
 
@@ -94,7 +98,12 @@ def _unpack(y: FloatArray, count: int, sign: float) -> SteadyState:
 
 class _Curve:
     """The scaled residual of ``op``'s temperature and loads as a function of the curve's
-    coordinates, and its Jacobian (rows: residuals; columns: coordinates, speed last)."""
+    coordinates, and its Jacobian (rows: residuals; columns: coordinates, speed last).
+
+    With the compiled backend both come from the compiled solver's sphere evaluation
+    (:func:`~ballscrew_twin.kernels.steady_solver.evaluate_compiled`: the exact sphere blocks,
+    scaled to the curve's coordinates, and one forward difference along ln |speed|); with the
+    readable backends from the readable reference, differentiated by forward differences."""
 
     def __init__(
         self, model: SteadyStateModel, op: OperatingPoint, balls: BallSet, loads: FloatArray
@@ -102,27 +111,88 @@ class _Curve:
         self.model, self.op, self.balls, self.loads = model, op, balls, loads
         self.count = len(balls.nut)
         self.sign = math.copysign(1.0, op.screw_speed)
+        self.compiled = model.backend == "compiled"
+        if self.compiled:
+            # The scene's parameters differ from speed to speed in the screw speed alone
+            # (SteadyStateModel.scene replaces it in the temperature's scene); the residual
+            # scales do not depend on the speed.
+            scene = model.scene(op.temperature, op.screw_speed)
+            inputs = kernel_inputs(model, scene, loads)
+            self._scales, self._parameters = inputs.scales, inputs.parameters.copy()
+
+    def _evaluate(self, y: FloatArray, partials: bool) -> tuple[FloatArray, FloatArray | None]:
+        """(Scaled residuals at ``y``, the compiled sphere blocks when ``partials``);
+        non-finite residuals where a corrector iterate is absurd (its overflow is not news:
+        :meth:`correct` rejects it)."""
+        count = self.count
+        with np.errstate(over="ignore", invalid="ignore"):
+            speed = self.sign * math.exp(min(float(y[-1]), 50.0))
+            rates = y[2 * count : 6 * count].reshape(count, 4) * speed
+            if not (np.isfinite(rates).all() and math.isfinite(speed)):
+                return np.full(6 * count + 2, np.nan), None
+            if not self.compiled:
+                state = _unpack(y, count, self.sign)
+                scene = self.model.scene(self.op.temperature, speed)
+                spheres, _, nuts, _ = self.model._reference.residual(
+                    scene, self.balls, state, self.loads
+                )
+                return np.concatenate([spheres.ravel(), nuts]), None
+            self._parameters[self.model._solver.I_SCREW_SPEED] = speed
+            spheres, nuts, blocks = self.model._solver.evaluate_compiled(
+                np.concatenate([y[: 2 * count].reshape(count, 2) * LENGTH_SCALE, rates], axis=1),
+                y[6 * count : 6 * count + 2] * LENGTH_SCALE,
+                self.balls.nut,
+                self.balls.weight,
+                self.balls.gravity,
+                self.loads,
+                self._scales,
+                self.model.inertial_terms,
+                self._parameters,
+                partials,
+            )
+        return np.concatenate([spheres.ravel(), nuts]), blocks
 
     def residual(self, y: FloatArray) -> FloatArray:
-        """Scaled residuals at ``y``; non-finite where a corrector iterate is absurd (its
-        overflow is not news: :meth:`correct` rejects it)."""
-        with np.errstate(over="ignore", invalid="ignore"):
-            state = _unpack(y, self.count, self.sign)
-            if not (np.isfinite(state.kinematics).all() and np.isfinite(state.screw_speed)):
-                return np.full(6 * self.count + 2, np.nan)
-            scene = self.model.scene(self.op.temperature, state.screw_speed)
-            spheres, _, nuts, _ = self.model._reference.residual(
-                scene, self.balls, state, self.loads
-            )
-        return np.concatenate([spheres.ravel(), nuts])
+        """Scaled residuals at ``y`` (non-finite where the iterate is absurd)."""
+        return self._evaluate(y, partials=False)[0]
 
     def jacobian(self, y: FloatArray) -> FloatArray:
-        """Forward differences, one unknown of every sphere at a time: with one sphere per nut
-        each sphere's rows and its nut's row depend on that sphere's unknowns and that nut's
-        offset alone, so 8 columns of differences give the 6 x count + 2 of them (and one
-        the speed's)."""
+        """The Jacobian at ``y``: the sphere and nut columns from the compiled sphere blocks
+        (:meth:`_scaled_blocks`) or by forward differences (:meth:`_differenced`), the speed's
+        column by a forward difference."""
+        base, blocks = self._evaluate(y, partials=self.compiled)
+        if blocks is None:
+            jacobian = self._differenced(y, base)
+        else:
+            jacobian = self._scaled_blocks(blocks, self.sign * math.exp(min(float(y[-1]), 50.0)))
+        step = DIFFERENCE_STEP * max(1.0, abs(float(y[-1])))
+        moved = y.copy()
+        moved[-1] += step
+        jacobian[:, -1] = (self.residual(moved) - base) / step
+        return jacobian
+
+    def _scaled_blocks(self, blocks: FloatArray, speed: float) -> FloatArray:
+        """The Jacobian's columns but the speed's from the compiled blocks (B, 7, 7): sphere
+        i's rows and its push on nut k (row 6) by its (n, b, w_B, omega) and e_k, times
+        LENGTH_SCALE for the offsets and ``speed`` [rad/s] for the rates (chain rule of
+        :func:`_unpack`)."""
         count = self.count
-        base = self.residual(y)
+        jacobian = np.zeros((6 * count + 2, 6 * count + 3))
+        column_scale = np.array([LENGTH_SCALE] * 2 + [speed] * 4 + [LENGTH_SCALE])
+        for i, k in enumerate(self.balls.nut.tolist()):
+            scaled = blocks[i] * column_scale
+            columns = np.r_[2 * i : 2 * i + 2, 2 * count + 4 * i : 2 * count + 4 * i + 4]
+            columns = np.append(columns, 6 * count + k)
+            jacobian[6 * i : 6 * i + 6, columns] = scaled[:6]
+            jacobian[6 * count + k, columns] += scaled[6]
+        return jacobian
+
+    def _differenced(self, y: FloatArray, base: FloatArray) -> FloatArray:
+        """The Jacobian's columns but the speed's by forward differences, one unknown of every
+        sphere at a time: with one sphere per nut each sphere's rows and its nut's row depend
+        on that sphere's unknowns and that nut's offset alone, so 8 columns of differences
+        give the 6 x count + 2 of them."""
+        count = self.count
         jacobian = np.zeros((len(base), len(y)))
         rows = [np.r_[6 * i : 6 * i + 6, 6 * count + i] for i in range(count)]
         groups = [[2 * i + j for i in range(count)] for j in range(2)]  # offsets n, b
@@ -135,10 +205,6 @@ class _Curve:
             change = self.residual(moved) - base
             for i, column in enumerate(columns):
                 jacobian[rows[i], column] = change[rows[i]] / steps[i]
-        step = DIFFERENCE_STEP * max(1.0, abs(float(y[-1])))
-        moved = y.copy()
-        moved[-1] += step
-        jacobian[:, -1] = (self.residual(moved) - base) / step
         return jacobian
 
     @staticmethod

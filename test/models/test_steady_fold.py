@@ -11,7 +11,7 @@ import pytest
 
 from ballscrew_twin.models.base import OperatingPoint
 from ballscrew_twin.models.steady import SteadyStateModel
-from ballscrew_twin.models.steady_fold import PAST, follow_fold
+from ballscrew_twin.models.steady_fold import PAST, _Curve, _pack, follow_fold
 from ballscrew_twin.models.steady_types import SteadyState
 from ballscrew_twin.params import TwinConfig, default_config_path, load_config
 
@@ -86,3 +86,23 @@ def test_a_problem_of_more_spheres_than_one_per_nut_is_not_followed(screw: TwinC
     state = model.solve(op).state
     balls = model.ball_set("full")
     assert follow_fold(model, op, balls, model.nut_axial_loads(op), state) is None
+
+
+def test_the_compiled_curve_jacobian_is_the_readable_ones_difference(screw: TwinConfig) -> None:
+    """The curve's Jacobian from the compiled sphere blocks equals the forward differences of
+    the readable reference's residual (the definition) at a state near a fold, to the
+    differences' own error; the residuals agree to rounding."""
+    op = OperatingPoint(screw_speed=68.0 * RPM, temperature=COLD, preload=17.0)
+    compiled = SteadyStateModel(screw, mode="symmetric", branch="path")
+    reference = SteadyStateModel(screw, mode="symmetric", backend="reference")
+    state = compiled.solve(op).state
+    balls = compiled.ball_set("symmetric")
+    loads = compiled.nut_axial_loads(op)
+    y = _pack(state)
+    fast, readable = _Curve(compiled, op, balls, loads), _Curve(reference, op, balls, loads)
+    assert fast.compiled and not readable.compiled
+    np.testing.assert_allclose(fast.residual(y), readable.residual(y), rtol=0, atol=1e-12)
+    exact, differenced = fast.jacobian(y), readable.jacobian(y)
+    scale = np.max(np.abs(differenced), axis=1, keepdims=True)
+    assert np.max(np.abs(exact - differenced) / scale) < 1e-4
+    assert np.count_nonzero(exact[:, :-1]) == np.count_nonzero(differenced[:, :-1])
