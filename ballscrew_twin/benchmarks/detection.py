@@ -45,7 +45,9 @@ same RMS over only the samples of that window whose block the monitor compared (
 past its warm-up), over the same RMS torque; a fault that changes the torque only through a
 reversal or near standstill has a large effect and a small one where compared. The runs not
 detected within the goal are listed with both. ``--out DIR`` writes ``detection.md``, ``roc.png``,
-``delays.png``, ``effects.png``, ``runs.json``. ``--quick``: two units, short recordings (a
+``delays.png``, ``effects.png``, ``runs.json`` (with ``--compare-setting`` also
+``runs_compared.json``, and in the report the runs each compared monitor judged otherwise:
+:mod:`.detection_changes`). ``--quick``: two units, short recordings (a
 smoke test, not a result).
 """
 
@@ -86,6 +88,7 @@ from ..health.residuals import FloatArray, UnitTwin
 from ..health.sensors import sensors_from_mapping
 from ..health.verdicts import UNKNOWN, HealthSample
 from ..params import TwinConfig, load_config
+from .detection_changes import changes_report
 from .detection_plan import TRAINING_UNITS, Contender, Keywords, Plan
 from .detection_plan import add_arguments as add_arguments
 from .detection_plan import comparison_settings as comparison_settings
@@ -735,6 +738,14 @@ def _saved(fig: Any, path: Path) -> Path:
     return path
 
 
+def _records(runs: Sequence[Run]) -> list[dict[str, object]]:
+    """``runs`` as JSON records (NaN as null)."""
+    return [
+        {k: (None if isinstance(v, float) and math.isnan(v) else v) for k, v in r.__dict__.items()}
+        for r in runs
+    ]
+
+
 def run(args: argparse.Namespace) -> int:
     """Generate, commission, detect, score; print the markdown report (and write it)."""
     from tqdm import tqdm
@@ -762,19 +773,19 @@ def run(args: argparse.Namespace) -> int:
     text = report(runs, units, plan, contenders[0].settings)
     for (title, each, used), other in zip(reported, every[1:], strict=True):
         text += f"\n\n### The same recordings, {title}\n\n" + report(other, units, used, each)
+        text += "\n\n" + changes_report(runs, other)
     print(text)
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "detection.md").write_text(text + "\n")
-        records = [
-            {
-                k: (None if isinstance(v, float) and math.isnan(v) else v)
-                for k, v in r.__dict__.items()
-            }
-            for r in runs
-        ]
-        (out / "runs.json").write_text(json.dumps(records, indent=1) + "\n")
+        (out / "runs.json").write_text(json.dumps(_records(runs), indent=1) + "\n")
+        if reported:
+            compared = [
+                {"monitor": title, "runs": _records(other)}
+                for (title, _, _), other in zip(reported, every[1:], strict=True)
+            ]
+            (out / "runs_compared.json").write_text(json.dumps(compared, indent=1) + "\n")
         for path in plot(runs, out):
             print(f"wrote {path}")
     return 0

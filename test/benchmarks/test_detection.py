@@ -57,6 +57,13 @@ def test_short_detection_benchmark_writes_its_tables_and_plots(tmp_path: Path) -
     assert len(hours) == 3 and len(set(hours)) == 1
     runs = json.loads((tmp_path / "runs.json").read_text())
     assert runs, "no run recorded"
+    # each compared monitor's runs, paired with the default's, and its changes run by run
+    compared = json.loads((tmp_path / "runs_compared.json").read_text())
+    titles = ["detectors cusum, spectral only", "warn_fraction = 0.6"]
+    assert [c["monitor"] for c in compared] == titles
+    assert all([r["seed"] for r in c["runs"]] == [r["seed"] for r in runs] for c in compared)
+    assert second.count("Runs judged otherwise than by the default") == 1
+    assert third.count("Runs judged otherwise than by the default") == 1
     assert (tmp_path / "roc.png").stat().st_size > 0
     assert (tmp_path / "effects.png").stat().st_size > 0
     faulty = [r for r in runs if r["true_class"]]
