@@ -105,9 +105,10 @@ class MonitorSettings:
             -3.8 C lost 0.23 mN m to a jam x1.3, where the nominal twin's response was
             -0.03 mN m and the fitted unit's -0.19 mN m; named ``preload_loss`` at 0.99.
             Training units 0-11: jams named right 9/9 against 5/9, none made wrong; dev
-            units 29000-29011: 8/9 against 6/9 (round 32). Off by default until held out
-            (round 19 tried a fit of its own, and on held-out units it made as many classes
-            wrong as right).
+            units 29000-29011: 8/9 against 6/9 (round 32). Off by default: held out on
+            units 30000-30029 it named 4 more jams right but 2 viscosity losses wrong (as
+            ``jam_onset``, one at 0.98), no alarm changed (round 33); round 19 tried a fit
+            of its own, and on held-out units it made as many classes wrong as right.
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
