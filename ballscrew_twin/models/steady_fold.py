@@ -85,9 +85,15 @@ def _pack(state: SteadyState) -> FloatArray:
     )
 
 
+def _speed(y: FloatArray, sign: float) -> float:
+    """The screw speed [rad/s] of the curve's coordinates ``y`` (of ``sign``; ln |speed| capped
+    at 50 so that an absurd corrector iterate does not overflow)."""
+    return sign * math.exp(min(float(y[-1]), 50.0))
+
+
 def _unpack(y: FloatArray, count: int, sign: float) -> SteadyState:
     """The state at the curve's coordinates ``y`` (``count`` spheres, speed of ``sign``)."""
-    speed = sign * math.exp(min(float(y[-1]), 50.0))
+    speed = _speed(y, sign)
     return SteadyState(
         y[: 2 * count].reshape(count, 2) * LENGTH_SCALE,
         y[2 * count : 6 * count].reshape(count, 4) * speed,
@@ -126,7 +132,7 @@ class _Curve:
         :meth:`correct` rejects it)."""
         count = self.count
         with np.errstate(over="ignore", invalid="ignore"):
-            speed = self.sign * math.exp(min(float(y[-1]), 50.0))
+            speed = _speed(y, self.sign)
             rates = y[2 * count : 6 * count].reshape(count, 4) * speed
             if not (np.isfinite(rates).all() and math.isfinite(speed)):
                 return np.full(6 * count + 2, np.nan), None
@@ -164,7 +170,7 @@ class _Curve:
         if blocks is None:
             jacobian = self._differenced(y, base)
         else:
-            jacobian = self._scaled_blocks(blocks, self.sign * math.exp(min(float(y[-1]), 50.0)))
+            jacobian = self._scaled_blocks(blocks, _speed(y, self.sign))
         step = DIFFERENCE_STEP * max(1.0, abs(float(y[-1])))
         moved = y.copy()
         moved[-1] += step
