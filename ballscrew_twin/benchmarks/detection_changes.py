@@ -20,6 +20,8 @@ if TYPE_CHECKING:
 
 #: Alarm times that differ by less than this count as the same alarm [s].
 SAME_ALARM = 1e-6
+#: Outcomes that are a false alarm: on a healthy recording, or before a fault's onset.
+FALSE_ALARMS = ("false alarm", "early")
 
 
 def outcome(run: Run) -> str:
@@ -74,8 +76,9 @@ def _named(run: Run) -> str:
 
 def changes_report(default: Sequence[Run], other: Sequence[Run]) -> str:
     """Markdown: how many runs each change of outcome moved (default -> compared: "made right"
-    where a fault run became right, "made wrong" where a right one did not stay right, a new
-    false alarm), and a table of every changed run (alarm time after the onset, or since the
+    where a fault run became right, "made wrong" where a right one did not stay right, false
+    alarms new and gone: on a healthy recording or before a fault's onset, :data:`FALSE_ALARMS`),
+    and a table of every changed run (alarm time after the onset, or since the
     start for a healthy recording, and the class named with its confidence)."""
     pairs = changed_runs(default, other)
     if not pairs:
@@ -83,10 +86,13 @@ def changes_report(default: Sequence[Run], other: Sequence[Run]) -> str:
     moves = Counter((outcome(a), outcome(b)) for a, b in pairs)
     right = sum(n for (was, now), n in moves.items() if now == "right" and was != "right")
     wrong = sum(n for (was, now), n in moves.items() if was == "right" and now != "right")
-    alarms = sum(n for (was, now), n in moves.items() if now == "false alarm" != was)
+    false = {(was, now): (was in FALSE_ALARMS, now in FALSE_ALARMS) for was, now in moves}
+    new = sum(n for move, n in moves.items() if false[move] == (False, True))
+    gone = sum(n for move, n in moves.items() if false[move] == (True, False))
     lines = [
         f"Runs judged otherwise than by the default: {len(pairs)}; made right {right}, "
-        f"made wrong {wrong}, new false alarms {alarms}.",
+        f"made wrong {wrong}, new false alarms {new} (gone {gone}; healthy recordings and "
+        "alarms before a fault's onset).",
         "",
         "| unit | true class | severity | alarm, default [s] | alarm, compared [s] "
         "| named, default | named, compared | outcome |",

@@ -61,10 +61,29 @@ def test_a_swap_that_leaves_the_counts_alone_is_listed_both_ways() -> None:
     ]
     assert [a.seed for a, _ in changed_runs(default, compared)] == [1, 2, 3]
     text = changes_report(default, compared)
-    assert "made right 1, made wrong 1, new false alarms 1" in text
+    assert "made right 1, made wrong 1, new false alarms 1 (gone 0;" in text
     assert "| 7 | jam_onset | 0.3 | +1.00 | +1.00 | preload_loss (0.95) | jam_onset (0.95) " in text
     assert "| wrong -> right |" in text and "| right -> wrong |" in text
     assert "| quiet -> false alarm |" in text and "at 40.0" in text
+
+
+def test_an_alarm_before_the_onset_counts_as_a_false_alarm_both_ways() -> None:
+    """A fault run whose alarm moves before the onset is a new false alarm, and one that moves
+    after it a false alarm gone; a healthy recording's alarm that goes is one too."""
+    default = [
+        _run(1, "jam_onset", 21.0, "jam_onset"),
+        _run(2, "preload_loss", 10.0, "preload_loss"),
+        _run(3, "", 40.0, "jam_onset"),
+    ]
+    compared = [
+        replace(default[0], alarm=12.0),
+        replace(default[1], alarm=21.0),
+        replace(default[2], alarm=math.nan, fault_class=""),
+    ]
+    text = changes_report(default, compared)
+    assert "made right 1, made wrong 1, new false alarms 1 (gone 2;" in text
+    assert "| right -> early |" in text and "| early -> right |" in text
+    assert "| false alarm -> quiet |" in text
 
 
 def test_the_same_judgement_is_reported_as_none() -> None:
