@@ -75,6 +75,7 @@ from ..health.bench_units import draw_unit
 from ..health.classify import FAULT_CLASSES
 from ..health.commission import (
     ERROR_SCALE,
+    TEMPERATURE_ERROR,
     UNSEEN_ERROR,
     UNSEEN_QUANTILE,
     Channels,
@@ -436,6 +437,7 @@ def run_unit(
             error_scale=given.get("error_scale", ERROR_SCALE),
             unseen_error=given.get("unseen_error", UNSEEN_ERROR),
             unseen_quantile=given.get("unseen_quantile", UNSEEN_QUANTILE),
+            temperature_error=given.get("temperature_error", TEMPERATURE_ERROR),
         ).baseline
 
     baselines: dict[Keywords, Baseline] = {}

@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..errors import ConfigError
-from ..params import TwinConfig, check_number, config_fingerprint, limits, positive
+from ..params import TwinConfig, check_number, config_fingerprint, limits, not_negative, positive
 from .baseline import ERROR_BAND_EDGES, Baseline
 from .correction import (
     LOG_SPEED_NODES,
@@ -99,6 +99,7 @@ KEYWORD_LIMITS: dict[str, dict[str, Any]] = {
     "error_scale": positive("-"),
     "unseen_error": positive("-"),
     "unseen_quantile": limits("-", 0.0, 1.0, lo_open=True),
+    "temperature_error": not_negative("1/K"),
 }
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
 #: surface (the inertia's own error would) [-].
@@ -448,6 +449,7 @@ def commission(
     error_scale: float = ERROR_SCALE,
     unseen_error: float = UNSEEN_ERROR,
     unseen_quantile: float = UNSEEN_QUANTILE,
+    temperature_error: float = TEMPERATURE_ERROR,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
     """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
@@ -457,7 +459,8 @@ def commission(
     ``unseen_error`` [-] is the least 1-sigma relative error taken where the recording did not
     teach the twin (a speed band with too few blocks, the residual surface's thin nodes);
     there the unit's own ``unseen_quantile`` [-] of the parametric fit's |relative residual|
-    is taken where it is larger.
+    is taken where it is larger. ``temperature_error`` [1/K] is the baseline's e_T, the
+    relative error's growth per kelvin outside the temperatures commissioned at a speed.
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -468,6 +471,7 @@ def commission(
         "error_scale": error_scale,
         "unseen_error": unseen_error,
         "unseen_quantile": unseen_quantile,
+        "temperature_error": temperature_error,
     }
     for name, value in given.items():
         check_number(value, KEYWORD_LIMITS[name], f"commission: {name}", text=False)
@@ -641,7 +645,7 @@ def commission(
         inertia_error=max(INERTIA_SIGMAS * float(sigma[4] / theta[4]), INERTIA_ERROR_FLOOR)
         if math.isfinite(sigma[4])
         else Baseline.inertia_error,
-        temperature_error=TEMPERATURE_ERROR,
+        temperature_error=temperature_error,
         temperature_min=float(min(temperatures)),
         temperature_max=float(max(temperatures)),
         band_temperature_min=tuple(low for low, _ in band_ranges),

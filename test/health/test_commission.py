@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import io
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -20,6 +21,7 @@ from ballscrew_twin.health.commission import (
     FIT_BLOCKS,
     FOLD_CHUNK,
     RECORDING_GAP,
+    TEMPERATURE_ERROR,
     UNSEEN_ERROR,
     CommissioningResult,
     SurfaceStudy,
@@ -236,6 +238,26 @@ def test_an_unseen_quantile_outside_zero_to_one_is_refused(quantile: float) -> N
     refused = r"^commission: unseen_quantile(:| = -?[\d.]+ is outside the).* range \(0, 1\] -"
     with pytest.raises(ConfigError, match=refused):
         commission({}, load_config(None), unseen_quantile=quantile)
+
+
+@pytest.mark.parametrize("growth", [-0.001, math.inf, math.nan])
+def test_a_temperature_error_that_is_not_a_finite_non_negative_number_is_refused(
+    growth: float,
+) -> None:
+    with pytest.raises(ConfigError, match=r"^commission: temperature_error"):
+        commission({}, load_config(None), temperature_error=growth)
+
+
+def test_the_temperature_error_is_the_baselines_growth_outside_the_commissioned_range(
+    fitted: Baseline,
+) -> None:
+    """The keyword sets e_T and nothing else of the fit."""
+    slower = commission(
+        _recording(1), load_config(None), source="synthetic", temperature_error=0.002
+    ).baseline
+    assert fitted.temperature_error == TEMPERATURE_ERROR != 0.002
+    assert slower.temperature_error == 0.002
+    assert replace(slower, temperature_error=TEMPERATURE_ERROR) == fitted
 
 
 def test_the_unseen_quantile_sets_the_untaught_error_above_its_floor(fitted: Baseline) -> None:
