@@ -21,6 +21,7 @@ BENCHMARKS: dict[str, str] = {
     "skips": "skips",
     "node": "node",
     "detection": "detection",
+    "extrapolation": "extrapolation",
     "screw": "screw",
 }
 

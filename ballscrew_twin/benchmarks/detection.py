@@ -71,7 +71,6 @@ from scipy.stats import chi2
 from ..errors import ConfigError
 from ..health.baseline import Baseline
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
-from ..health.bench_units import draw_unit
 from ..health.classify import FAULT_CLASSES
 from ..health.commission import (
     ERROR_SCALE,
@@ -81,7 +80,7 @@ from ..health.commission import (
     Channels,
     commission,
 )
-from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
+from ..health.duty_cycles import Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import HealthMonitor, feed
 from ..health.monitor_settings import DETECTORS, MonitorSettings
@@ -90,7 +89,16 @@ from ..health.sensors import sensors_from_mapping
 from ..health.verdicts import UNKNOWN, HealthSample
 from ..params import TwinConfig, load_config
 from .detection_changes import changes_report
-from .detection_plan import TRAINING_UNITS, Contender, Keywords, Plan
+from .detection_plan import (
+    TRAINING_UNITS,
+    Contender,
+    Keywords,
+    Plan,
+    commissioning_trajectory,
+    healthy_trajectory,
+    unit_draw,
+    with_preload,
+)
 from .detection_plan import add_arguments as add_arguments
 from .detection_plan import comparison_settings as comparison_settings
 from .detection_plan import requested_plan as requested_plan
@@ -358,10 +366,6 @@ def score(
     )
 
 
-def _with_preload(trajectory: Trajectory, preload: float) -> Trajectory:
-    return replace(trajectory, preload=np.full_like(trajectory.time, preload))
-
-
 def _fault(number: int, k: int, length: float, rng: np.random.Generator) -> FaultSpec:
     cls = FAULT_CLASSES[(number + k) % len(FAULT_CLASSES)]
     severities = SEVERITIES[cls]
@@ -397,26 +401,19 @@ def run_unit(
     commissioned on its cold start alone."""
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench detection sensors")
-    unit = draw_unit(number)
-    rng = np.random.default_rng([number, 0xBE7C])
-    set_preload = float(rng.uniform(600.0, 2500.0))
-    seeds = rng.integers(0, 2**31, size=3 + 2 * plan.faults)
-    commissioning = _with_preload(
-        draw_trajectory(
-            int(seeds[0]), plan.commission, cold_start=True, warmup=COMMISSIONING_WARMUP
-        ),
-        set_preload,
-    )
+    draw = unit_draw(number, plan.faults)
+    unit, set_preload, seeds, rng = draw.unit, draw.preload, draw.seeds, draw.rng
+    commissioning = commissioning_trajectory(draw, plan)
     healthy_recordings = [
         generate_unit_data(
-            config, unit, commissioning, sensors=sensors, seed=int(seeds[1]), name="commissioning"
+            config, unit, commissioning, sensors=sensors, seed=seeds[1], name="commissioning"
         )
     ]
     if plan.service > 0.0:  # its own seeds: the plan of every other recording stays the same
         trajectory_seed, noise_seed = np.random.default_rng([number, 0x5E41CE]).integers(
             0, 2**31, 2
         )
-        service = _with_preload(
+        service = with_preload(
             draw_trajectory(int(trajectory_seed), plan.service, cold_start=False), set_preload
         )
         healthy_recordings.append(
@@ -449,14 +446,12 @@ def run_unit(
         alone = commissioned(channels[:1], contenders[0].commissioning)
         monitors.append((contenders[0].settings, alone))
     runs: list[list[Run]] = [[] for _ in monitors]
-    healthy = _with_preload(draw_trajectory(int(seeds[2]), plan.healthy), set_preload)
-    recordings: list[tuple[Trajectory, tuple[FaultSpec, ...], int]] = [(healthy, (), int(seeds[2]))]
+    healthy = healthy_trajectory(draw, plan)
+    recordings: list[tuple[Trajectory, tuple[FaultSpec, ...], int]] = [(healthy, (), seeds[2])]
     for k in range(plan.faults):
-        trajectory = _with_preload(
-            draw_trajectory(int(seeds[3 + 2 * k]), plan.fault_length), set_preload
-        )
+        trajectory = with_preload(draw_trajectory(seeds[3 + 2 * k], plan.fault_length), set_preload)
         recordings.append(
-            (trajectory, (_fault(number, k, plan.fault_length, rng),), int(seeds[4 + 2 * k]))
+            (trajectory, (_fault(number, k, plan.fault_length, rng),), seeds[4 + 2 * k])
         )
     for trajectory, faults, seed in recordings:
         data = generate_unit_data(

@@ -7,8 +7,12 @@ import argparse
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
+import numpy as np
+
 from ..errors import ConfigError
+from ..health.bench_units import BenchUnit, draw_unit
 from ..health.commission import KEYWORD_LIMITS
+from ..health.duty_cycles import COMMISSIONING_WARMUP, Trajectory, draw_trajectory
 from ..health.monitor_settings import MonitorSettings
 from ..params import check_number
 
@@ -45,6 +49,46 @@ class Contender:
 
     settings: MonitorSettings = field(default_factory=MonitorSettings)
     commissioning: Keywords = ()
+
+
+@dataclass(frozen=True)
+class UnitDraw:
+    """What a unit's number draws (:func:`unit_draw`): the unit, its set preload [N], the
+    seeds of its recordings (the commissioning's trajectory and noise, the healthy
+    recording's trajectory and noise, then a trajectory and a noise seed per fault run) and
+    the generator the fault runs' own draws go on from."""
+
+    unit: BenchUnit
+    preload: float
+    seeds: tuple[int, ...]
+    rng: np.random.Generator
+
+
+def unit_draw(number: int, faults: int) -> UnitDraw:
+    """The draws of unit ``number`` with ``faults`` fault runs: the same from every caller, so
+    that what ``bench detection`` ran can be run again piece by piece."""
+    rng = np.random.default_rng([number, 0xBE7C])
+    preload = float(rng.uniform(600.0, 2500.0))
+    seeds = tuple(int(s) for s in rng.integers(0, 2**31, size=3 + 2 * faults))
+    return UnitDraw(draw_unit(number), preload, seeds, rng)
+
+
+def with_preload(trajectory: Trajectory, preload: float) -> Trajectory:
+    """``trajectory`` at the constant ``preload`` [N]."""
+    return replace(trajectory, preload=np.full_like(trajectory.time, preload))
+
+
+def commissioning_trajectory(draw: UnitDraw, plan: Plan) -> Trajectory:
+    """The unit's commissioning run: a cold start warming up over ``plan.commission`` [s]."""
+    trajectory = draw_trajectory(
+        draw.seeds[0], plan.commission, cold_start=True, warmup=COMMISSIONING_WARMUP
+    )
+    return with_preload(trajectory, draw.preload)
+
+
+def healthy_trajectory(draw: UnitDraw, plan: Plan) -> Trajectory:
+    """The unit's healthy run of ``plan.healthy`` [s] (its noise seed is the same number)."""
+    return with_preload(draw_trajectory(draw.seeds[2], plan.healthy), draw.preload)
 
 
 def unit_range(text: str) -> range:
@@ -100,7 +144,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "classification_patience=8; unit_friction_responses=1 (0 or 1) for a switch; "
         "residual.partial_share=1 or tracker.temperature_drift=0.02 "
         "for a field of the residual or tracker settings; commission.unseen_error=0.015, "
-        "commission.unseen_quantile=0.95 or commission.error_scale=2 for a keyword of the "
+        "commission.unseen_quantile=0.95, commission.error_scale=2 or "
+        "commission.temperature_error=0.002 for a keyword of the "
         "unit's commissioning, which is then run again for that monitor; several changes to "
         "one monitor separated by commas)",
     )

@@ -1,0 +1,88 @@
+"""``bench extrapolation``: its table against ratios worked out by hand, the cut of a recording,
+its arguments, and its outputs (the per-unit work replaced: it commissions three times)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ballscrew_twin.benchmarks import extrapolation
+from ballscrew_twin.benchmarks.extrapolation import Row, _cut, table
+from ballscrew_twin.cli import main
+
+ROWS: list[Row] = [
+    # variant, unit, d_T [K], |error|, band, shift term, transient terms (relative)
+    ("whole", 3, 0.0, 0.02, 0.01, 0.0, 0.0),
+    ("whole", 3, 10.0, 0.03, 0.01, 0.0, 0.001),
+    ("whole", 4, 10.0, 0.03, 0.01, 0.0, 0.01),  # not steady: left out
+    ("last 600 s", 4, 25.0, 0.04, 0.02, 0.03, 0.0),
+]
+
+
+def _cells(text: str, start: str) -> list[str]:
+    line = next(x for x in text.splitlines() if x.startswith(start))
+    return [c.strip() for c in line.strip("|").split("|")]
+
+
+def test_each_growth_gives_the_ratio_of_the_error_to_the_sigma_it_makes() -> None:
+    text = table(ROWS, (0.002, 0.0))
+    inside = _cells(text, "| whole | inside |")
+    assert inside[2:5] == ["1", "1", "2.00 / 2.00"]
+    assert inside[5:] == ["2.00 / 2.00", "2.00 / 2.00"]  # e_T does not act inside
+    # d_T = 10 K falls in (5, 10]: sqrt(0.01^2 + 0.02^2 + 0.001^2) at 0.2 %/K, 0.01005 at none
+    outside = _cells(text, "| whole | 5-10 K |")
+    assert outside[2:4] == ["1", "1"]
+    assert outside[5] == f"{0.03 / math.sqrt(5.01e-4):.2f} / {0.03 / math.sqrt(5.01e-4):.2f}"
+    assert outside[6] == f"{0.03 / math.sqrt(1.01e-4):.2f} / {0.03 / math.sqrt(1.01e-4):.2f}"
+    far = _cells(text, "| last 600 s | > 20 K |")
+    assert far[6] == f"{0.04 / math.hypot(0.02, 0.03):.2f} / {0.04 / math.hypot(0.02, 0.03):.2f}"
+    assert "| whole | 0-2 K |" not in text
+
+
+def test_a_variant_without_a_steady_block_says_so() -> None:
+    text = table([("first 200 s", 1, 3.0, 0.01, 0.01, 0.0, 0.05)], (0.005,))
+    assert "| first 200 s | no steady block |" in text
+
+
+def test_the_cut_keeps_the_samples_between_its_times_after_the_first_stamp() -> None:
+    stamps = 100.0 + np.arange(0.0, 50.0, 0.5)
+    channels = {"torque": (stamps, stamps * 2.0), "speed": (stamps[::2], stamps[::2])}
+    cut = _cut(channels, 10.0, 20.0)
+    assert cut["torque"][0][0] == 110.0 and cut["torque"][0][-1] == 119.5
+    assert np.array_equal(cut["torque"][1], 2.0 * cut["torque"][0])
+    assert cut["speed"][0][0] == 110.0 and cut["speed"][0][-1] == 119.0
+
+
+@pytest.mark.parametrize(
+    "argv, reason",
+    [
+        (["--growths", "0.5%"], "numbers"),
+        (["--growths", "0.005,-1"], "finite and >= 0"),
+        (["--first", "1300"], "--first and --last"),
+    ],
+)
+def test_arguments_that_cannot_run_are_refused(
+    argv: list[str], reason: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bench", "extrapolation", "--units", "0:1", *argv]) != 0
+    assert reason in capsys.readouterr().err
+
+
+def test_the_outputs_are_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    asked: list[tuple[int, float, float]] = []
+
+    def rows(number: int, plan: object, first: float, last: float, *_: object) -> list[Row]:
+        asked.append((number, first, last))
+        return [(r[0], number, *r[2:]) for r in ROWS]
+
+    monkeypatch.setattr(extrapolation, "unit_rows", rows)
+    argv = ["bench", "extrapolation", "--units", "5:7", "--workers", "1", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    assert sorted(asked) == [(5, 200.0, 600.0), (6, 200.0, 600.0)]
+    text = (tmp_path / "extrapolation.md").read_text()
+    assert "Units 5:7" in text and _cells(text, "| whole | 5-10 K |")[3] == "2"
+    assert len((tmp_path / "extrapolation.json").read_text()) > 0
+    assert (tmp_path / "extrapolation.png").stat().st_size > 0
