@@ -55,8 +55,9 @@ class Contender:
 class UnitDraw:
     """What a unit's number draws (:func:`unit_draw`): the unit, its set preload [N], the
     seeds of its recordings (the commissioning's trajectory and noise, the healthy
-    recording's trajectory and noise, then a trajectory and a noise seed per fault run) and
-    the generator the fault runs' own draws go on from."""
+    recording's one seed for both, then a trajectory and a noise seed per fault run; the
+    first three do not depend on the number of fault runs) and the generator the fault runs'
+    own draws go on from."""
 
     unit: BenchUnit
     preload: float

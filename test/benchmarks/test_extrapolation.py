@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ballscrew_twin.benchmarks import extrapolation
+from ballscrew_twin.benchmarks.detection_plan import unit_draw
 from ballscrew_twin.benchmarks.extrapolation import Row, _cut, table
 from ballscrew_twin.cli import main
 
@@ -86,3 +87,11 @@ def test_the_outputs_are_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert "Units 5:7" in text and _cells(text, "| whole | 5-10 K |")[3] == "2"
     assert len((tmp_path / "extrapolation.json").read_text()) > 0
     assert (tmp_path / "extrapolation.png").stat().st_size > 0
+
+
+def test_a_units_recordings_do_not_depend_on_its_number_of_fault_runs() -> None:
+    """The benchmark draws each unit with no fault run; its commissioning and healthy
+    recordings are then those ``bench detection`` made of it with four."""
+    alone, with_faults = unit_draw(31007, 0), unit_draw(31007, 4)
+    assert alone.seeds == with_faults.seeds[:3] and len(with_faults.seeds) == 11
+    assert alone.preload == with_faults.preload and alone.unit == with_faults.unit
