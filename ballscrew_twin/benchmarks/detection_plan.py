@@ -146,7 +146,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "residual.partial_share=1 or tracker.temperature_drift=0.02 "
         "for a field of the residual or tracker settings; commission.unseen_error=0.015, "
         "commission.unseen_quantile=0.95, commission.error_scale=2 or "
-        "commission.temperature_error=0.002 for a keyword of the "
+        "commission.temperature_error=0.005 for a keyword of the "
         "unit's commissioning, which is then run again for that monitor; several changes to "
         "one monitor separated by commas)",
     )

@@ -235,7 +235,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--last", type=float, default=600.0, help="its last part [s]")
     parser.add_argument(
         "--growths",
-        default=f"{TEMPERATURE_ERROR},0.002,0.001,0",
+        default=f"{TEMPERATURE_ERROR},0.005,0.001,0",
         help="e_T to compare, comma-separated [1/K] (the first is the default's)",
     )
     parser.add_argument("--workers", type=int, default=2, help="processes [-]")

@@ -253,10 +253,10 @@ def test_the_temperature_error_is_the_baselines_growth_outside_the_commissioned_
 ) -> None:
     """The keyword sets e_T and nothing else of the fit."""
     slower = commission(
-        _recording(1), load_config(None), source="synthetic", temperature_error=0.002
+        _recording(1), load_config(None), source="synthetic", temperature_error=0.0005
     ).baseline
-    assert fitted.temperature_error == TEMPERATURE_ERROR != 0.002
-    assert slower.temperature_error == 0.002
+    assert fitted.temperature_error == TEMPERATURE_ERROR != 0.0005
+    assert slower.temperature_error == 0.0005
     assert replace(slower, temperature_error=TEMPERATURE_ERROR) == fitted
 
 
