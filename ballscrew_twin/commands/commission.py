@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bags.bench import read_bench_bag
-from ..health.commission import ERROR_SCALE, UNSEEN_ERROR, commission
+from ..health.commission import ERROR_SCALE, TEMPERATURE_ERROR, UNSEEN_ERROR, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
 from ..params import load_config
@@ -51,6 +51,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="least 1-sigma relative model error where the recording did not teach the twin "
         "(speeds and temperatures it hardly visited) [-]",
     )
+    parser.add_argument(
+        "--temperature-error",
+        type=float,
+        default=TEMPERATURE_ERROR,
+        help="growth of the model error per kelvin outside the temperatures the recording saw "
+        "at a speed (e_T) [1/K]",
+    )
     add_topic_arguments(parser)
 
 
@@ -65,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
         source=" + ".join(Path(bag).name for bag in args.bag),
         error_scale=args.error_scale,
         unseen_error=args.unseen_error,
+        temperature_error=args.temperature_error,
     )
     for bag, recording in zip(args.bag, recordings, strict=True):
         where = f"{Path(bag).name}: " if len(recordings) > 1 else ""
@@ -98,6 +106,11 @@ def run(args: argparse.Namespace) -> int:
             f"where it is not taught the twin's error is taken as {b.unseen_error:.2%} (1 sigma): "
             "commission over the speeds and temperatures the unit will run at"
         )
+    print(
+        f"temperatures seen: {b.temperature_min - 273.15:.1f} to {b.temperature_max - 273.15:.1f} "
+        f"C; outside those seen at a speed the twin's error grows by "
+        f"{b.temperature_error:.2%} per K (--temperature-error)"
+    )
     if len(recordings) > 1:
         print(
             "caution: fitted together, several recordings of a unit raised false alarms in "
