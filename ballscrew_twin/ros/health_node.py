@@ -334,6 +334,7 @@ class HealthNode(TableNode):
                 self.settings.residual,
                 source="live",
                 unseen_error=self._float("commission_unseen_error"),
+                temperature_error=self._float("commission_temperature_error"),
             )
         except BallscrewTwinError as err:
             self.commission_result = f"commissioning failed: {err}"

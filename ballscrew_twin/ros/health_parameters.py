@@ -6,7 +6,7 @@ are those of :class:`~ballscrew_twin.health.monitor_settings.MonitorSettings` an
 
 from __future__ import annotations
 
-from ..health.commission import UNSEEN_ERROR
+from ..health.commission import TEMPERATURE_ERROR, UNSEEN_ERROR
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
 from ..units import SCREW_FRAME_ID
@@ -168,6 +168,14 @@ HEALTH_PARAMETERS: tuple[ParameterSpec, ...] = (
         "~/commission: least twin error (1 sigma, relative) where the samples did not teach it",
         0.001,
         1.0,
+    ),
+    ParameterSpec(
+        "commission_temperature_error",
+        TEMPERATURE_ERROR,
+        "1/K",
+        "~/commission: growth of the twin error per K outside the temperatures the samples saw",
+        0.0,
+        0.1,
     ),
     ParameterSpec(
         "commission_out",
