@@ -94,23 +94,16 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench extrapolation sensors")
     draw = unit_draw(number, 0)
-    cold = generate_unit_data(
-        config,
-        draw.unit,
-        commissioning_trajectory(draw, plan),
-        sensors=sensors,
-        seed=draw.seeds[1],
-        name="commissioning",
-    )
-    run = generate_unit_data(
-        config,
-        draw.unit,
-        healthy_trajectory(draw, plan),
-        sensors=sensors,
-        seed=draw.seeds[2],
-        name="run",
-    )
-    whole = _channels(cold)
+    recorded = {
+        name: _channels(
+            generate_unit_data(config, draw.unit, trajectory, sensors=sensors, seed=seed, name=name)
+        )
+        for name, trajectory, seed in (
+            ("commissioning", commissioning_trajectory(draw, plan), draw.seeds[1]),
+            ("run", healthy_trajectory(draw, plan), draw.seeds[2]),
+        )
+    }
+    whole = recorded["commissioning"]
     variants = {
         "whole": whole,
         f"first {first:g} s": _cut(whole, 0.0, first),
@@ -121,7 +114,7 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
     for name, channels in variants.items():
         baseline = commission(channels, config, residual, twin=twin).baseline
         probe = _Probe(config, baseline, twin)
-        for sample in feed(probe, _channels(run)):
+        for sample in feed(probe, recorded["run"]):
             parts = probe.parts.get(sample.time)
             if parts is None or not math.isfinite(sample.residual):
                 continue
