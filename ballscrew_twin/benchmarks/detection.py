@@ -203,7 +203,8 @@ class Run:
         return self.alarm - self.onset
 
 
-def _channels(data: BenchData) -> dict[str, tuple[FloatArray, FloatArray]]:
+def channels_of(data: BenchData) -> dict[str, tuple[FloatArray, FloatArray]]:
+    """The four channels of ``data`` with absolute stamps [s], as a bag of it would give them."""
     start = START_NS * 1e-9
     return {
         "torque": (start + data.torque_time, data.torque),
@@ -421,7 +422,7 @@ def run_unit(
                 config, unit, service, sensors=sensors, seed=int(noise_seed), name="service"
             )
         )
-    channels = [_channels(data) for data in healthy_recordings]
+    channels = [channels_of(data) for data in healthy_recordings]
     residual = contenders[0].settings.residual
 
     def commissioned(recordings: Sequence[Channels], keywords: Keywords) -> Baseline:
@@ -466,7 +467,7 @@ def run_unit(
             effect = fault_effect(data, clean)
         for k, (settings, used) in enumerate(monitors):
             monitor = HealthMonitor(config, settings, baseline=used, twin=twin)
-            feed(monitor, _channels(data))
+            feed(monitor, channels_of(data))
             visible = math.nan
             if clean is not None:
                 visible = fault_effect(data, clean, compared_samples(monitor, data))

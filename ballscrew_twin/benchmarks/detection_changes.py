@@ -86,9 +86,12 @@ def changes_report(default: Sequence[Run], other: Sequence[Run]) -> str:
     moves = Counter((outcome(a), outcome(b)) for a, b in pairs)
     right = sum(n for (was, now), n in moves.items() if now == "right" and was != "right")
     wrong = sum(n for (was, now), n in moves.items() if was == "right" and now != "right")
-    false = {(was, now): (was in FALSE_ALARMS, now in FALSE_ALARMS) for was, now in moves}
-    new = sum(n for move, n in moves.items() if false[move] == (False, True))
-    gone = sum(n for move, n in moves.items() if false[move] == (True, False))
+    new = sum(
+        n for (was, now), n in moves.items() if now in FALSE_ALARMS and was not in FALSE_ALARMS
+    )
+    gone = sum(
+        n for (was, now), n in moves.items() if was in FALSE_ALARMS and now not in FALSE_ALARMS
+    )
     lines = [
         f"Runs judged otherwise than by the default: {len(pairs)}; made right {right}, "
         f"made wrong {wrong}, new false alarms {new} (gone {gone}; healthy recordings and "

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import ConfigError
 from ..health.baseline import Baseline
 from ..health.bench_data import generate_unit_data
 from ..health.commission import TEMPERATURE_ERROR, Channels, commission
@@ -35,7 +36,7 @@ from ..health.monitor_settings import MonitorSettings
 from ..health.residuals import Block, UnitTwin
 from ..health.sensors import sensors_from_mapping
 from ..params import TwinConfig, load_config
-from .detection import SENSORS, _channels
+from .detection import SENSORS, channels_of
 from .detection_plan import (
     TRAINING_UNITS,
     Plan,
@@ -95,7 +96,7 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
     sensors = sensors_from_mapping(SENSORS, "bench extrapolation sensors")
     draw = unit_draw(number, 0)
     recorded = {
-        name: _channels(
+        name: channels_of(
             generate_unit_data(config, draw.unit, trajectory, sensors=sensors, seed=seed, name=name)
         )
         for name, trajectory, seed in (
@@ -157,12 +158,12 @@ def table(rows: list[Row], growths: tuple[float, ...]) -> str:
     )
     lines = [head + " |", "| --- " * (5 + len(growths)) + "|"]
     for variant in dict.fromkeys(r[0] for r in rows):
-        steady = np.array([r[2:] for r in rows if r[0] == variant and r[6] < STEADY_SHARE])
-        units = np.array([r[1] for r in rows if r[0] == variant and r[6] < STEADY_SHARE])
-        if len(steady) == 0:
+        picked = [r for r in rows if r[0] == variant and r[6] < STEADY_SHARE]
+        if not picked:
             lines.append(f"| {variant} | no steady block |" + " |" * (3 + len(growths)))
             continue
-        distance, error, band, shift, transient = steady.T
+        units = np.array([r[1] for r in picked])
+        distance, error, band, shift, transient = np.array([r[2:] for r in picked]).T
         groups = np.array([_group(d) for d in distance])
         for g, name in enumerate(names):
             pick = groups == g
@@ -239,8 +240,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     """Commission, monitor, tabulate; print the table (and write it, the rows and a plot)."""
     from tqdm import tqdm
-
-    from ..errors import ConfigError
 
     units = unit_range(args.units)
     try:
