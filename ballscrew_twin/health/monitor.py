@@ -184,14 +184,18 @@ class HealthMonitor:
         #: Why the twin is what it is (e.g. no real-time map for this screw).
         self.twin_note = ""
         scales = (baseline.dry_friction_scale, baseline.eyring_scale)
-        #: The twin the fault classes' responses are read from (:meth:`_classify`): the
-        #: nominal screw, or the unit's commissioned friction (settings'
-        #: ``unit_friction_responses``).
-        self.fault_predictor = self.predictor
-        if s.unit_friction_responses and scales != (1.0, 1.0):
-            self.fault_predictor = TwinPredictor(
-                scaled_config(config, scales), s.residual, model_factory
-            )
+        #: Per class, the twin its response is read from (:meth:`_classify`): the nominal
+        #: screw, or the one with the unit's commissioned friction (settings'
+        #: ``unit_friction_responses`` for every class, ``unit_friction_jam`` for the jam's).
+        self.fault_predictors = dict.fromkeys(FAULT_CHANGES, self.predictor)
+        on_the_unit = [
+            name
+            for name in FAULT_CHANGES
+            if s.unit_friction_responses or (s.unit_friction_jam and name == "jam_onset")
+        ]
+        if on_the_unit and scales != (1.0, 1.0):
+            scaled = TwinPredictor(scaled_config(config, scales), s.residual, model_factory)
+            self.fault_predictors.update(dict.fromkeys(on_the_unit, scaled))
         try:
             if twin is not None:
                 self.twin = twin.adjusted(
@@ -718,12 +722,13 @@ class HealthMonitor:
             # at the unit's own operating point, scaled as the unit's drag is (its commissioned
             # shape and surface correct the twin's drag; a change of it in the same measure)
             _, severities = FAULT_CHANGES[name]
+            predictor = self.fault_predictors[name]
             for r in records:
                 if (name, r.time) not in self._fault_changes:
                     op = self.baseline.unit_point(r.operating_point)
                     self._fault_changes[(name, r.time)] = np.array(
                         [
-                            gain * r.correction * self.fault_predictor.fault_change(name, op, a)
+                            gain * r.correction * predictor.fault_change(name, op, a)
                             for a in severities
                         ]
                     )

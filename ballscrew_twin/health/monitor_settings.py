@@ -109,6 +109,15 @@ class MonitorSettings:
             units 30000-30029 it named 4 more jams right but 2 viscosity losses wrong (as
             ``jam_onset``, one at 0.98), no alarm changed (round 33); round 19 tried a fit
             of its own, and on held-out units it made as many classes wrong as right.
+        unit_friction_jam: read the jam's response alone from the twin with the unit's
+            commissioned friction scales (the viscosity loss's from the nominal screw): a jam
+            changes mu_dry and the roughness, whose effect the commissioning fits, where a
+            thinner oil's effect depends on the unit's viscosity, which it does not (a
+            viscosity scale and the temperature shift explain the same torques; round 33's
+            unit 30019, viscosity x1.15, took it up as an Eyring scale of 1.21 against its
+            1.10, and the screw so built answered a 40 % loss with 0.44-0.6 of the unit's
+            0.84-1.0 mN m at speed, so the jam fitted better). Off: both from the nominal
+            screw. ``unit_friction_responses`` on reads both from the unit's friction.
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -137,6 +146,7 @@ class MonitorSettings:
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
     presliding_remainder: float = field(default=1.0, metadata=not_negative("-"))
     unit_friction_responses: bool = False
+    unit_friction_jam: bool = False
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's

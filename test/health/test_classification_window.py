@@ -250,29 +250,36 @@ def test_a_fault_change_is_scaled_as_the_units_drag() -> None:
     assert error < 0.1 * np.sqrt(np.mean(np.square(true)))
 
 
-@pytest.mark.parametrize("on_the_unit", [False, True])
+@pytest.mark.parametrize(
+    ("switches", "read_on_the_unit"),
+    [
+        ({}, ()),
+        ({"unit_friction_jam": True}, ("jam_onset",)),
+        ({"unit_friction_responses": True}, ("jam_onset", "lubricant_degradation")),
+    ],
+)
 def test_the_fault_responses_may_be_read_on_the_units_commissioned_friction(
-    on_the_unit: bool,
+    switches: dict[str, bool], read_on_the_unit: tuple[str, ...]
 ) -> None:
     # Oracle: the steady model of the screw with the unit's friction as the bench units build
     # it (health/bench_units.unit_config), changed by the fault as the classifier's classes
-    # say. With the switch on, a jam's and a thinner oil's change is that of the unit's screw
-    # (mu_dry x0.8, tau_0 x1.25); off, that of the nominal screw, which differs from it.
+    # say. A class read on the unit gets the change of the unit's screw (mu_dry x0.8, tau_0
+    # x1.25); any other, that of the nominal screw, which differs from it.
     config = load_config(None)
     baseline = replace(Baseline.nominal(config), dry_friction_scale=0.8, eyring_scale=1.25)
-    settings = MonitorSettings(unit_friction_responses=on_the_unit)
-    monitor = HealthMonitor(config, settings, baseline=baseline)
+    monitor = HealthMonitor(config, MonitorSettings(**switches), baseline=baseline)
     unit = unit_config(config, BenchUnit(dry_friction_scale=0.8, eyring_scale=1.25))
-    predictor = monitor.fault_predictor
     op = OperatingPoint(screw_speed=4.5, temperature=270.0, preload=900.0)
-    at = predictor._grid_point(predictor._key(op))  # where the predictor reads the change
     for name, change in (("jam_onset", debris), ("lubricant_degradation", thinner_lubricant)):
+        predictor = monitor.fault_predictors[name]
+        at = predictor._grid_point(predictor._key(op))  # where the predictor reads the change
         changes = {}
         for label, screw in (("unit", unit), ("nominal", config)):
             healthy = SteadyStateModel(screw).evaluate(at).drag_torque
             changes[label] = SteadyStateModel(change(screw, 0.3)).evaluate(at).drag_torque - healthy
         got = predictor.fault_change(name, op, 0.3)
+        on_the_unit = name in read_on_the_unit
         expected = changes["unit" if on_the_unit else "nominal"]
         assert got == pytest.approx(expected, rel=1e-6), name
         assert abs(changes["unit"] - changes["nominal"]) > 0.1 * abs(expected), name
-    assert (predictor is monitor.predictor) is not on_the_unit
+        assert (predictor is monitor.predictor) is not on_the_unit, name
