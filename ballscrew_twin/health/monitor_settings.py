@@ -116,8 +116,13 @@ class MonitorSettings:
             viscosity scale and the temperature shift explain the same torques; round 33's
             unit 30019, viscosity x1.15, took it up as an Eyring scale of 1.21 against its
             1.10, and the screw so built answered a 40 % loss with 0.44-0.6 of the unit's
-            0.84-1.0 mN m at speed, so the jam fitted better). Off: both from the nominal
-            screw. ``unit_friction_responses`` on reads both from the unit's friction.
+            0.84-1.0 mN m at speed, so the jam fitted better). Training units 0-11: 5 runs
+            made right, none wrong; dev units 30000-30029: 5 made right, 3 made wrong, each
+            at 0.51-0.58 either way (the full ``unit_friction_responses``: 4 and 4; round
+            35). Held out on units 31015-31029: 2 jams made right (named
+            ``lubricant_degradation`` at 0.90 and 0.97 by the nominal responses), none made
+            wrong, no alarm changed: on by default since. Off: both from the nominal screw.
+            ``unit_friction_responses`` on reads both from the unit's friction.
     """
 
     residual: ResidualSettings = field(default_factory=ResidualSettings)
@@ -146,7 +151,7 @@ class MonitorSettings:
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
     presliding_remainder: float = field(default=1.0, metadata=not_negative("-"))
     unit_friction_responses: bool = False
-    unit_friction_jam: bool = False
+    unit_friction_jam: bool = True
 
     def __post_init__(self) -> None:
         """Reject values outside their meaning: the fields with limits through the package's

@@ -253,9 +253,12 @@ def test_a_fault_change_is_scaled_as_the_units_drag() -> None:
 @pytest.mark.parametrize(
     ("switches", "read_on_the_unit"),
     [
-        ({}, ()),
+        ({"unit_friction_jam": False}, ()),
         ({"unit_friction_jam": True}, ("jam_onset",)),
-        ({"unit_friction_responses": True}, ("jam_onset", "lubricant_degradation")),
+        (
+            {"unit_friction_responses": True, "unit_friction_jam": False},
+            ("jam_onset", "lubricant_degradation"),
+        ),
     ],
 )
 def test_the_fault_responses_may_be_read_on_the_units_commissioned_friction(
