@@ -69,7 +69,7 @@ import numpy.typing as npt
 from scipy.stats import chi2
 
 from ..errors import ConfigError
-from ..health.baseline import Baseline
+from ..health.baseline import SHIFT_EXTRAPOLATION, Baseline
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
 from ..health.classify import FAULT_CLASSES
 from ..health.commission import (
@@ -436,6 +436,7 @@ def run_unit(
             unseen_error=given.get("unseen_error", UNSEEN_ERROR),
             unseen_quantile=given.get("unseen_quantile", UNSEEN_QUANTILE),
             temperature_error=given.get("temperature_error", TEMPERATURE_ERROR),
+            shift_extrapolation=given.get("shift_extrapolation", SHIFT_EXTRAPOLATION),
         ).baseline
 
     baselines: dict[Keywords, Baseline] = {}

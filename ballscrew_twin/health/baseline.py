@@ -92,6 +92,8 @@ FIELD_DOCS: dict[str, str] = {
     "unseen_error": "e_rel where the residual surface has no support (not commissioned) [-]",
     "temperature_error": "e_T, relative error growth per K outside the temperatures commissioned "
     "in the block's speed band [1/K]",
+    "shift_extrapolation": "the temperature shift at which the twin's change of drag from the "
+    "nearest commissioned temperature counts as its 1-sigma error outside the range [K]",
     "temperature_min": "lowest temperature of the commissioning recording [K]",
     "temperature_max": "highest temperature of the commissioning recording [K]",
     "band_temperature_min": "lowest temperature commissioned in each speed band of error_bands "
@@ -129,6 +131,7 @@ class Baseline:
     error_absolute: float = field(default=1.0e-4, metadata=not_negative("N m"))
     inertia_error: float = field(default=0.15, metadata=not_negative("-"))
     temperature_error: float = field(default=0.0, metadata=not_negative("1/K"))
+    shift_extrapolation: float = field(default=SHIFT_EXTRAPOLATION, metadata=positive("K"))
     unseen_error: float = field(default=0.03, metadata=not_negative("-"))
     temperature_min: float = field(default=0.0, metadata=not_negative("K"))
     temperature_max: float = field(default=1.0e4, metadata=not_negative("K"))
@@ -229,13 +232,13 @@ class Baseline:
         """1-sigma error of the twin outside the temperatures commissioned at the block's
         speed from its shift [N m]: ``edge_change`` [N m], how much the adjusted twin's drag
         changes from the nearest such temperature (:meth:`nearest_commissioned`) to the
-        block's, times |dT| / SHIFT_EXTRAPOLATION.
+        block's, times |dT| / ``shift_extrapolation`` (default SHIFT_EXTRAPOLATION).
         A shift explains the commissioned torques, but a unit's viscosity, Eyring stress or
         thermometer all fit that way and part outside the range. Dev units 9013, 5017 and
         8020, shifts of 10.4, -5.4 and -2.0 K: the twin 24, 28 and 13 % off at 6-7 K below
         the range, 1.3, 0.9 and 0.44 times the change to the edge; six units with shifts of
         0.1-2.4 K: within 4 % at speed, 5-19 K below."""
-        return abs(self.temperature_shift) / SHIFT_EXTRAPOLATION * abs(edge_change)
+        return abs(self.temperature_shift) / self.shift_extrapolation * abs(edge_change)
 
     def check_config(self, config: TwinConfig) -> None:
         """ConfigError unless the baseline was fitted with ``config``'s physical values."""

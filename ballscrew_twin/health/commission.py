@@ -42,7 +42,7 @@ from scipy.optimize import least_squares
 
 from ..errors import ConfigError
 from ..params import TwinConfig, check_number, config_fingerprint, limits, not_negative, positive
-from .baseline import ERROR_BAND_EDGES, Baseline
+from .baseline import ERROR_BAND_EDGES, SHIFT_EXTRAPOLATION, Baseline
 from .correction import (
     LOG_SPEED_NODES,
     MIN_SUPPORT,
@@ -100,6 +100,7 @@ KEYWORD_LIMITS: dict[str, dict[str, Any]] = {
     "unseen_error": positive("-"),
     "unseen_quantile": limits("-", 0.0, 1.0, lo_open=True),
     "temperature_error": not_negative("1/K"),
+    "shift_extrapolation": positive("K"),
 }
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
 #: surface (the inertia's own error would) [-].
@@ -456,6 +457,7 @@ def commission(
     unseen_error: float = UNSEEN_ERROR,
     unseen_quantile: float = UNSEEN_QUANTILE,
     temperature_error: float = TEMPERATURE_ERROR,
+    shift_extrapolation: float = SHIFT_EXTRAPOLATION,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
     """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
@@ -466,7 +468,9 @@ def commission(
     teach the twin (a speed band with too few blocks, the residual surface's thin nodes);
     there the unit's own ``unseen_quantile`` [-] of the parametric fit's |relative residual|
     is taken where it is larger. ``temperature_error`` [1/K] is the baseline's e_T, the
-    relative error's growth per kelvin outside the temperatures commissioned at a speed.
+    relative error's growth per kelvin outside the temperatures commissioned at a speed, and
+    ``shift_extrapolation`` [K] the scale of the fitted shift's term there
+    (:meth:`.Baseline.extrapolation_error`).
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -478,6 +482,7 @@ def commission(
         "unseen_error": unseen_error,
         "unseen_quantile": unseen_quantile,
         "temperature_error": temperature_error,
+        "shift_extrapolation": shift_extrapolation,
     }
     for name, value in given.items():
         check_number(value, KEYWORD_LIMITS[name], f"commission: {name}", text=False)
@@ -652,6 +657,7 @@ def commission(
         if math.isfinite(sigma[4])
         else Baseline.inertia_error,
         temperature_error=temperature_error,
+        shift_extrapolation=shift_extrapolation,
         temperature_min=float(min(temperatures)),
         temperature_max=float(max(temperatures)),
         band_temperature_min=tuple(low for low, _ in band_ranges),

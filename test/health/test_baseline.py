@@ -176,6 +176,9 @@ def test_the_shift_extrapolation_error_follows_its_definition() -> None:
     assert banded.nearest_commissioned(293.0, 5.0) == 293.0
     assert b.extrapolation_error(-0.004) == pytest.approx(1.5 / SHIFT_EXTRAPOLATION * 0.004)
     assert replace(b, temperature_shift=0.0).extrapolation_error(0.004) == 0.0
+    # the baseline's own scale: twice the shift's scale, half the term
+    wider = replace(b, shift_extrapolation=2.0 * SHIFT_EXTRAPOLATION)
+    assert wider.extrapolation_error(-0.004) == pytest.approx(0.5 * b.extrapolation_error(-0.004))
 
 
 @pytest.mark.parametrize(

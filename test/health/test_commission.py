@@ -15,7 +15,12 @@ import pytest
 
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
-from ballscrew_twin.health.baseline import ERROR_BAND_EDGES, Baseline, load_baseline
+from ballscrew_twin.health.baseline import (
+    ERROR_BAND_EDGES,
+    SHIFT_EXTRAPOLATION,
+    Baseline,
+    load_baseline,
+)
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.health.commission import (
     FIT_BLOCKS,
@@ -246,6 +251,25 @@ def test_a_temperature_error_that_is_not_a_finite_non_negative_number_is_refused
 ) -> None:
     with pytest.raises(ConfigError, match=r"^commission: temperature_error"):
         commission({}, load_config(None), temperature_error=growth)
+
+
+@pytest.mark.parametrize("scale", [0.0, -1.0, math.inf, math.nan])
+def test_a_shift_extrapolation_that_is_not_a_finite_positive_number_is_refused(
+    scale: float,
+) -> None:
+    with pytest.raises(ConfigError, match=r"^commission: shift_extrapolation"):
+        commission({}, load_config(None), shift_extrapolation=scale)
+
+
+def test_the_shift_extrapolation_is_the_baselines_and_changes_nothing_else(
+    fitted: Baseline,
+) -> None:
+    wider = commission(
+        _recording(1), load_config(None), source="synthetic", shift_extrapolation=25.0
+    ).baseline
+    assert fitted.shift_extrapolation == SHIFT_EXTRAPOLATION != 25.0
+    assert wider.shift_extrapolation == 25.0
+    assert replace(wider, shift_extrapolation=SHIFT_EXTRAPOLATION) == fitted
 
 
 def test_the_temperature_error_is_the_baselines_growth_outside_the_commissioned_range(
