@@ -245,43 +245,36 @@ def test_an_unseen_quantile_outside_zero_to_one_is_refused(quantile: float) -> N
         commission({}, load_config(None), unseen_quantile=quantile)
 
 
-@pytest.mark.parametrize("growth", [-0.001, math.inf, math.nan])
-def test_a_temperature_error_that_is_not_a_finite_non_negative_number_is_refused(
-    growth: float,
+@pytest.mark.parametrize(
+    ("keyword", "value"),
+    [
+        *(("temperature_error", growth) for growth in (-0.001, math.inf, math.nan)),
+        *(("shift_extrapolation", scale) for scale in (0.0, -1.0, math.inf, math.nan)),
+    ],
+)
+def test_a_growth_or_shift_scale_outside_its_range_is_refused(keyword: str, value: float) -> None:
+    """e_T must be finite and >= 0, the shift's scale finite and > 0; the message names it."""
+    with pytest.raises(ConfigError, match=rf"^commission: {keyword}"):
+        commission({}, load_config(None), **{keyword: value})
+
+
+@pytest.mark.parametrize(
+    ("keyword", "default", "value"),
+    [
+        ("temperature_error", TEMPERATURE_ERROR, 0.0005),
+        ("shift_extrapolation", SHIFT_EXTRAPOLATION, 25.0),
+    ],
+)
+def test_the_growth_and_shift_scale_keywords_set_their_field_and_nothing_else(
+    fitted: Baseline, keyword: str, default: float, value: float
 ) -> None:
-    with pytest.raises(ConfigError, match=r"^commission: temperature_error"):
-        commission({}, load_config(None), temperature_error=growth)
-
-
-@pytest.mark.parametrize("scale", [0.0, -1.0, math.inf, math.nan])
-def test_a_shift_extrapolation_that_is_not_a_finite_positive_number_is_refused(
-    scale: float,
-) -> None:
-    with pytest.raises(ConfigError, match=r"^commission: shift_extrapolation"):
-        commission({}, load_config(None), shift_extrapolation=scale)
-
-
-def test_the_shift_extrapolation_is_the_baselines_and_changes_nothing_else(
-    fitted: Baseline,
-) -> None:
-    wider = commission(
-        _recording(1), load_config(None), source="synthetic", shift_extrapolation=25.0
+    """The keyword sets the baseline's e_T or the shift's scale and nothing else of the fit."""
+    changed = commission(
+        _recording(1), load_config(None), source="synthetic", **{keyword: value}
     ).baseline
-    assert fitted.shift_extrapolation == SHIFT_EXTRAPOLATION != 25.0
-    assert wider.shift_extrapolation == 25.0
-    assert replace(wider, shift_extrapolation=SHIFT_EXTRAPOLATION) == fitted
-
-
-def test_the_temperature_error_is_the_baselines_growth_outside_the_commissioned_range(
-    fitted: Baseline,
-) -> None:
-    """The keyword sets e_T and nothing else of the fit."""
-    slower = commission(
-        _recording(1), load_config(None), source="synthetic", temperature_error=0.0005
-    ).baseline
-    assert fitted.temperature_error == TEMPERATURE_ERROR != 0.0005
-    assert slower.temperature_error == 0.0005
-    assert replace(slower, temperature_error=TEMPERATURE_ERROR) == fitted
+    assert getattr(fitted, keyword) == default != value
+    assert getattr(changed, keyword) == value
+    assert replace(changed, **{keyword: default}) == fitted
 
 
 def test_the_unseen_quantile_sets_the_untaught_error_above_its_floor(fitted: Baseline) -> None:
