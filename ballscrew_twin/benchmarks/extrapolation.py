@@ -12,7 +12,10 @@ the fitted shift's term E_dT and the transient terms. Steady blocks (transient t
 grouped by d_T; per group the table gives the twin's |relative error| and, for each growth of
 ``--growths``, the ratio of the error to the sigma the monitor would give the block with that
 e_T (sensor noise apart): a ratio that stays at or below what the blocks inside the range
-reach says the growth is wide enough there. Tune e_T on training units only.
+reach says the growth is wide enough there. A second table pools the three commissionings and
+gives, at the first growth, the ratio with E_dT made on other scales ``--shift-scales`` (the
+baseline's ``shift_extrapolation`` [K]; ``inf`` leaves the term out). Tune e_T and the scale
+on training units only.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..health.baseline import Baseline
+from ..health.baseline import SHIFT_EXTRAPOLATION, Baseline
 from ..health.bench_data import generate_unit_data
 from ..health.commission import TEMPERATURE_ERROR, Channels, commission
 from ..health.monitor import HealthMonitor, feed
@@ -55,6 +58,8 @@ DISTANCE_EDGES = (2.0, 5.0, 10.0, 20.0, math.inf)
 #: One compared block: variant, unit, d_T [K], |relative error| [-], band error [-], shift
 #: term [-], transient terms [-] (relative to the block's drag).
 Row = tuple[str, int, float, float, float, float, float]
+#: The keys of a row in extrapolation.json, in its order.
+ROW_KEYS = ("variant", "unit", "distance", "error", "band", "shift", "transient")
 
 
 class _Probe(HealthMonitor):
@@ -125,6 +130,24 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
     return rows
 
 
+def read_rows(path: Path) -> list[Row]:
+    """The rows an earlier run wrote to ``path`` (its extrapolation.json); ConfigError naming
+    the file when it cannot be read or is not such a list."""
+    try:
+        records = json.loads(path.read_text(encoding="utf-8"))
+        rows: list[Row] = []
+        for r in records:
+            distance, error, band, shift, transient = (float(r[k]) for k in ROW_KEYS[2:])
+            rows.append(
+                (str(r["variant"]), int(r["unit"]), distance, error, band, shift, transient)
+            )
+        return rows
+    except (OSError, UnicodeDecodeError, ValueError, TypeError, KeyError) as exc:
+        raise ConfigError(
+            f"--rows {path}: not the extrapolation.json of a run ({type(exc).__name__}: {exc})"
+        ) from None
+
+
 def _job(job: tuple[int, Plan, float, float, TwinConfig]) -> list[Row]:
     return unit_rows(*job)
 
@@ -146,13 +169,19 @@ def _group(distance: float) -> int:
     return 0 if distance <= 0.0 else 1 + int(np.searchsorted(DISTANCE_EDGES, distance))
 
 
+def _group_names() -> list[str]:
+    """The names of the groups of :func:`_group`, in its order."""
+    lows = (0.0, *DISTANCE_EDGES[:-1])
+    names = ["inside", *(f"{lo:g}-{hi:g} K" for lo, hi in zip(lows, DISTANCE_EDGES, strict=True))]
+    names[-1] = f"> {lows[-1]:g} K"
+    return names
+
+
 def table(rows: list[Row], growths: tuple[float, ...]) -> str:
     """Markdown, per variant: the steady blocks grouped by d_T, their count and units, the
     99th percentile and largest |relative error| [%] and, per growth, those of the ratio
     |error| / sqrt(e_rel^2 + (e_T d_T)^2 + E_dT^2 + transient^2) [-]."""
-    lows = (0.0, *DISTANCE_EDGES[:-1])
-    names = ["inside", *(f"{lo:g}-{hi:g} K" for lo, hi in zip(lows, DISTANCE_EDGES, strict=True))]
-    names[-1] = f"> {lows[-1]:g} K"
+    names = _group_names()
     head = "| commissioned on | d_T | blocks | units | error p99 / max [%] | " + " | ".join(
         f"ratio at e_T {g * 100:g} %/K: p99 / max" for g in growths
     )
@@ -177,13 +206,56 @@ def table(rows: list[Row], growths: tuple[float, ...]) -> str:
                     + shift[pick] ** 2
                     + transient[pick] ** 2
                 )
-                ratio = error[pick] / sigma
-                cells.append(f"{np.quantile(ratio, 0.99):.2f} / {ratio.max():.2f}")
+                cells.append(_ratio_cells(error[pick] / sigma))
             lines.append(
                 f"| {variant} | {name} | {int(pick.sum())} | {len(set(units[pick].tolist()))} | "
                 + " | ".join(cells)
                 + " |"
             )
+    return "\n".join(lines)
+
+
+def _ratio_cells(ratio: np.ndarray) -> str:
+    return f"{np.quantile(ratio, 0.99):.2f} / {ratio.max():.2f}"
+
+
+def shift_table(rows: list[Row], growth: float, scales: tuple[float, ...]) -> str:
+    """Markdown, the steady blocks of every variant pooled and grouped by d_T: their count
+    and units, the 99th percentile and largest |relative error| [%], the median E_dT [%] on
+    the rows' scale (:data:`SHIFT_EXTRAPOLATION`) and, per scale X [K] of ``scales``, the
+    99th percentile and largest ratio |error| / sigma at e_T = ``growth`` [1/K] with E_dT
+    times SHIFT_EXTRAPOLATION / X (X = inf: no E_dT) [-]."""
+    picked = [r for r in rows if r[6] < STEADY_SHARE]
+    head = "| d_T | blocks | units | error p99 / max [%] | E_dT median [%] | " + " | ".join(
+        f"ratio at X = {x:g} K: p99 / max" for x in scales
+    )
+    lines = [head + " |", "| --- " * (5 + len(scales)) + "|"]
+    if not picked:
+        return "\n".join([*lines, "| no steady block |" + " |" * (4 + len(scales))])
+    units = np.array([r[1] for r in picked])
+    distance, error, band, shift, transient = np.array([r[2:] for r in picked]).T
+    groups = np.array([_group(d) for d in distance])
+    for g, name in enumerate(_group_names()):
+        pick = groups == g
+        if not pick.any():
+            continue
+        cells = [
+            f"{100 * np.quantile(error[pick], 0.99):.2f} / {100 * error[pick].max():.2f}",
+            f"{100 * np.median(shift[pick]):.2f}",
+        ]
+        for scale in scales:
+            sigma = np.sqrt(
+                band[pick] ** 2
+                + (growth * distance[pick]) ** 2
+                + (shift[pick] * SHIFT_EXTRAPOLATION / scale) ** 2
+                + transient[pick] ** 2
+            )
+            cells.append(_ratio_cells(error[pick] / sigma))
+        lines.append(
+            f"| {name} | {int(pick.sum())} | {len(set(units[pick].tolist()))} | "
+            + " | ".join(cells)
+            + " |"
+        )
     return "\n".join(lines)
 
 
@@ -232,6 +304,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=f"{TEMPERATURE_ERROR},0.005,0.001,0",
         help="e_T to compare, comma-separated [1/K] (the first is the default's)",
     )
+    parser.add_argument(
+        "--shift-scales",
+        default=f"{SHIFT_EXTRAPOLATION:g},10,25,inf",
+        help="scales of the shift's term E_dT to compare at the first growth, comma-separated "
+        "[K] (the baseline's shift_extrapolation; inf: no term)",
+    )
+    parser.add_argument(
+        "--rows",
+        default=None,
+        help="tabulate the rows of an earlier run's extrapolation.json instead of running "
+        "the units (--units names them in the heading)",
+    )
     parser.add_argument("--workers", type=int, default=2, help="processes [-]")
     parser.add_argument("--config", default=None, help="screw parameter YAML (default: paper)")
     parser.add_argument("--out", default=None, help="directory for extrapolation.md, PNG, JSON")
@@ -250,31 +334,43 @@ def run(args: argparse.Namespace) -> int:
         ) from None
     if not all(math.isfinite(g) and g >= 0.0 for g in growths):
         raise ConfigError(f"--growths {args.growths!r}: every e_T must be finite and >= 0")
+    try:
+        scales = tuple(float(x) for x in args.shift_scales.split(","))
+    except ValueError:
+        raise ConfigError(
+            f"--shift-scales {args.shift_scales!r}: numbers [K] separated by commas"
+        ) from None
+    if not all(x > 0.0 for x in scales):
+        raise ConfigError(f"--shift-scales {args.shift_scales!r}: every scale must be > 0 K")
     if not (10.0 < args.first < args.commission and 10.0 < args.last < args.commission):
         raise ConfigError("--first and --last must lie between 10 s and --commission")
     plan = Plan(commission=args.commission, healthy=args.healthy, faults=0, fault_length=60.0)
-    config = load_config(args.config)
     rows: list[Row] = []
-    for each in tqdm(
-        all_rows(units, plan, args.first, args.last, config, args.workers),
-        total=len(units),
-        desc="units",
-        file=sys.stderr,
-    ):
-        rows.extend(each)
+    if args.rows:
+        rows = read_rows(Path(args.rows))
+    else:
+        config = load_config(args.config)
+        for each in tqdm(
+            all_rows(units, plan, args.first, args.last, config, args.workers),
+            total=len(units),
+            desc="units",
+            file=sys.stderr,
+        ):
+            rows.extend(each)
     rows.sort(key=lambda r: (r[1], r[0]))
     text = (
         f"Units {units.start}:{units.stop}, cold start {plan.commission:g} s, healthy run "
         f"{plan.healthy:g} s; steady blocks (transient terms < {STEADY_SHARE:.1%} of the drag)."
-        "\n\n" + table(rows, growths)
+        "\n\n" + table(rows, growths) + "\n\nAll commissionings pooled, e_T = "
+        f"{growths[0] * 100:g} %/K, the shift's term on the scale X:\n\n"
+        + shift_table(rows, growths[0], scales)
     )
     print(text)
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "extrapolation.md").write_text(text + "\n")
-        keys = ("variant", "unit", "distance", "error", "band", "shift", "transient")
-        records = [dict(zip(keys, r, strict=True)) for r in rows]
+        records = [dict(zip(ROW_KEYS, r, strict=True)) for r in rows]
         (out / "extrapolation.json").write_text(json.dumps(records) + "\n")
         print(f"wrote {plot(rows, growths, out / 'extrapolation.png')}")
     return 0

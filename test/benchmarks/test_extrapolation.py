@@ -11,7 +11,7 @@ import pytest
 
 from ballscrew_twin.benchmarks import extrapolation
 from ballscrew_twin.benchmarks.detection_plan import unit_draw
-from ballscrew_twin.benchmarks.extrapolation import Row, _cut, table
+from ballscrew_twin.benchmarks.extrapolation import Row, _cut, shift_table, table
 from ballscrew_twin.cli import main
 
 ROWS: list[Row] = [
@@ -43,6 +43,20 @@ def test_each_growth_gives_the_ratio_of_the_error_to_the_sigma_it_makes() -> Non
     assert "| whole | 0-2 K |" not in text
 
 
+def test_each_shift_scale_gives_the_ratio_with_the_term_rescaled() -> None:
+    """The rows' E_dT is on the 5 K scale; X = 25 K makes it a fifth, inf leaves it out."""
+    text = shift_table(ROWS, 0.002, (5.0, 25.0, math.inf))
+    far = _cells(text, "| > 20 K |")
+    assert far[1:5] == ["1", "1", "4.00 / 4.00", "3.00"]
+    for cell, shift in zip(far[5:], (0.03, 0.006, 0.0), strict=True):
+        ratio = 0.04 / math.sqrt(0.02**2 + 0.05**2 + shift**2)
+        assert cell == f"{ratio:.2f} / {ratio:.2f}"
+    inside = _cells(text, "| inside |")  # both variants pooled; the unsteady row left out
+    assert inside[1:3] == ["1", "1"] and inside[5:] == ["2.00 / 2.00"] * 3
+    assert _cells(text, "| 5-10 K |")[1:3] == ["1", "1"]
+    assert "no steady block" in shift_table(ROWS[2:3], 0.002, (5.0,))
+
+
 def test_a_variant_without_a_steady_block_says_so() -> None:
     text = table([("first 200 s", 1, 3.0, 0.01, 0.01, 0.0, 0.05)], (0.005,))
     assert "| first 200 s | no steady block |" in text
@@ -63,6 +77,9 @@ def test_the_cut_keeps_the_samples_between_its_times_after_the_first_stamp() -> 
         (["--growths", "0.5%"], "numbers"),
         (["--growths", "0.005,-1"], "finite and >= 0"),
         (["--first", "1300"], "--first and --last"),
+        (["--shift-scales", "5 K"], "numbers [K]"),
+        (["--shift-scales", "5,0"], "> 0 K"),
+        (["--shift-scales", "nan"], "> 0 K"),
     ],
 )
 def test_arguments_that_cannot_run_are_refused(
@@ -85,6 +102,7 @@ def test_the_outputs_are_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     assert sorted(asked) == [(5, 200.0, 600.0), (6, 200.0, 600.0)]
     text = (tmp_path / "extrapolation.md").read_text()
     assert "Units 5:7" in text and _cells(text, "| whole | 5-10 K |")[3] == "2"
+    assert "ratio at X = 25 K" in text and _cells(text, "| > 20 K |")[1:3] == ["2", "2"]
     assert len((tmp_path / "extrapolation.json").read_text()) > 0
     assert (tmp_path / "extrapolation.png").stat().st_size > 0
 
@@ -95,3 +113,34 @@ def test_a_units_recordings_do_not_depend_on_its_number_of_fault_runs() -> None:
     alone, with_faults = unit_draw(31007, 0), unit_draw(31007, 4)
     assert alone.seeds == with_faults.seeds[:3] and len(with_faults.seeds) == 11
     assert alone.preload == with_faults.preload and alone.unit == with_faults.unit
+
+
+def test_an_earlier_runs_rows_are_tabulated_again_without_running_a_unit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(extrapolation, "unit_rows", lambda number, *_: list(ROWS))
+    first = tmp_path / "first"
+    argv = ["bench", "extrapolation", "--units", "3:4", "--workers", "1", "--out", str(first)]
+    assert main(argv) == 0
+    capsys.readouterr()
+
+    def refuse(*_: object) -> list[Row]:
+        raise AssertionError("a unit was run")
+
+    monkeypatch.setattr(extrapolation, "unit_rows", refuse)
+    again = ["bench", "extrapolation", "--rows", str(first / "extrapolation.json")]
+    assert main([*again, "--shift-scales", "inf"]) == 0
+    text = capsys.readouterr().out
+    assert sorted(extrapolation.read_rows(first / "extrapolation.json")) == sorted(ROWS)
+    ratio = 0.04 / math.sqrt(0.02**2 + 0.05**2)
+    assert _cells(text, "| > 20 K |")[5] == f"{ratio:.2f} / {ratio:.2f}"
+
+
+@pytest.mark.parametrize("content", ['[{"variant": "whole"}]', "{", "\xff"])
+def test_rows_that_are_not_a_runs_are_refused_naming_the_file(
+    content: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "extrapolation.json"
+    path.write_bytes(content.encode("latin-1"))
+    assert main(["bench", "extrapolation", "--rows", str(path)]) != 0
+    assert f"--rows {path}: not the extrapolation.json of a run" in capsys.readouterr().err
