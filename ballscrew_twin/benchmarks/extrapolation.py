@@ -58,7 +58,8 @@ DISTANCE_EDGES = (2.0, 5.0, 10.0, 20.0, math.inf)
 #: One compared block: variant, unit, d_T [K], |relative error| [-], band error [-], shift
 #: term [-], transient terms [-] (relative to the block's drag).
 Row = tuple[str, int, float, float, float, float, float]
-#: The keys of a row in extrapolation.json, in its order.
+#: The keys of a row in extrapolation.json, in its order; each record also carries
+#: ``shift_scale``, the scale [K] its shift term was made on (:data:`SHIFT_EXTRAPOLATION`).
 ROW_KEYS = ("variant", "unit", "distance", "error", "band", "shift", "transient")
 
 
@@ -131,13 +132,15 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
 
 
 def read_rows(path: Path) -> list[Row]:
-    """The rows an earlier run wrote to ``path`` (its extrapolation.json); ConfigError naming
-    the file when it cannot be read or is not such a list."""
+    """The rows an earlier run wrote to ``path`` (its extrapolation.json), the shift term
+    brought to today's :data:`SHIFT_EXTRAPOLATION` from the scale the run made it on;
+    ConfigError naming the file when it cannot be read or is not such a list."""
     try:
         records = json.loads(path.read_text(encoding="utf-8"))
         rows: list[Row] = []
         for r in records:
             distance, error, band, shift, transient = (float(r[k]) for k in ROW_KEYS[2:])
+            shift *= float(r["shift_scale"]) / SHIFT_EXTRAPOLATION
             rows.append(
                 (str(r["variant"]), int(r["unit"]), distance, error, band, shift, transient)
             )
@@ -306,7 +309,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--shift-scales",
-        default=f"{SHIFT_EXTRAPOLATION:g},10,25,inf",
+        default="5,10,25,inf",
         help="scales of the shift's term E_dT to compare at the first growth, comma-separated "
         "[K] (the baseline's shift_extrapolation; inf: no term)",
     )
@@ -370,7 +373,10 @@ def run(args: argparse.Namespace) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         (out / "extrapolation.md").write_text(text + "\n")
-        records = [dict(zip(ROW_KEYS, r, strict=True)) for r in rows]
+        records = [
+            {**dict(zip(ROW_KEYS, r, strict=True)), "shift_scale": SHIFT_EXTRAPOLATION}
+            for r in rows
+        ]
         (out / "extrapolation.json").write_text(json.dumps(records) + "\n")
         print(f"wrote {plot(rows, growths, out / 'extrapolation.png')}")
     return 0

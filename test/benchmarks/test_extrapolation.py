@@ -3,6 +3,7 @@ its arguments, and its outputs (the per-unit work replaced: it commissions three
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from ballscrew_twin.benchmarks import extrapolation
 from ballscrew_twin.benchmarks.detection_plan import unit_draw
 from ballscrew_twin.benchmarks.extrapolation import Row, _cut, shift_table, table
 from ballscrew_twin.cli import main
+from ballscrew_twin.errors import ConfigError
 
 ROWS: list[Row] = [
     # variant, unit, d_T [K], |error|, band, shift term, transient terms (relative)
@@ -144,3 +146,16 @@ def test_rows_that_are_not_a_runs_are_refused_naming_the_file(
     path.write_bytes(content.encode("latin-1"))
     assert main(["bench", "extrapolation", "--rows", str(path)]) != 0
     assert f"--rows {path}: not the extrapolation.json of a run" in capsys.readouterr().err
+
+
+def test_rows_made_on_another_shift_scale_are_brought_to_todays(tmp_path: Path) -> None:
+    path = tmp_path / "extrapolation.json"
+    record = dict(zip(extrapolation.ROW_KEYS, ROWS[3], strict=True))
+    twice = 2.0 * extrapolation.SHIFT_EXTRAPOLATION
+    path.write_text(json.dumps([{**record, "shift_scale": twice}]))
+    (row,) = extrapolation.read_rows(path)
+    assert row[:5] == ROWS[3][:5] and row[6] == ROWS[3][6]
+    assert row[5] == pytest.approx(2.0 * ROWS[3][5], rel=1e-15)
+    path.write_text(json.dumps([record]))  # a file that does not say its scale
+    with pytest.raises(ConfigError, match=r"not the extrapolation\.json of a run"):
+        extrapolation.read_rows(path)
