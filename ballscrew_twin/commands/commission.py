@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bags.bench import read_bench_bag
+from ..health.baseline import SHIFT_EXTRAPOLATION
 from ..health.commission import ERROR_SCALE, TEMPERATURE_ERROR, UNSEEN_ERROR, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
@@ -58,6 +59,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="growth of the model error per kelvin outside the temperatures the recording saw "
         "at a speed (e_T) [1/K]",
     )
+    parser.add_argument(
+        "--shift-extrapolation",
+        type=float,
+        default=SHIFT_EXTRAPOLATION,
+        help="the fitted temperature shift at which the twin's whole change of drag beyond "
+        "the temperatures the recording saw counts as its 1-sigma error there [K]",
+    )
     add_topic_arguments(parser)
 
 
@@ -73,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
         error_scale=args.error_scale,
         unseen_error=args.unseen_error,
         temperature_error=args.temperature_error,
+        shift_extrapolation=args.shift_extrapolation,
     )
     for bag, recording in zip(args.bag, recordings, strict=True):
         where = f"{Path(bag).name}: " if len(recordings) > 1 else ""
@@ -109,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"temperatures seen: {b.temperature_min - 273.15:.1f} to {b.temperature_max - 273.15:.1f} "
         f"C; outside those seen at a speed the twin's error grows by "
-        f"{b.temperature_error:.2%} per K (--temperature-error)"
+        f"{b.temperature_error:.2%} per K (--temperature-error), and by the twin's change "
+        f"there times |shift| / {b.shift_extrapolation:g} K (--shift-extrapolation)"
     )
     if len(recordings) > 1:
         print(

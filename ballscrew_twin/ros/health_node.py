@@ -335,6 +335,7 @@ class HealthNode(TableNode):
                 source="live",
                 unseen_error=self._float("commission_unseen_error"),
                 temperature_error=self._float("commission_temperature_error"),
+                shift_extrapolation=self._float("commission_shift_extrapolation"),
             )
         except BallscrewTwinError as err:
             self.commission_result = f"commissioning failed: {err}"

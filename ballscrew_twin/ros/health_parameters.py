@@ -6,6 +6,7 @@ are those of :class:`~ballscrew_twin.health.monitor_settings.MonitorSettings` an
 
 from __future__ import annotations
 
+from ..health.baseline import SHIFT_EXTRAPOLATION
 from ..health.commission import TEMPERATURE_ERROR, UNSEEN_ERROR
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
@@ -176,6 +177,15 @@ HEALTH_PARAMETERS: tuple[ParameterSpec, ...] = (
         "~/commission: growth of the twin error per K outside the temperatures the samples saw",
         0.0,
         0.1,
+    ),
+    ParameterSpec(
+        "commission_shift_extrapolation",
+        SHIFT_EXTRAPOLATION,
+        "K",
+        "~/commission: fitted shift at which the twin's change outside the temperatures the "
+        "samples saw counts as its error",
+        0.1,
+        1000.0,
     ),
     ParameterSpec(
         "commission_out",

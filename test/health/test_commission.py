@@ -318,14 +318,15 @@ def test_commissioning_on_a_standstill_says_why_it_cannot(tmp_path: Path) -> Non
 def commissioned_bag(
     tmp_path_factory: pytest.TempPathFactory,
 ) -> tuple[Baseline, str, Path]:
-    """The sample healthy bag commissioned by the command (with a growth e_T of its own): its
-    baseline, what it printed, and its plot."""
+    """The sample healthy bag commissioned by the command (with a growth e_T and a shift's
+    scale of its own): its baseline, what it printed, and its plot."""
     folder = tmp_path_factory.mktemp("commissioned")
     out, png = folder / "unit.yaml", folder / "fit.png"
     capture = io.StringIO()
     with contextlib.redirect_stdout(capture):
         bag, growth = str(SAMPLE_DIR / "healthy"), "--temperature-error=0.003"
-        code = main(["commission", bag, "--out", str(out), "--plot", str(png), growth])
+        scale = "--shift-extrapolation=12.5"
+        code = main(["commission", bag, "--out", str(out), "--plot", str(png), growth, scale])
     assert code == 0
     return load_baseline(out), capture.getvalue(), png
 
@@ -344,6 +345,8 @@ def test_commission_command_writes_baseline_and_plot(
     assert f"taken as {baseline.unseen_error:.2%} (1 sigma)" in printed
     assert baseline.temperature_error == 0.003
     assert "grows by 0.30% per K (--temperature-error)" in printed
+    assert baseline.shift_extrapolation == 12.5
+    assert "|shift| / 12.5 K (--shift-extrapolation)" in printed
     assert "caution" not in printed  # one recording: no word on several
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
