@@ -46,8 +46,10 @@ def test_each_growth_gives_the_ratio_of_the_error_to_the_sigma_it_makes() -> Non
 
 
 def test_each_shift_scale_gives_the_ratio_with_the_term_rescaled() -> None:
-    """The rows' E_dT is on the 5 K scale; X = 25 K makes it a fifth, inf leaves it out."""
-    text = shift_table(ROWS, 0.002, (5.0, 25.0, math.inf))
+    """The rows' E_dT is on today's scale; five times it makes the term a fifth, inf leaves
+    it out."""
+    today = extrapolation.SHIFT_EXTRAPOLATION
+    text = shift_table(ROWS, 0.002, (today, 5.0 * today, math.inf))
     far = _cells(text, "| > 20 K |")
     assert far[1:5] == ["1", "1", "4.00 / 4.00", "3.00"]
     for cell, shift in zip(far[5:], (0.03, 0.006, 0.0), strict=True):
