@@ -62,24 +62,17 @@ import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
 from scipy.stats import chi2
 
 from ..errors import ConfigError
-from ..health.baseline import SHIFT_EXTRAPOLATION, Baseline
+from ..health.baseline import Baseline
 from ..health.bench_data import START_NS, BenchData, generate_unit_data
 from ..health.classify import FAULT_CLASSES
-from ..health.commission import (
-    ERROR_SCALE,
-    TEMPERATURE_ERROR,
-    UNSEEN_ERROR,
-    UNSEEN_QUANTILE,
-    Channels,
-    commission,
-)
+from ..health.commission import Channels, CommissionKeywords, commission
 from ..health.duty_cycles import Trajectory, draw_trajectory
 from ..health.fault_profiles import DEFAULT_GROWTH, FaultSpec
 from ..health.monitor import HealthMonitor, feed
@@ -426,18 +419,9 @@ def run_unit(
     residual = contenders[0].settings.residual
 
     def commissioned(recordings: Sequence[Channels], keywords: Keywords) -> Baseline:
-        given = dict(keywords)
-        return commission(
-            recordings,
-            config,
-            residual,
-            twin=twin,
-            error_scale=given.get("error_scale", ERROR_SCALE),
-            unseen_error=given.get("unseen_error", UNSEEN_ERROR),
-            unseen_quantile=given.get("unseen_quantile", UNSEEN_QUANTILE),
-            temperature_error=given.get("temperature_error", TEMPERATURE_ERROR),
-            shift_extrapolation=given.get("shift_extrapolation", SHIFT_EXTRAPOLATION),
-        ).baseline
+        # the names were checked against KEYWORD_LIMITS when the setting was parsed
+        given = cast(CommissionKeywords, dict(keywords))
+        return commission(recordings, config, residual, twin=twin, **given).baseline
 
     baselines: dict[Keywords, Baseline] = {}
     for each in contenders:

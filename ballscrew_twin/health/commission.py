@@ -34,7 +34,7 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -102,6 +102,19 @@ KEYWORD_LIMITS: dict[str, dict[str, Any]] = {
     "temperature_error": not_negative("1/K"),
     "shift_extrapolation": positive("K"),
 }
+
+
+class CommissionKeywords(TypedDict, total=False):
+    """The keywords of :data:`KEYWORD_LIMITS`, each optional, to pass to :func:`commission`
+    as ``**keywords`` (units there)."""
+
+    error_scale: float
+    unseen_error: float
+    unseen_quantile: float
+    temperature_error: float
+    shift_extrapolation: float
+
+
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
 #: surface (the inertia's own error would) [-].
 SURFACE_INERTIA = 0.3

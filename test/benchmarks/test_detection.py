@@ -29,7 +29,7 @@ from ballscrew_twin.health.baseline import Baseline
 from ballscrew_twin.health.bench_data import BenchData, generate_unit_data
 from ballscrew_twin.health.bench_units import draw_unit
 from ballscrew_twin.health.classify import FAULT_CLASSES
-from ballscrew_twin.health.commission import ERROR_SCALE, UNSEEN_ERROR, UNSEEN_QUANTILE
+from ballscrew_twin.health.commission import UNSEEN_ERROR
 from ballscrew_twin.health.duty_cycles import draw_trajectory
 from ballscrew_twin.health.fault_profiles import FaultSpec
 from ballscrew_twin.health.monitor import HealthMonitor
@@ -235,13 +235,14 @@ def test_each_set_of_commissioning_keywords_commissions_the_unit_once(
     """Monitors that differ only in their settings share one commissioning; a monitor with a
     commissioning keyword of its own gets the unit commissioned again with it, and its
     monitor runs on that baseline."""
-    asked: list[tuple[float, float, float]] = []
+    asked: list[dict[str, float]] = []
     used: list[float] = []
 
     def nominal(channels: list[object], config: TwinConfig, *_: object, **given: Any) -> object:
-        asked.append((given["error_scale"], given["unseen_error"], given["unseen_quantile"]))
-        baseline = replace(Baseline.nominal(config), unseen_error=given["unseen_error"])
-        return SimpleNamespace(baseline=baseline)
+        del given["twin"]
+        asked.append(given)
+        unseen = given.get("unseen_error", UNSEEN_ERROR)
+        return SimpleNamespace(baseline=replace(Baseline.nominal(config), unseen_error=unseen))
 
     class Seen(HealthMonitor):
         def __init__(self, *args: Any, baseline: Baseline, **kwargs: Any) -> None:
@@ -258,12 +259,8 @@ def test_each_set_of_commissioning_keywords_commissions_the_unit_once(
         detection.Contender(commissioning=(("unseen_quantile", 0.9),)),
     )
     runs = detection.run_unit(1, plan, paper, contenders)
-    default = (ERROR_SCALE, UNSEEN_ERROR, UNSEEN_QUANTILE)
-    assert asked == [
-        default,
-        (ERROR_SCALE, 0.015, UNSEEN_QUANTILE),
-        (ERROR_SCALE, UNSEEN_ERROR, 0.9),
-    ]
+    # the default's commissioning passes no keyword: commission's own defaults hold
+    assert asked == [{}, {"unseen_error": 0.015}, {"unseen_quantile": 0.9}]
     assert used == [UNSEEN_ERROR, UNSEEN_ERROR, 0.015, UNSEEN_ERROR]
     assert len(runs) == 4
 

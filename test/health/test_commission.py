@@ -4,6 +4,7 @@ cannot fit."""
 from __future__ import annotations
 
 import contextlib
+import inspect
 import io
 import math
 from dataclasses import replace
@@ -25,10 +26,12 @@ from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.health.commission import (
     FIT_BLOCKS,
     FOLD_CHUNK,
+    KEYWORD_LIMITS,
     RECORDING_GAP,
     TEMPERATURE_ERROR,
     UNSEEN_ERROR,
     CommissioningResult,
+    CommissionKeywords,
     SurfaceStudy,
     _settling_angle,
     commission,
@@ -243,6 +246,17 @@ def test_an_unseen_quantile_outside_zero_to_one_is_refused(quantile: float) -> N
     refused = r"^commission: unseen_quantile(:| = -?[\d.]+ is outside the).* range \(0, 1\] -"
     with pytest.raises(ConfigError, match=refused):
         commission({}, load_config(None), unseen_quantile=quantile)
+
+
+def test_the_checked_keywords_are_the_typed_ones_and_commissions_own() -> None:
+    """``bench detection`` passes a checked setting as ``**CommissionKeywords``: the three
+    lists of names must agree, and each keyword of ``commission`` must have a default."""
+    typed = CommissionKeywords.__optional_keys__
+    assert set(KEYWORD_LIMITS) == typed and CommissionKeywords.__required_keys__ == set()
+    parameters = inspect.signature(commission).parameters
+    for name in typed:
+        assert parameters[name].kind is inspect.Parameter.KEYWORD_ONLY
+        assert parameters[name].default is not inspect.Parameter.empty
 
 
 @pytest.mark.parametrize(
