@@ -180,11 +180,47 @@ def _group_names() -> list[str]:
     return names
 
 
+def _ratio_cells(ratio: np.ndarray) -> str:
+    return f"{np.quantile(ratio, 0.99):.2f} / {ratio.max():.2f}"
+
+
+def _group_cells(
+    picked: list[Row], terms: list[tuple[float, float]], shift_median: bool
+) -> Iterator[tuple[str, list[str]]]:
+    """Per group of d_T that holds a row of ``picked``: its name and cells, the count of
+    blocks and units, the 99th percentile and largest |relative error| [%], the median shift
+    term [%] if ``shift_median``, and per (e_T [1/K], factor on E_dT [-]) of ``terms`` the
+    99th percentile and largest ratio |error| / sqrt(e_rel^2 + (e_T d_T)^2 + (factor
+    E_dT)^2 + transient^2) [-]."""
+    units = np.array([r[1] for r in picked])
+    distance, error, band, shift, transient = np.array([r[2:] for r in picked]).T
+    groups = np.array([_group(d) for d in distance])
+    for g, name in enumerate(_group_names()):
+        pick = groups == g
+        if not pick.any():
+            continue
+        cells = [
+            str(int(pick.sum())),
+            str(len(set(units[pick].tolist()))),
+            f"{100 * np.quantile(error[pick], 0.99):.2f} / {100 * error[pick].max():.2f}",
+        ]
+        if shift_median:
+            cells.append(f"{100 * np.median(shift[pick]):.2f}")
+        for growth, factor in terms:
+            sigma = np.sqrt(
+                band[pick] ** 2
+                + (growth * distance[pick]) ** 2
+                + (factor * shift[pick]) ** 2
+                + transient[pick] ** 2
+            )
+            cells.append(_ratio_cells(error[pick] / sigma))
+        yield name, cells
+
+
 def table(rows: list[Row], growths: tuple[float, ...]) -> str:
     """Markdown, per variant: the steady blocks grouped by d_T, their count and units, the
     99th percentile and largest |relative error| [%] and, per growth, those of the ratio
     |error| / sqrt(e_rel^2 + (e_T d_T)^2 + E_dT^2 + transient^2) [-]."""
-    names = _group_names()
     head = "| commissioned on | d_T | blocks | units | error p99 / max [%] | " + " | ".join(
         f"ratio at e_T {g * 100:g} %/K: p99 / max" for g in growths
     )
@@ -194,32 +230,10 @@ def table(rows: list[Row], growths: tuple[float, ...]) -> str:
         if not picked:
             lines.append(f"| {variant} | no steady block |" + " |" * (3 + len(growths)))
             continue
-        units = np.array([r[1] for r in picked])
-        distance, error, band, shift, transient = np.array([r[2:] for r in picked]).T
-        groups = np.array([_group(d) for d in distance])
-        for g, name in enumerate(names):
-            pick = groups == g
-            if not pick.any():
-                continue
-            cells = [f"{100 * np.quantile(error[pick], 0.99):.2f} / {100 * error[pick].max():.2f}"]
-            for growth in growths:
-                sigma = np.sqrt(
-                    band[pick] ** 2
-                    + (growth * distance[pick]) ** 2
-                    + shift[pick] ** 2
-                    + transient[pick] ** 2
-                )
-                cells.append(_ratio_cells(error[pick] / sigma))
-            lines.append(
-                f"| {variant} | {name} | {int(pick.sum())} | {len(set(units[pick].tolist()))} | "
-                + " | ".join(cells)
-                + " |"
-            )
+        terms = [(g, 1.0) for g in growths]
+        for name, cells in _group_cells(picked, terms, shift_median=False):
+            lines.append(f"| {variant} | {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
-
-
-def _ratio_cells(ratio: np.ndarray) -> str:
-    return f"{np.quantile(ratio, 0.99):.2f} / {ratio.max():.2f}"
 
 
 def shift_table(rows: list[Row], growth: float, scales: tuple[float, ...]) -> str:
@@ -235,30 +249,9 @@ def shift_table(rows: list[Row], growth: float, scales: tuple[float, ...]) -> st
     lines = [head + " |", "| --- " * (5 + len(scales)) + "|"]
     if not picked:
         return "\n".join([*lines, "| no steady block |" + " |" * (4 + len(scales))])
-    units = np.array([r[1] for r in picked])
-    distance, error, band, shift, transient = np.array([r[2:] for r in picked]).T
-    groups = np.array([_group(d) for d in distance])
-    for g, name in enumerate(_group_names()):
-        pick = groups == g
-        if not pick.any():
-            continue
-        cells = [
-            f"{100 * np.quantile(error[pick], 0.99):.2f} / {100 * error[pick].max():.2f}",
-            f"{100 * np.median(shift[pick]):.2f}",
-        ]
-        for scale in scales:
-            sigma = np.sqrt(
-                band[pick] ** 2
-                + (growth * distance[pick]) ** 2
-                + (shift[pick] * SHIFT_EXTRAPOLATION / scale) ** 2
-                + transient[pick] ** 2
-            )
-            cells.append(_ratio_cells(error[pick] / sigma))
-        lines.append(
-            f"| {name} | {int(pick.sum())} | {len(set(units[pick].tolist()))} | "
-            + " | ".join(cells)
-            + " |"
-        )
+    terms = [(growth, SHIFT_EXTRAPOLATION / x) for x in scales]
+    for name, cells in _group_cells(picked, terms, shift_median=True):
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -324,25 +317,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default=None, help="directory for extrapolation.md, PNG, JSON")
 
 
+def _numbers(option: str, text: str, unit: str) -> tuple[float, ...]:
+    """The comma-separated numbers of ``option`` (ConfigError naming it and ``unit``)."""
+    try:
+        return tuple(float(x) for x in text.split(","))
+    except ValueError:
+        raise ConfigError(f"{option} {text!r}: numbers [{unit}] separated by commas") from None
+
+
 def run(args: argparse.Namespace) -> int:
     """Commission, monitor, tabulate; print the table (and write it, the rows and a plot)."""
     from tqdm import tqdm
 
     units = unit_range(args.units)
-    try:
-        growths = tuple(float(g) for g in args.growths.split(","))
-    except ValueError:
-        raise ConfigError(
-            f"--growths {args.growths!r}: numbers [1/K] separated by commas"
-        ) from None
+    growths = _numbers("--growths", args.growths, "1/K")
     if not all(math.isfinite(g) and g >= 0.0 for g in growths):
         raise ConfigError(f"--growths {args.growths!r}: every e_T must be finite and >= 0")
-    try:
-        scales = tuple(float(x) for x in args.shift_scales.split(","))
-    except ValueError:
-        raise ConfigError(
-            f"--shift-scales {args.shift_scales!r}: numbers [K] separated by commas"
-        ) from None
+    scales = _numbers("--shift-scales", args.shift_scales, "K")
     if not all(x > 0.0 for x in scales):
         raise ConfigError(f"--shift-scales {args.shift_scales!r}: every scale must be > 0 K")
     if not (10.0 < args.first < args.commission and 10.0 < args.last < args.commission):
