@@ -352,9 +352,14 @@ def run(args: argparse.Namespace) -> int:
         ):
             rows.extend(each)
     rows.sort(key=lambda r: (r[1], r[0]))
+    made = (
+        f"the rows of {args.rows}"
+        if args.rows
+        else f"cold start {plan.commission:g} s, healthy run {plan.healthy:g} s"
+    )
     text = (
-        f"Units {units.start}:{units.stop}, cold start {plan.commission:g} s, healthy run "
-        f"{plan.healthy:g} s; steady blocks (transient terms < {STEADY_SHARE:.1%} of the drag)."
+        f"Units {units.start}:{units.stop}, {made}; steady blocks (transient terms < "
+        f"{STEADY_SHARE:.1%} of the drag)."
         "\n\n" + table(rows, growths) + "\n\nAll commissionings pooled, e_T = "
         f"{growths[0] * 100:g} %/K, the shift's term on the scale X:\n\n"
         + shift_table(rows, growths[0], scales)

@@ -135,6 +135,7 @@ def test_an_earlier_runs_rows_are_tabulated_again_without_running_a_unit(
     again = ["bench", "extrapolation", "--rows", str(first / "extrapolation.json")]
     assert main([*again, "--shift-scales", "inf"]) == 0
     text = capsys.readouterr().out
+    assert f"the rows of {first / 'extrapolation.json'};" in text and "cold start" not in text
     assert sorted(extrapolation.read_rows(first / "extrapolation.json")) == sorted(ROWS)
     ratio = 0.04 / math.sqrt(0.02**2 + 0.05**2)
     assert _cells(text, "| > 20 K |")[5] == f"{ratio:.2f} / {ratio:.2f}"
