@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..bags.bench import read_bench_bag
-from ..health.baseline import SHIFT_EXTRAPOLATION
+from ..health.baseline import BAND_REACH, SHIFT_EXTRAPOLATION
 from ..health.commission import ERROR_SCALE, TEMPERATURE_ERROR, UNSEEN_ERROR, commission
 from ..health.correction import MIN_SUPPORT
 from ..health.offline import CHANNELS, recording_channels
@@ -66,6 +66,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="the fitted temperature shift at which the twin's whole change of drag beyond "
         "the temperatures the recording saw counts as its 1-sigma error there [K]",
     )
+    parser.add_argument(
+        "--band-reach",
+        type=float,
+        default=BAND_REACH,
+        help="the temperatures the recording saw count within this many decades of a speed; "
+        "0: those seen in its speed band (split at 3, 10, 30, 100, 300 rad/s) [-]",
+    )
     add_topic_arguments(parser)
 
 
@@ -82,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         unseen_error=args.unseen_error,
         temperature_error=args.temperature_error,
         shift_extrapolation=args.shift_extrapolation,
+        band_reach=args.band_reach,
     )
     for bag, recording in zip(args.bag, recordings, strict=True):
         where = f"{Path(bag).name}: " if len(recordings) > 1 else ""
@@ -119,7 +127,12 @@ def run(args: argparse.Namespace) -> int:
         f"temperatures seen: {b.temperature_min - 273.15:.1f} to {b.temperature_max - 273.15:.1f} "
         f"C; outside those seen at a speed the twin's error grows by "
         f"{b.temperature_error:.2%} per K (--temperature-error), and by the twin's change "
-        f"there times |shift| / {b.shift_extrapolation:g} K (--shift-extrapolation)"
+        f"there times |shift| / {b.shift_extrapolation:g} K (--shift-extrapolation); "
+        + (
+            f"seen at a speed: within {b.band_reach:g} decades of it (--band-reach)"
+            if b.band_reach > 0.0
+            else "seen at a speed: in its speed band (--band-reach 0)"
+        )
     )
     if len(recordings) > 1:
         print(

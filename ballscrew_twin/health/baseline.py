@@ -24,9 +24,10 @@ the sensor noise of the block mean, the twin's own error after commissioning (re
 absolute), the inertia's, the speed interpolation's at the block edges (c_k the second
 differences of the speed samples there: :attr:`.residuals.Block.edge_curvature`), the growth
 of the error with the distance d_T [K] of the temperature from the range commissioned in the
-block's speed band (:meth:`Baseline.temperature_distance`), and outside that range the part
-of the twin's change from the nearest commissioned temperature T_edge that a fitted shift dT
-leaves uncertain (:meth:`Baseline.extrapolation_error`).
+block's speed band, or with a reach at the speeds near the block's
+(:meth:`Baseline.temperature_distance`, :meth:`Baseline.reached_range`), and outside that
+range the part of the twin's change from the nearest commissioned temperature T_edge that a
+fitted shift dT leaves uncertain (:meth:`Baseline.extrapolation_error`).
 :func:`.commission.commission` fits all of them on a healthy recording; without one the nominal
 baseline (:meth:`Baseline.nominal`) is used with the default model error of the accuracy
 benchmark. Saved as YAML (SI units, every field documented in the file).
@@ -49,6 +50,7 @@ from ..params import (
     TwinConfig,
     config_fingerprint,
     finite,
+    limits,
     not_negative,
     positive,
     read_yaml,
@@ -68,8 +70,23 @@ ERROR_BAND_EDGES = (3.0, 10.0, 30.0, 100.0, 300.0)
 #: to a temperature outside it counts as its 1-sigma error there (:meth:`Baseline.
 #: extrapolation_error`); the production spread of the shift (commissioning prior).
 SHIFT_EXTRAPOLATION = 5.0
-#: Fields that hold one number per speed band (lists in the file).
-TUPLE_FIELDS = ("error_bands", "band_temperature_min", "band_temperature_max")
+#: How far along the speed [decades] the temperatures commissioned at other speeds count
+#: (:meth:`Baseline.nearest_commissioned`); 0 takes those of the block's speed band.
+BAND_REACH = 0.0
+#: The fine speed bins in which a baseline keeps the temperatures it saw for the reach:
+#: width [decades], the lower edge of the first [log10(rad/s)] and their count (0.01 rad/s to
+#: 10^4 rad/s; slower and faster speeds fall in the end bins).
+SPEED_BIN_WIDTH = 0.1
+SPEED_BIN_LOW = -2.0
+SPEED_BIN_COUNT = 60
+#: Fields that hold one number per speed band or per fine speed bin (lists in the file).
+TUPLE_FIELDS = (
+    "error_bands",
+    "band_temperature_min",
+    "band_temperature_max",
+    "bin_temperature_min",
+    "bin_temperature_max",
+)
 
 FIELD_DOCS: dict[str, str] = {
     "config": "screw parameter set the baseline was fitted with (its name)",
@@ -94,12 +111,17 @@ FIELD_DOCS: dict[str, str] = {
     "in the block's speed band [1/K]",
     "shift_extrapolation": "the temperature shift at which the twin's change of drag from the "
     "nearest commissioned temperature counts as its 1-sigma error outside the range [K]",
+    "band_reach": "how far along the speed the temperatures commissioned at other speeds count, "
+    "in decades [-] (0: those of the block's speed band)",
     "temperature_min": "lowest temperature of the commissioning recording [K]",
     "temperature_max": "highest temperature of the commissioning recording [K]",
     "band_temperature_min": "lowest temperature commissioned in each speed band of error_bands "
     "[K] (empty: temperature_min)",
     "band_temperature_max": "highest temperature commissioned in each speed band [K] (empty: "
     "temperature_max)",
+    "bin_temperature_min": "lowest temperature commissioned in each fine speed bin (0.1 "
+    "decades from 0.01 rad/s) [K] (.inf, and -.inf in the max: a bin not seen; empty: none kept)",
+    "bin_temperature_max": "highest temperature commissioned in each fine speed bin [K]",
     "fit_rms": "rms relative block residual of the fit (not scaled) [-]",
     "settling_angle": "screw rotation after a reversal or stop from which the unit's torque is "
     "predicted as well as anywhere, measured at commissioning [rad] (null: the monitor's gate)",
@@ -132,11 +154,14 @@ class Baseline:
     inertia_error: float = field(default=0.15, metadata=not_negative("-"))
     temperature_error: float = field(default=0.0, metadata=not_negative("1/K"))
     shift_extrapolation: float = field(default=SHIFT_EXTRAPOLATION, metadata=positive("K"))
+    band_reach: float = field(default=BAND_REACH, metadata=limits("-", 0.0, 3.0))
     unseen_error: float = field(default=0.03, metadata=not_negative("-"))
     temperature_min: float = field(default=0.0, metadata=not_negative("K"))
     temperature_max: float = field(default=1.0e4, metadata=not_negative("K"))
     band_temperature_min: tuple[float, ...] = ()
     band_temperature_max: tuple[float, ...] = ()
+    bin_temperature_min: tuple[float, ...] = ()
+    bin_temperature_max: tuple[float, ...] = ()
     fit_rms: float = math.nan
     blocks: int = 0
     surface: ResidualSurface | None = None
@@ -162,6 +187,23 @@ class Baseline:
             for a, b in zip(low, high, strict=True)
         ):
             raise ConfigError("baseline: a band temperature is not finite or its min is above max")
+        low, high = self.bin_temperature_min, self.bin_temperature_max
+        if len(low) != len(high) or len(low) not in (0, SPEED_BIN_COUNT):
+            raise ConfigError(
+                "baseline: bin_temperature_min and bin_temperature_max must both hold one value "
+                f"per fine speed bin ({SPEED_BIN_COUNT}) or be empty"
+            )
+        if any(
+            not (
+                (a == math.inf and b == -math.inf)
+                or (math.isfinite(a) and math.isfinite(b) and a <= b)
+            )
+            for a, b in zip(low, high, strict=True)
+        ):
+            raise ConfigError(
+                "baseline: a fine speed bin's temperatures are neither finite with min <= max "
+                "nor .inf and -.inf (not seen)"
+            )
 
     def unit_point(self, measured: OperatingPoint) -> OperatingPoint:
         """The unit's own operating point where ``measured`` is read: the load cell's preload
@@ -211,8 +253,8 @@ class Baseline:
         return math.hypot(error, thin * self.unseen_error)
 
     def temperature_distance(self, temperature: float, speed: float) -> float:
-        """How far ``temperature`` [K] lies outside the temperatures the commissioning saw in
-        the speed band of ``speed`` [rad/s] (:meth:`nearest_commissioned`) [K] (0 inside).
+        """How far ``temperature`` [K] lies outside the temperatures the commissioning saw at
+        ``speed`` [rad/s] (:meth:`nearest_commissioned`) [K] (0 inside).
         Per band, not over the whole recording: held-out unit 12015 (round 13 of issue 13)
         was commissioned from -17.9 C, but below 3 rad/s only at 32-38 C; at 2.9 rad/s and
         -8.4 C the twin was 13.7 % high against a 1-sigma error of 3.6 %, and the CUSUM
@@ -220,13 +262,36 @@ class Baseline:
         return abs(temperature - self.nearest_commissioned(temperature, speed))
 
     def nearest_commissioned(self, temperature: float, speed: float) -> float:
-        """The temperature nearest ``temperature`` [K] that the commissioning saw in the speed
-        band of ``speed`` [rad/s] (the whole recording's range without band ranges) [K]."""
+        """The temperature nearest ``temperature`` [K] that the commissioning saw within
+        ``band_reach`` decades of ``speed`` [rad/s] (:meth:`reached_range`); with no reach,
+        or none seen there, in the speed band of ``speed`` (the whole recording's range
+        without band ranges) [K]."""
         low, high = self.temperature_min, self.temperature_max
-        if self.band_temperature_min:
+        reached = self.reached_range(speed)
+        if reached is not None:
+            low, high = reached
+        elif self.band_temperature_min:
             band = int(np.searchsorted(ERROR_BAND_EDGES, abs(speed)))
             low, high = self.band_temperature_min[band], self.band_temperature_max[band]
         return min(max(temperature, low), high)
+
+    def reached_range(self, speed: float) -> tuple[float, float] | None:
+        """The lowest and highest temperature [K] the commissioning saw at the speeds within
+        ``band_reach`` decades of |``speed``| [rad/s] (the fine speed bins that overlap
+        them), or None without a reach, without fine bins or with none seen there. A speed
+        band's edges are where its error is tabulated, not where the twin's error changes:
+        dev unit 32028 (round 37 of issue 13) stroked at 11-26 rad/s and -9.7 C, commissioned
+        from -10.2 C at 30-300 rad/s but at 10-30 rad/s only from 29 C, and its sigma
+        carried 38.7 K of growth where the twin was 1.7 % off."""
+        if self.band_reach <= 0.0 or not self.bin_temperature_min:
+            return None
+        first, last = (
+            speed_bin(abs(speed) * 10.0**-self.band_reach),
+            speed_bin(abs(speed) * 10.0**self.band_reach),
+        )
+        low = min(self.bin_temperature_min[first : last + 1])
+        high = max(self.bin_temperature_max[first : last + 1])
+        return (low, high) if low <= high else None  # a bin not seen holds (inf, -inf)
 
     def extrapolation_error(self, edge_change: float) -> float:
         """1-sigma error of the twin outside the temperatures commissioned at the block's
@@ -276,6 +341,14 @@ class Baseline:
         except OSError as err:
             raise ConfigError(f"{file}: cannot write baseline ({err.strerror})") from err
         return file
+
+
+def speed_bin(speed: float) -> int:
+    """The fine speed bin (:data:`SPEED_BIN_WIDTH` decades wide from
+    10^:data:`SPEED_BIN_LOW` rad/s) that holds |``speed``| [rad/s]; the end bins take the
+    speeds beyond them."""
+    position = (math.log10(max(abs(speed), 1e-300)) - SPEED_BIN_LOW) / SPEED_BIN_WIDTH
+    return min(max(math.floor(position), 0), SPEED_BIN_COUNT - 1)
 
 
 def baseline_from_mapping(data: Any, source: str) -> Baseline:

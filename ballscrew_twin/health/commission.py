@@ -42,7 +42,14 @@ from scipy.optimize import least_squares
 
 from ..errors import ConfigError
 from ..params import TwinConfig, check_number, config_fingerprint, limits, not_negative, positive
-from .baseline import ERROR_BAND_EDGES, SHIFT_EXTRAPOLATION, Baseline
+from .baseline import (
+    BAND_REACH,
+    ERROR_BAND_EDGES,
+    SHIFT_EXTRAPOLATION,
+    SPEED_BIN_COUNT,
+    Baseline,
+    speed_bin,
+)
 from .correction import (
     LOG_SPEED_NODES,
     MIN_SUPPORT,
@@ -101,6 +108,7 @@ KEYWORD_LIMITS: dict[str, dict[str, Any]] = {
     "unseen_quantile": limits("-", 0.0, 1.0, lo_open=True),
     "temperature_error": not_negative("1/K"),
     "shift_extrapolation": positive("K"),
+    "band_reach": limits("-", 0.0, 3.0),
 }
 
 
@@ -113,6 +121,7 @@ class CommissionKeywords(TypedDict, total=False):
     unseen_quantile: float
     temperature_error: float
     shift_extrapolation: float
+    band_reach: float
 
 
 #: Blocks whose inertia torque exceeds this share of their drag do not teach the residual
@@ -471,6 +480,7 @@ def commission(
     unseen_quantile: float = UNSEEN_QUANTILE,
     temperature_error: float = TEMPERATURE_ERROR,
     shift_extrapolation: float = SHIFT_EXTRAPOLATION,
+    band_reach: float = BAND_REACH,
     twin: UnitTwin | None = None,
 ) -> CommissioningResult:
     """Fit the baseline of the unit that made ``channels`` (see the module docstring): one
@@ -483,7 +493,8 @@ def commission(
     is taken where it is larger. ``temperature_error`` [1/K] is the baseline's e_T, the
     relative error's growth per kelvin outside the temperatures commissioned at a speed, and
     ``shift_extrapolation`` [K] the scale of the fitted shift's term there
-    (:meth:`.Baseline.extrapolation_error`).
+    (:meth:`.Baseline.extrapolation_error`), ``band_reach`` [decades] how far along the speed
+    the temperatures commissioned at other speeds count (:meth:`.Baseline.reached_range`).
 
     Raises:
         ConfigError: too few comparable blocks (the recording stands still or reverses all
@@ -496,6 +507,7 @@ def commission(
         "unseen_quantile": unseen_quantile,
         "temperature_error": temperature_error,
         "shift_extrapolation": shift_extrapolation,
+        "band_reach": band_reach,
     }
     for name, value in given.items():
         check_number(value, KEYWORD_LIMITS[name], f"commission: {name}", text=False)
@@ -649,6 +661,14 @@ def commission(
         else (float(np.min(seen)), float(np.max(seen)))
         for k in range(len(ERROR_BAND_EDGES) + 1)
     ]
+    # and in each fine speed bin, for the reach of the temperatures along the speed
+    in_bin = np.array([speed_bin(float(np.mean(b.speed))) for b in usable])
+    bin_ranges = [
+        (float(np.min(seen[in_bin == k])), float(np.max(seen[in_bin == k])))
+        if np.any(in_bin == k)
+        else (math.inf, -math.inf)  # not seen: an empty range
+        for k in range(SPEED_BIN_COUNT)
+    ]
     baseline = Baseline(
         config=config.name,
         fingerprint=config_fingerprint(config),
@@ -671,10 +691,13 @@ def commission(
         else Baseline.inertia_error,
         temperature_error=temperature_error,
         shift_extrapolation=shift_extrapolation,
+        band_reach=band_reach,
         temperature_min=float(min(temperatures)),
         temperature_max=float(max(temperatures)),
         band_temperature_min=tuple(low for low, _ in band_ranges),
         band_temperature_max=tuple(high for _, high in band_ranges),
+        bin_temperature_min=tuple(low for low, _ in bin_ranges),
+        bin_temperature_max=tuple(high for _, high in bin_ranges),
         fit_rms=float(np.sqrt(np.mean(((measured - predicted) / scale) ** 2))),
         blocks=len(fit_blocks),
         surface=surface,

@@ -336,6 +336,7 @@ class HealthNode(TableNode):
                 unseen_error=self._float("commission_unseen_error"),
                 temperature_error=self._float("commission_temperature_error"),
                 shift_extrapolation=self._float("commission_shift_extrapolation"),
+                band_reach=self._float("commission_band_reach"),
             )
         except BallscrewTwinError as err:
             self.commission_result = f"commissioning failed: {err}"

@@ -6,7 +6,7 @@ are those of :class:`~ballscrew_twin.health.monitor_settings.MonitorSettings` an
 
 from __future__ import annotations
 
-from ..health.baseline import SHIFT_EXTRAPOLATION
+from ..health.baseline import BAND_REACH, SHIFT_EXTRAPOLATION
 from ..health.commission import TEMPERATURE_ERROR, UNSEEN_ERROR
 from ..health.monitor_settings import DETECTORS, MonitorSettings
 from ..health.residuals import ResidualSettings
@@ -186,6 +186,15 @@ HEALTH_PARAMETERS: tuple[ParameterSpec, ...] = (
         "samples saw counts as its error",
         0.1,
         1000.0,
+    ),
+    ParameterSpec(
+        "commission_band_reach",
+        BAND_REACH,
+        "-",
+        "~/commission: decades of speed within which the temperatures the samples saw count "
+        "at a speed (0: its speed band's)",
+        0.0,
+        3.0,
     ),
     ParameterSpec(
         "commission_out",

@@ -15,8 +15,10 @@ from ballscrew_twin.health.baseline import (
     ERROR_BAND_EDGES,
     SHAPE_REFERENCE_SPEED,
     SHIFT_EXTRAPOLATION,
+    SPEED_BIN_COUNT,
     Baseline,
     load_baseline,
+    speed_bin,
 )
 from ballscrew_twin.health.correction import LOG_SPEED_NODES, TEMPERATURE_NODES, ResidualSurface
 from ballscrew_twin.params import load_config
@@ -158,6 +160,50 @@ def test_saving_creates_the_folder(tmp_path: Path) -> None:
     # docs/health.md's `commission ... --out out/unit.yaml` on a fresh clone has no out/ yet.
     file = _fitted().save(tmp_path / "out" / "unit.yaml")
     assert load_baseline(file) == _fitted()
+
+
+def test_a_reach_takes_the_temperatures_commissioned_at_nearby_speeds(tmp_path: Path) -> None:
+    # the third band (10-30 rad/s) saw only 296-300 K; 32 rad/s (bin 35: 31.6-39.8 rad/s)
+    # saw 260-300 K, 9 rad/s (bin 29: 7.9-10 rad/s) 280-290 K, no other bin anything
+    low = [math.inf] * SPEED_BIN_COUNT
+    high = [-math.inf] * SPEED_BIN_COUNT
+    low[35], high[35], low[29], high[29] = 260.0, 300.0, 280.0, 290.0
+    b = replace(
+        _fitted(),
+        band_temperature_min=(290.0, 290.0, 296.0, 260.0, 290.0, 290.0),
+        band_temperature_max=(300.0, 300.0, 300.0, 300.0, 300.0, 300.0),
+        bin_temperature_min=tuple(low),
+        bin_temperature_max=tuple(high),
+    )
+    assert (speed_bin(32.0), speed_bin(31.0), speed_bin(9.0), speed_bin(-9.0)) == (35, 34, 29, 29)
+    assert (speed_bin(0.0), speed_bin(1e-3), speed_bin(1e5)) == (0, 0, SPEED_BIN_COUNT - 1)
+    assert b.band_reach == 0.0 and b.reached_range(20.0) is None
+    assert b.nearest_commissioned(265.0, 20.0) == 296.0  # its own band alone
+    reaching = replace(b, band_reach=0.2)
+    # 20 rad/s reaches 12.6-31.7 rad/s: bin 35 (from 31.6 rad/s), not bin 29
+    assert reaching.reached_range(-20.0) == (260.0, 300.0)
+    assert reaching.nearest_commissioned(265.0, 20.0) == 265.0
+    assert reaching.nearest_commissioned(250.0, -20.0) == 260.0
+    # 15 rad/s reaches 9.5-23.8 rad/s: bin 29 only
+    assert reaching.nearest_commissioned(265.0, 15.0) == 280.0
+    # 100 rad/s reaches 63-158 rad/s: nothing seen there, so its band's range (30-100 rad/s)
+    assert reaching.reached_range(100.0) is None
+    assert reaching.nearest_commissioned(250.0, 100.0) == 260.0
+    assert (
+        replace(reaching, bin_temperature_min=(), bin_temperature_max=()).reached_range(20.0)
+        is None
+    )
+    with pytest.raises(ConfigError, match="band_reach"):
+        replace(b, band_reach=-0.1)
+    with pytest.raises(ConfigError, match="fine speed bin"):
+        replace(b, bin_temperature_min=tuple(low[:-1]), bin_temperature_max=tuple(high[:-1]))
+    # the bins not seen are .inf and -.inf in the file and come back as such
+    file = replace(reaching, source="unit").save(tmp_path / "unit.yaml")
+    assert "-.inf" in file.read_text()
+    assert load_baseline(file) == replace(reaching, source="unit")
+    high[35] = -math.inf
+    with pytest.raises(ConfigError, match="not seen"):
+        replace(b, bin_temperature_max=tuple(high))
 
 
 def test_the_shift_extrapolation_error_follows_its_definition() -> None:

@@ -17,10 +17,12 @@ import pytest
 from ballscrew_twin.cli import main
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import (
+    BAND_REACH,
     ERROR_BAND_EDGES,
     SHIFT_EXTRAPOLATION,
     Baseline,
     load_baseline,
+    speed_bin,
 )
 from ballscrew_twin.health.bench_data import SAMPLE_DIR
 from ballscrew_twin.health.commission import (
@@ -187,6 +189,23 @@ def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
     assert fitted.band_temperature_max[band + 1] == pytest.approx(warmed(240.0), abs=0.3)
     assert min(fitted.band_temperature_min) == fitted.temperature_min
     assert max(fitted.band_temperature_max) == fitted.temperature_max
+    # and each fine speed bin its own: the bins inside a band (from 31.6 and 126 rad/s, where
+    # the bins' edges fall, to 100 and 251 rad/s) within the band's range, all of them
+    # together the recording's, the held speeds' bins seen; a reach of 0.1 decades about
+    # 150 rad/s sees its first hold
+    low, high = np.array(fitted.bin_temperature_min), np.array(fitted.bin_temperature_max)
+    for k, (start, stop) in enumerate(((32.0, 99.0), (130.0, 250.0)), start=band):
+        bins = slice(speed_bin(start), speed_bin(stop) + 1)
+        assert np.min(low[bins]) >= fitted.band_temperature_min[k]
+        assert np.max(high[bins]) <= fitted.band_temperature_max[k]
+    assert (np.min(low), np.max(high)) == (fitted.temperature_min, fitted.temperature_max)
+    for speed in (40.0, 60.0, 150.0, 300.0):
+        assert math.isfinite(low[speed_bin(speed)])
+    assert (low[speed_bin(1.0)], high[speed_bin(1.0)]) == (math.inf, -math.inf)
+    reaching = replace(fitted, band_reach=0.1)
+    assert fitted.reached_range(150.0) is None  # no reach
+    coolest, warmest = reaching.reached_range(150.0)  # and the ramps through 119-189 rad/s
+    assert coolest == pytest.approx(warmed(60.0), abs=0.3) and warmest <= fitted.temperature_max
 
 
 def _halves() -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], ...]:
@@ -264,10 +283,12 @@ def test_the_checked_keywords_are_the_typed_ones_and_commissions_own() -> None:
     [
         *(("temperature_error", growth) for growth in (-0.001, math.inf, math.nan)),
         *(("shift_extrapolation", scale) for scale in (0.0, -1.0, math.inf, math.nan)),
+        *(("band_reach", reach) for reach in (-0.1, 3.5, math.nan)),
     ],
 )
 def test_a_growth_or_shift_scale_outside_its_range_is_refused(keyword: str, value: float) -> None:
-    """e_T must be finite and >= 0, the shift's scale finite and > 0; the message names it."""
+    """e_T must be finite and >= 0, the shift's scale finite and > 0, the reach 0-3 decades;
+    the message names it."""
     with pytest.raises(ConfigError, match=rf"^commission: {keyword}"):
         commission({}, load_config(None), **{keyword: value})
 
@@ -277,6 +298,7 @@ def test_a_growth_or_shift_scale_outside_its_range_is_refused(keyword: str, valu
     [
         ("temperature_error", TEMPERATURE_ERROR, 0.0005),
         ("shift_extrapolation", SHIFT_EXTRAPOLATION, 25.0),
+        ("band_reach", BAND_REACH, 0.5),
     ],
 )
 def test_the_growth_and_shift_scale_keywords_set_their_field_and_nothing_else(
@@ -339,8 +361,10 @@ def commissioned_bag(
     capture = io.StringIO()
     with contextlib.redirect_stdout(capture):
         bag, growth = str(SAMPLE_DIR / "healthy"), "--temperature-error=0.003"
-        scale = "--shift-extrapolation=12.5"
-        code = main(["commission", bag, "--out", str(out), "--plot", str(png), growth, scale])
+        scale, reach = "--shift-extrapolation=12.5", "--band-reach=0.3"
+        code = main(
+            ["commission", bag, "--out", str(out), "--plot", str(png), growth, scale, reach]
+        )
     assert code == 0
     return load_baseline(out), capture.getvalue(), png
 
@@ -361,6 +385,7 @@ def test_commission_command_writes_baseline_and_plot(
     assert "grows by 0.30% per K (--temperature-error)" in printed
     assert baseline.shift_extrapolation == 12.5
     assert "|shift| / 12.5 K (--shift-extrapolation)" in printed
+    assert baseline.band_reach == 0.3 and "within 0.3 decades of it (--band-reach)" in printed
     assert "caution" not in printed  # one recording: no word on several
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

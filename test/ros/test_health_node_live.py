@@ -297,6 +297,7 @@ def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseli
             Parameter("commission_unseen_error", value=0.5),
             Parameter("commission_temperature_error", value=0.004),
             Parameter("commission_shift_extrapolation", value=12.5),
+            Parameter("commission_band_reach", value=0.4),
         ],
     )
     executor.add_node(node)
@@ -324,7 +325,7 @@ def test_commission_service_fits_the_recent_samples_and_restarts_with_the_baseli
     assert node.baseline is not None and node.baseline.source == "live"
     # the node's floor of the untaught error, far above this recording's own misfit
     assert node.baseline.unseen_error == 0.5 and node.baseline.temperature_error == 0.004
-    assert node.baseline.shift_extrapolation == 12.5
+    assert node.baseline.shift_extrapolation == 12.5 and node.baseline.band_reach == 0.4
     assert node.monitor is not before and node.monitor.baseline is node.baseline
     assert out.exists() and "commissioned on" in node.commission_result
     # the saved file is the node's baseline, and a node started with it uses it
