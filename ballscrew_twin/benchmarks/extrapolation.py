@@ -14,8 +14,10 @@ grouped by d_T; per group the table gives the twin's |relative error| and, for e
 e_T (sensor noise apart): a ratio that stays at or below what the blocks inside the range
 reach says the growth is wide enough there. A second table pools the three commissionings and
 gives, at the first growth, the ratio with E_dT made on other scales ``--shift-scales`` (the
-baseline's ``shift_extrapolation`` [K]; ``inf`` leaves the term out). Tune e_T and the scale
-on training units only.
+baseline's ``shift_extrapolation`` [K]; ``inf`` leaves the term out). ``--band-reach``
+commissions every unit with that reach of the temperatures seen along the speed
+(:meth:`.Baseline.reached_range`; each record keeps it), so that two runs compare it with the
+speed bands' own ranges. Tune e_T, the scale and the reach on training units only.
 """
 
 from __future__ import annotations
@@ -31,14 +33,14 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import ConfigError
-from ..health.baseline import SHIFT_EXTRAPOLATION, Baseline
+from ..health.baseline import BAND_REACH, SHIFT_EXTRAPOLATION, Baseline
 from ..health.bench_data import generate_unit_data
-from ..health.commission import TEMPERATURE_ERROR, Channels, commission
+from ..health.commission import KEYWORD_LIMITS, TEMPERATURE_ERROR, Channels, commission
 from ..health.monitor import HealthMonitor, feed
 from ..health.monitor_settings import MonitorSettings
 from ..health.residuals import Block, UnitTwin
 from ..health.sensors import sensors_from_mapping
-from ..params import TwinConfig, load_config
+from ..params import TwinConfig, check_number, load_config
 from .detection import SENSORS, channels_of
 from .detection_plan import (
     TRAINING_UNITS,
@@ -95,9 +97,12 @@ def _cut(channels: Channels, start: float, stop: float) -> Channels:
     return cut
 
 
-def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinConfig) -> list[Row]:
+def unit_rows(
+    number: int, plan: Plan, first: float, last: float, config: TwinConfig, band_reach: float
+) -> list[Row]:
     """Every compared block of unit ``number``'s healthy recording, under the baselines of
-    its whole cold start, of its first ``first`` [s] and of its last ``last`` [s]."""
+    its whole cold start, of its first ``first`` [s] and of its last ``last`` [s], each
+    commissioned with the reach ``band_reach`` [decades] (:meth:`.Baseline.reached_range`)."""
     twin = UnitTwin(config)
     sensors = sensors_from_mapping(SENSORS, "bench extrapolation sensors")
     draw = unit_draw(number, 0)
@@ -119,7 +124,7 @@ def unit_rows(number: int, plan: Plan, first: float, last: float, config: TwinCo
     residual = MonitorSettings().residual
     rows: list[Row] = []
     for name, channels in variants.items():
-        baseline = commission(channels, config, residual, twin=twin).baseline
+        baseline = commission(channels, config, residual, twin=twin, band_reach=band_reach).baseline
         probe = _Probe(config, baseline, twin)
         for sample in feed(probe, recorded["run"]):
             parts = probe.parts.get(sample.time)
@@ -151,15 +156,21 @@ def read_rows(path: Path) -> list[Row]:
         ) from None
 
 
-def _job(job: tuple[int, Plan, float, float, TwinConfig]) -> list[Row]:
+def _job(job: tuple[int, Plan, float, float, TwinConfig, float]) -> list[Row]:
     return unit_rows(*job)
 
 
 def all_rows(
-    units: range, plan: Plan, first: float, last: float, config: TwinConfig, workers: int
+    units: range,
+    plan: Plan,
+    first: float,
+    last: float,
+    config: TwinConfig,
+    workers: int,
+    band_reach: float = BAND_REACH,
 ) -> Iterator[list[Row]]:
     """:func:`unit_rows` of every unit, in ``workers`` processes."""
-    jobs = [(n, plan, first, last, config) for n in units]
+    jobs = [(n, plan, first, last, config, band_reach) for n in units]
     if workers <= 1:
         yield from map(_job, jobs)
         return
@@ -307,6 +318,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "[K] (the baseline's shift_extrapolation; inf: no term)",
     )
     parser.add_argument(
+        "--band-reach",
+        type=float,
+        default=BAND_REACH,
+        help="commission each unit with this reach of the temperatures seen along the speed "
+        "[decades] (the baseline's band_reach; 0: a speed band's own)",
+    )
+    parser.add_argument(
         "--rows",
         default=None,
         help="tabulate the rows of an earlier run's extrapolation.json instead of running "
@@ -338,6 +356,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"--shift-scales {args.shift_scales!r}: every scale must be > 0 K")
     if not (10.0 < args.first < args.commission and 10.0 < args.last < args.commission):
         raise ConfigError("--first and --last must lie between 10 s and --commission")
+    check_number(args.band_reach, KEYWORD_LIMITS["band_reach"], "--band-reach", text=False)
     plan = Plan(commission=args.commission, healthy=args.healthy, faults=0, fault_length=60.0)
     rows: list[Row] = []
     if args.rows:
@@ -345,7 +364,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         config = load_config(args.config)
         for each in tqdm(
-            all_rows(units, plan, args.first, args.last, config, args.workers),
+            all_rows(units, plan, args.first, args.last, config, args.workers, args.band_reach),
             total=len(units),
             desc="units",
             file=sys.stderr,
@@ -355,7 +374,8 @@ def run(args: argparse.Namespace) -> int:
     made = (
         f"the rows of {args.rows}"
         if args.rows
-        else f"cold start {plan.commission:g} s, healthy run {plan.healthy:g} s"
+        else f"cold start {plan.commission:g} s, healthy run {plan.healthy:g} s, commissioned "
+        f"with a reach of {args.band_reach:g} decades"
     )
     text = (
         f"Units {units.start}:{units.stop}, {made}; steady blocks (transient terms < "
@@ -370,7 +390,11 @@ def run(args: argparse.Namespace) -> int:
         out.mkdir(parents=True, exist_ok=True)
         (out / "extrapolation.md").write_text(text + "\n")
         records = [
-            {**dict(zip(ROW_KEYS, r, strict=True)), "shift_scale": SHIFT_EXTRAPOLATION}
+            {
+                **dict(zip(ROW_KEYS, r, strict=True)),
+                "shift_scale": SHIFT_EXTRAPOLATION,
+                "band_reach": args.band_reach,
+            }
             for r in rows
         ]
         (out / "extrapolation.json").write_text(json.dumps(records) + "\n")

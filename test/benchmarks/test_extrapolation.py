@@ -84,6 +84,8 @@ def test_the_cut_keeps_the_samples_between_its_times_after_the_first_stamp() -> 
         (["--shift-scales", "5 K"], "numbers [K]"),
         (["--shift-scales", "5,0"], "> 0 K"),
         (["--shift-scales", "nan"], "> 0 K"),
+        (["--band-reach", "-1"], "--band-reach"),
+        (["--band-reach", "nan"], "--band-reach"),
     ],
 )
 def test_arguments_that_cannot_run_are_refused(
@@ -94,18 +96,22 @@ def test_arguments_that_cannot_run_are_refused(
 
 
 def test_the_outputs_are_written(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    asked: list[tuple[int, float, float]] = []
+    asked: list[tuple[int, float, float, float]] = []
 
-    def rows(number: int, plan: object, first: float, last: float, *_: object) -> list[Row]:
-        asked.append((number, first, last))
+    def rows(
+        number: int, plan: object, first: float, last: float, config: object, reach: float
+    ) -> list[Row]:
+        asked.append((number, first, last, reach))
         return [(r[0], number, *r[2:]) for r in ROWS]
 
     monkeypatch.setattr(extrapolation, "unit_rows", rows)
     argv = ["bench", "extrapolation", "--units", "5:7", "--workers", "1", "--out", str(tmp_path)]
-    assert main(argv) == 0
-    assert sorted(asked) == [(5, 200.0, 600.0), (6, 200.0, 600.0)]
+    assert main([*argv, "--band-reach", "0.5"]) == 0
+    assert sorted(asked) == [(5, 200.0, 600.0, 0.5), (6, 200.0, 600.0, 0.5)]
     text = (tmp_path / "extrapolation.md").read_text()
     assert "Units 5:7" in text and _cells(text, "| whole | 5-10 K |")[3] == "2"
+    assert "commissioned with a reach of 0.5 decades" in text
+    assert json.loads((tmp_path / "extrapolation.json").read_text())[0]["band_reach"] == 0.5
     assert "ratio at X = 25 K" in text and _cells(text, "| > 20 K |")[1:3] == ["2", "2"]
     assert len((tmp_path / "extrapolation.json").read_text()) > 0
     assert (tmp_path / "extrapolation.png").stat().st_size > 0
