@@ -12,6 +12,7 @@ import pytest
 
 from ballscrew_twin.errors import ConfigError
 from ballscrew_twin.health.baseline import (
+    BAND_REACH,
     ERROR_BAND_EDGES,
     SHAPE_REFERENCE_SPEED,
     SHIFT_EXTRAPOLATION,
@@ -177,8 +178,9 @@ def test_a_reach_takes_the_temperatures_commissioned_at_nearby_speeds(tmp_path: 
     )
     assert (speed_bin(32.0), speed_bin(31.0), speed_bin(9.0), speed_bin(-9.0)) == (35, 34, 29, 29)
     assert (speed_bin(0.0), speed_bin(1e-3), speed_bin(1e5)) == (0, 0, SPEED_BIN_COUNT - 1)
-    assert b.band_reach == 0.0 and b.reached_range(20.0) is None
-    assert b.nearest_commissioned(265.0, 20.0) == 296.0  # its own band alone
+    own_band = replace(b, band_reach=0.0)
+    assert b.band_reach == BAND_REACH and own_band.reached_range(20.0) is None
+    assert own_band.nearest_commissioned(265.0, 20.0) == 296.0  # its own band alone
     reaching = replace(b, band_reach=0.2)
     # 20 rad/s reaches 12.6-31.7 rad/s: bin 35 (from 31.6 rad/s), not bin 29
     assert reaching.reached_range(-20.0) == (260.0, 300.0)

@@ -203,7 +203,7 @@ def test_each_speed_band_keeps_the_temperatures_it_was_commissioned_at(
         assert math.isfinite(low[speed_bin(speed)])
     assert (low[speed_bin(1.0)], high[speed_bin(1.0)]) == (math.inf, -math.inf)
     reaching = replace(fitted, band_reach=0.1)
-    assert fitted.reached_range(150.0) is None  # no reach
+    assert replace(fitted, band_reach=0.0).reached_range(150.0) is None  # no reach
     coolest, warmest = reaching.reached_range(150.0)  # and the ramps through 119-189 rad/s
     assert coolest == pytest.approx(warmed(60.0), abs=0.3) and warmest <= fitted.temperature_max
 
@@ -298,7 +298,7 @@ def test_a_growth_or_shift_scale_outside_its_range_is_refused(keyword: str, valu
     [
         ("temperature_error", TEMPERATURE_ERROR, 0.0005),
         ("shift_extrapolation", SHIFT_EXTRAPOLATION, 25.0),
-        ("band_reach", BAND_REACH, 0.5),
+        ("band_reach", BAND_REACH, 0.2),
     ],
 )
 def test_the_growth_and_shift_scale_keywords_set_their_field_and_nothing_else(
