@@ -36,6 +36,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import BallscrewTwinError, ConfigError, MapError
 from ..models.base import OperatingPoint
@@ -75,7 +76,7 @@ from .residuals import (
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
-from .transient_terms import following_error, presliding_remainder
+from .transient_terms import following_error, lagged_drag, presliding_remainder
 from .verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
 
 #: Blocks of history kept for classification after an alarm.
@@ -239,6 +240,10 @@ class HealthMonitor:
         self.alarm: Alarm | None = None
         #: Following error of the friction over the last compared block [N m].
         self._last_lag = 0.0
+        #: (stamp [s], lagged minus quasi-static drag [N m]) at the last evaluated sample of
+        #: the last compared block: where the predicted lag goes on from
+        #: (``settings.lag_prediction``).
+        self._lag_end: tuple[float, float] | None = None
         #: (block mid time [s], classification) at each refinement of the alarm's class.
         self.classifications: list[tuple[float, Classification]] = []
         self.samples: list[HealthSample] = []
@@ -351,6 +356,27 @@ class HealthMonitor:
         angle (or the commissioned settling angle) over the settings' ``settling_lag_angles``
         (:mod:`.transient_terms`)."""
         return self.gate.settings.gate_angle / self.settings.settling_lag_angles
+
+    def _predicted_lag(
+        self, block: Block, at: npt.NDArray[np.intp], angle: FloatArray, quasi: FloatArray
+    ) -> FloatArray:
+        """The friction's predicted lag behind the quasi-static drag ``quasi`` [N m] at the
+        samples ``at`` (screw ``angle`` [rad]), at every sample of ``block`` [N m]: the drag
+        through a first-order lag over the rotation of ``lag_prediction`` times
+        :attr:`lag_angle` (:func:`.transient_terms.lagged_drag`), going on from the last
+        compared block where this one follows it sample to sample, else from a sweep's
+        steady lag; zeros when the setting is 0."""
+        share = self.settings.lag_prediction
+        if share <= 0.0:
+            return np.zeros(len(block.stamps))
+        stamps = block.stamps[at]
+        step = float(np.median(np.diff(block.stamps))) if len(block.stamps) > 1 else 0.0
+        start = None
+        if self._lag_end is not None and 0.0 < stamps[0] - self._lag_end[0] <= 1.5 * step:
+            start = float(quasi[0]) + self._lag_end[1]
+        lagged = lagged_drag(angle, quasi, share * self.lag_angle, start)
+        self._lag_end = (float(stamps[-1]), float(lagged[-1] - quasi[-1]))
+        return np.interp(block.stamps, stamps, lagged - quasi)
 
     def transient_variance(
         self, block: Block, inertia: float, lag: float, standstill: float
@@ -482,13 +508,17 @@ class HealthMonitor:
                 f"drag {drag:.3g} N m",
                 op,
             )
-        predicted = b.torque_gain * (drag + inertia) + b.torque_bias
+        trailing = self._predicted_lag(block, at, angle[at], evaluated * factor)
+        predicted = b.torque_gain * (drag + float(np.mean(trailing)) + inertia) + b.torque_bias
         residual = measured - predicted
-        # the lag outlasts the sweep by a block: this block's following error or the last one's
+        # the lag outlasts the sweep by a block: this block's following error or the last
+        # one's, of which a lag_prediction share k of the angle is predicted, leaving
+        # max(k, 1 - k) of it unknown
         following = following_error(angle[at], evaluated * factor, block.stamps[at], self.lag_angle)
+        unknown_share = max(s.lag_prediction, 1.0 - s.lag_prediction)
         # and what is left of a reversal's presliding jump, times the settings' share of it
         remainder = s.presliding_remainder * presliding_remainder(travel, drags, self.lag_angle)
-        lag = math.hypot(max(following, self._last_lag), remainder)
+        lag = math.hypot(unknown_share * max(following, self._last_lag), remainder)
         standstill = float(np.mean(np.abs(drags[few] - shifted)))
         transient = self.transient_variance(block, inertia, lag, standstill)
         model_sigma = self.block_sigma(block, drag, transient, edge_change)
@@ -525,9 +555,9 @@ class HealthMonitor:
                 float(np.mean(factor)),
             )
         )
-        # per sample for the order test, which takes the inertia torque off when the next
-        # block's speed is known
-        expected = b.torque_gain * drags + b.torque_bias
+        # per sample (with the predicted lag) for the order test, which takes the inertia
+        # torque off when the next block's speed is known
+        expected = b.torque_gain * (drags + trailing) + b.torque_bias
         self.order.hold(block.stamps, block.torque - expected, angle, drags)
         e = step.normalized
         if in_warmup:

@@ -7,7 +7,9 @@ A first-order lag over the rotation phi, dT/dphi = (T_ss - T) / phi_l, with phi_
 angle [rad], has two consequences that a block's sigma must carry: while the speed sweeps the
 quasi-static drag T_ss the friction trails it by phi_l |dT_ss/dphi| (:func:`following_error`),
 and after a reversal, where T_ss jumps from -T to T, the friction closes the jump as
-2 |T| exp(-phi / phi_l) (:func:`presliding_remainder`).
+2 |T| exp(-phi / phi_l) (:func:`presliding_remainder`). The first can also be predicted: the
+twin's drag passed through such a lag (:func:`lagged_drag`) trails it by the following error
+of that lag's angle.
 """
 
 from __future__ import annotations
@@ -42,6 +44,41 @@ def following_error(
     span = float(stamps[-1] - stamps[0])
     mean_slope = float(np.sum(slope * np.diff(stamps)) / span) if span > 0.0 else 0.0
     return mean_slope * lag_angle
+
+
+def lagged_drag(
+    angle: FloatArray, drag: FloatArray, lag_angle: float, start: float | None = None
+) -> FloatArray:
+    """The quasi-static drag passed through a first-order lag over the screw rotation [N m]:
+    dT/dphi = (T_ss - T) / phi_l with phi the rotation, solved exactly for a T_ss linear in
+    phi between the samples (stable for any step: T(phi + d) = T_ss(phi + d) - s phi_l +
+    (T(phi) - T_ss(phi) + s phi_l) exp(-d / phi_l), with s the slope over the step). Any
+    fading memory over the rotation whose kernel has the mean phi_l trails a sweep by the
+    same -phi_l dT_ss/dphi (:func:`following_error`); the first-order form is the simplest.
+
+    Args:
+        angle: screw angle at the samples [rad] (signed; the rotation is |d angle|).
+        drag: quasi-static drag there [N m].
+        lag_angle: phi_l [rad]; 0 returns ``drag``.
+        start: the lagged drag at the first sample [N m]; None takes the state of a sweep
+            that has run at the first step's slope for long (T_ss - s phi_l).
+    """
+    drag = np.asarray(drag, dtype=float)
+    if lag_angle <= 0.0 or len(drag) == 0:
+        return drag.copy()
+    turned = np.abs(np.diff(np.asarray(angle, dtype=float)))
+    slope = np.diff(drag) / np.maximum(turned, 1e-12)
+    slope = np.where(turned > 1e-12, slope, 0.0)
+    out = np.empty_like(drag)
+    if start is not None:
+        out[0] = start
+    else:
+        out[0] = drag[0] - (slope[0] * lag_angle if len(slope) else 0.0)
+    decay = np.exp(-turned / lag_angle)
+    for i in range(1, len(drag)):
+        trail = slope[i - 1] * lag_angle
+        out[i] = drag[i] - trail + (out[i - 1] - drag[i - 1] + trail) * decay[i - 1]
+    return out
 
 
 def presliding_remainder(travel: FloatArray, drags: FloatArray, lag_angle: float) -> float:
