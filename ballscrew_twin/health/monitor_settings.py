@@ -100,12 +100,16 @@ class MonitorSettings:
             as without it, with no false alarm in 10.82 h (round 31).
         lag_prediction: share k of the lag angle phi_l with which the monitor predicts the
             friction's following error [-]: the twin's drag passed through a first-order lag
-            over the rotation of angle k phi_l (:func:`.transient_terms.lagged_drag`), and
-            the following error counted in the sigma times max(k, 1 - k), since the unit's
-            own lag angle lies between 0 and phi_l (the settling angle is at least three of
-            it). 0 predicts none and counts the whole following error (the rule up to round
-            37); 0.5, the middle, halves it. The presliding remainder after a reversal is
-            counted in full either way.
+            over the rotation of angle k phi_l (:func:`.transient_terms.lagged_drag`; in the
+            block's prediction and the order test's samples), and the following error
+            counted in the sigma times max(k, 1 - k), since the unit's own lag angle lies
+            between 0 and phi_l (the settling angle is at least three of it). 0 predicts
+            none and counts the whole following error (the rule up to round 37); 0.5, the
+            middle, halves it: the default since round 38, when held out on units
+            33015-33029 it found a jam x1.3 at 4.5 s instead of 13.7 s (named
+            ``preload_loss`` at 0.50, where the default had named it right at 0.50) and
+            changed no other alarm. The presliding remainder after a reversal is counted in
+            full either way.
         unit_friction_responses: read the fault classes' responses (the torque change of a
             thinner oil and of debris) from the twin with the unit's commissioned friction
             scales of mu_dry and tau_0, not from the nominal screw. A jam's change bends
@@ -158,7 +162,7 @@ class MonitorSettings:
     settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
     presliding_remainder: float = field(default=1.0, metadata=not_negative("-"))
-    lag_prediction: float = field(default=0.0, metadata=limits("-", 0.0, 1.0))
+    lag_prediction: float = field(default=0.5, metadata=limits("-", 0.0, 1.0))
     unit_friction_responses: bool = False
     unit_friction_jam: bool = True
 
