@@ -36,7 +36,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
-import numpy.typing as npt
 
 from ..errors import BallscrewTwinError, ConfigError, MapError
 from ..models.base import OperatingPoint
@@ -76,7 +75,7 @@ from .residuals import (
     within_block_variance,
 )
 from .tracker import DriftTracker, TrackerSettings
-from .transient_terms import following_error, lagged_drag, presliding_remainder
+from .transient_terms import PredictedLag, following_error, presliding_remainder
 from .verdicts import FAULT, OK, UNKNOWN, WARN, Alarm, HealthSample
 
 #: Blocks of history kept for classification after an alarm.
@@ -240,10 +239,8 @@ class HealthMonitor:
         self.alarm: Alarm | None = None
         #: Following error of the friction over the last compared block [N m].
         self._last_lag = 0.0
-        #: (stamp [s], lagged minus quasi-static drag [N m]) at the last evaluated sample of
-        #: the last compared block: where the predicted lag goes on from
-        #: (``settings.lag_prediction``).
-        self._lag_end: tuple[float, float] | None = None
+        #: The friction's lag behind the twin, predicted with settings.lag_prediction.
+        self._trailing = PredictedLag()
         #: (block mid time [s], classification) at each refinement of the alarm's class.
         self.classifications: list[tuple[float, Classification]] = []
         self.samples: list[HealthSample] = []
@@ -356,27 +353,6 @@ class HealthMonitor:
         angle (or the commissioned settling angle) over the settings' ``settling_lag_angles``
         (:mod:`.transient_terms`)."""
         return self.gate.settings.gate_angle / self.settings.settling_lag_angles
-
-    def _predicted_lag(
-        self, block: Block, at: npt.NDArray[np.intp], angle: FloatArray, quasi: FloatArray
-    ) -> FloatArray:
-        """The friction's predicted lag behind the quasi-static drag ``quasi`` [N m] at the
-        samples ``at`` (screw ``angle`` [rad]), at every sample of ``block`` [N m]: the drag
-        through a first-order lag over the rotation of ``lag_prediction`` times
-        :attr:`lag_angle` (:func:`.transient_terms.lagged_drag`), going on from the last
-        compared block where this one follows it sample to sample, else from a sweep's
-        steady lag; zeros when the setting is 0."""
-        share = self.settings.lag_prediction
-        if share <= 0.0:
-            return np.zeros(len(block.stamps))
-        stamps = block.stamps[at]
-        step = float(np.median(np.diff(block.stamps))) if len(block.stamps) > 1 else 0.0
-        start = None
-        if self._lag_end is not None and 0.0 < stamps[0] - self._lag_end[0] <= 1.5 * step:
-            start = float(quasi[0]) + self._lag_end[1]
-        lagged = lagged_drag(angle, quasi, share * self.lag_angle, start)
-        self._lag_end = (float(stamps[-1]), float(lagged[-1] - quasi[-1]))
-        return np.interp(block.stamps, stamps, lagged - quasi)
 
     def transient_variance(
         self, block: Block, inertia: float, lag: float, standstill: float
@@ -508,7 +484,9 @@ class HealthMonitor:
                 f"drag {drag:.3g} N m",
                 op,
             )
-        trailing = self._predicted_lag(block, at, angle[at], evaluated * factor)
+        trailing = self._trailing.block(
+            block.stamps, at, angle[at], evaluated * factor, s.lag_prediction * self.lag_angle
+        )
         predicted = b.torque_gain * (drag + float(np.mean(trailing)) + inertia) + b.torque_bias
         residual = measured - predicted
         # the lag outlasts the sweep by a block: this block's following error or the last

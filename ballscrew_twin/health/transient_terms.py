@@ -9,12 +9,13 @@ quasi-static drag T_ss the friction trails it by phi_l |dT_ss/dphi| (:func:`foll
 and after a reversal, where T_ss jumps from -T to T, the friction closes the jump as
 2 |T| exp(-phi / phi_l) (:func:`presliding_remainder`). The first can also be predicted: the
 twin's drag passed through such a lag (:func:`lagged_drag`) trails it by the following error
-of that lag's angle.
+of that lag's angle; :class:`PredictedLag` carries it from block to block.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .residuals import FloatArray
 
@@ -99,3 +100,35 @@ def presliding_remainder(travel: FloatArray, drags: FloatArray, lag_angle: float
     if len(travel) == 0 or lag_angle <= 0.0:
         return 0.0
     return float(np.mean(2.0 * np.abs(drags) * np.exp(-np.asarray(travel) / lag_angle)))
+
+
+class PredictedLag:
+    """The friction's predicted lag behind the twin over a run of blocks: the quasi-static drag
+    through :func:`lagged_drag`, going on from the last block's end where the next block
+    follows it sample to sample, else from a sweep's steady lag (after a gated stretch)."""
+
+    def __init__(self) -> None:
+        #: (stamp [s], lagged minus quasi-static drag [N m]) at the last evaluated sample.
+        self._end: tuple[float, float] | None = None
+
+    def block(
+        self,
+        stamps: FloatArray,
+        at: npt.NDArray[np.intp],
+        angle: FloatArray,
+        quasi: FloatArray,
+        lag_angle: float,
+    ) -> FloatArray:
+        """The lag T - T_ss [N m] at every one of a block's ``stamps`` [s], from the
+        quasi-static drag ``quasi`` [N m] and screw ``angle`` [rad] at its evaluated samples
+        ``at``, for the lag angle ``lag_angle`` [rad] (0: zeros, nothing carried on)."""
+        if lag_angle <= 0.0:
+            return np.zeros(len(stamps))
+        evaluated = stamps[at]
+        step = float(np.median(np.diff(stamps))) if len(stamps) > 1 else 0.0
+        start = None
+        if self._end is not None and 0.0 < evaluated[0] - self._end[0] <= 1.5 * step:
+            start = float(quasi[0]) + self._end[1]
+        lagged = lagged_drag(angle, quasi, lag_angle, start)
+        self._end = (float(evaluated[-1]), float(lagged[-1] - quasi[-1]))
+        return np.interp(stamps, evaluated, lagged - quasi)
