@@ -19,6 +19,16 @@ import numpy.typing as npt
 
 from .residuals import FloatArray
 
+#: Least rotation between two samples counted as turning [rad]: below it the screw stood.
+LEAST_TURN = 1e-12
+
+
+def _rotation_slope(angle: FloatArray, drag: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The rotation |d angle| [rad] between successive samples and the drag's slope over it,
+    dT/dphi [N m/rad] (the rotation taken as at least LEAST_TURN)."""
+    turned = np.abs(np.diff(np.asarray(angle, dtype=float)))
+    return turned, np.diff(drag) / np.maximum(turned, LEAST_TURN)
+
 
 def following_error(
     angle: FloatArray, drag: FloatArray, stamps: FloatArray, lag_angle: float
@@ -40,8 +50,7 @@ def following_error(
     """
     if len(stamps) < 2:
         return 0.0
-    turned = np.maximum(np.abs(np.diff(angle)), 1e-12)
-    slope = np.abs(np.diff(drag)) / turned
+    slope = np.abs(_rotation_slope(angle, drag)[1])
     span = float(stamps[-1] - stamps[0])
     mean_slope = float(np.sum(slope * np.diff(stamps)) / span) if span > 0.0 else 0.0
     return mean_slope * lag_angle
@@ -67,9 +76,8 @@ def lagged_drag(
     drag = np.asarray(drag, dtype=float)
     if lag_angle <= 0.0 or len(drag) == 0:
         return drag.copy()
-    turned = np.abs(np.diff(np.asarray(angle, dtype=float)))
-    slope = np.diff(drag) / np.maximum(turned, 1e-12)
-    slope = np.where(turned > 1e-12, slope, 0.0)
+    turned, slope = _rotation_slope(angle, drag)
+    slope = np.where(turned > LEAST_TURN, slope, 0.0)
     out = np.empty_like(drag)
     if start is not None:
         out[0] = start
