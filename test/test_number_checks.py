@@ -275,6 +275,11 @@ def test_an_open_upper_end_refuses_the_end_and_shows_it_open() -> None:
             {"presliding_remainder": -0.5},
             "presliding_remainder = -0.5 is outside the allowed range [0, inf] -",
         ),
+        (
+            {"lowest_neighbour_order": -1.0},
+            "lowest_neighbour_order = -1.0 is outside the allowed range [0, inf] -",
+        ),
+        ({"lowest_neighbour_order": math.nan}, "lowest_neighbour_order: nan is not a finite"),
     ],
 )
 def test_a_health_setting_out_of_range_is_refused_naming_it_its_unit_and_range(

@@ -42,6 +42,10 @@ class MonitorSettings:
         min_revolutions: fewest screw revolutions in a window for the order test [-].
         spectral_noise_time: span over which the order test estimates the residual's local
             noise variance, each sample weighted by its inverse [s].
+        lowest_neighbour_order: the lowest order a neighbour of the order test's noise floor
+            may lie at [-]; one below it is replaced by the next one out on the other side
+            (:func:`.detectors.floor_offsets`). 0 keeps every neighbour (the rule up to
+            round 38 of issue 13).
         classification_window: time after the alarm over which the class is refined [s]; the
             longer, the likelier the operating point moves, which separates the classes.
         classification_patience: longest time after the alarm over which a class named with
@@ -147,6 +151,7 @@ class MonitorSettings:
     spectral_period: float = field(default=1.0, metadata=positive("s"))
     min_revolutions: float = field(default=1.0, metadata=positive("-"))
     spectral_noise_time: float = field(default=0.05, metadata=positive("s"))
+    lowest_neighbour_order: float = field(default=0.0, metadata=not_negative("-"))
     classification_window: float = field(default=8.0, metadata=positive("s"))
     classification_patience: float = field(default=30.0, metadata=positive("s"))
     confident_class: float = field(default=0.9, metadata=limits("-", 0.0, 1.0, lo_open=True))

@@ -44,7 +44,12 @@ class OrderStage:
         self.settings = settings
         self.orders = orders
         self.baseline = baseline
-        self.test = OrderSpectralTest(false_alarm_rate, 1.0 / settings.spectral_period, len(orders))
+        self.test = OrderSpectralTest(
+            false_alarm_rate,
+            1.0 / settings.spectral_period,
+            len(orders),
+            lowest_neighbour=settings.lowest_neighbour_order,
+        )
         #: Largest power ratio of the last test [-], each order's ratio in it [-], and whether
         #: a test has passed its threshold (and the order test may alarm).
         self.statistic = 0.0

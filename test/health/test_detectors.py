@@ -16,6 +16,7 @@ from ballscrew_twin.health.detectors import (
     arl0_from_rate,
     cusum_threshold,
     effective_revolutions,
+    floor_offsets,
     local_noise_variance,
     order_test_weights,
     siegmund_arl0,
@@ -209,6 +210,86 @@ def test_weighted_order_test_finds_a_ripple_a_slow_stretch_hid() -> None:
     assert test.test(x - x.mean(), angle, orders).ratios[1] < test.threshold
 
 
+def test_floor_offsets_without_a_lowest_order_are_the_neighbours_on_both_sides() -> None:
+    offsets = floor_offsets(4.94, 2.1, 8, 0.0)
+    steps = np.arange(2, 10) / 2.1
+    assert offsets[0] == 0.0
+    assert sorted(offsets[1:]) == pytest.approx(sorted([*-steps, *steps]))
+
+
+@pytest.mark.parametrize("revolutions", [1.1, 2.1, 30.0])
+@pytest.mark.parametrize("order", [4.94, 6.14])
+def test_floor_offsets_are_the_nearest_neighbours_above_the_lowest_order(
+    order: float, revolutions: float
+) -> None:
+    lowest = 3.0
+    offsets = floor_offsets(order, revolutions, 8, lowest)
+    steps = np.rint(offsets[1:] * revolutions)  # whole multiples of the resolution 1 / R
+    assert offsets[1:] * revolutions == pytest.approx(steps)
+    assert len(set(steps)) == 16 and np.all(np.abs(steps) >= 2)
+    assert np.all(order + offsets[1:] >= lowest - 1e-12)
+    # none left out that lies nearer than the farthest taken and above the lowest order
+    farthest = int(np.max(np.abs(steps)))
+    eligible = {
+        j
+        for j in range(-farthest + 1, farthest)
+        if abs(j) >= 2 and order + j / revolutions >= lowest
+    }
+    assert eligible <= set(steps.astype(int))
+    if order - 9 / revolutions >= lowest:  # a long window: the neighbours of the old rule
+        assert sorted(offsets) == pytest.approx(sorted(floor_offsets(order, revolutions, 8, 0.0)))
+
+
+def _short_strokes() -> tuple[np.ndarray, np.ndarray]:
+    """Times [s] at 1 kHz and screw angles [rad] of 4 s of a 1 Hz sine stroking over 2.4
+    turns (the strokes of dev units 33015 and 33017 in round 39 of issue 13)."""
+    t = np.arange(4000) / 1000.0
+    return t, 1.2 * 2.0 * math.pi * (1.0 - np.cos(2.0 * math.pi * t))
+
+
+@pytest.mark.parametrize("lowest", [0.0, 2.0])
+def test_order_test_keeps_its_false_alarm_rate_on_short_strokes(lowest: float) -> None:
+    test = OrderSpectralTest(
+        false_alarm_rate=0.05 * 3600 * 3, test_rate=1.0, orders_per_test=3, lowest_neighbour=lowest
+    )
+    rng = np.random.default_rng(21)
+    t, angle = _short_strokes()
+    orders = np.array([4.94, 6.14, 8.14])
+    trials, hits = 400, 0
+    for _ in range(trials):
+        y, revolutions = _weighted(t, rng.standard_normal(len(t)), angle)
+        hits += int(np.sum(test.test(y, angle, orders, revolutions).ratios > test.threshold))
+    low, high = binom.interval(0.999, trials * 3, 0.05)
+    assert low <= hits <= high
+
+
+def test_a_sphere_spot_on_short_strokes_is_found_above_its_mean_in_the_low_orders() -> None:
+    # a spot's raised cosine 0.5 s |T| sign(w) (1 - cos(4.94 phi)) on strokes whose drag T
+    # changes along them: weighted by the drag, the spot's mean torque follows the stroke's
+    # own shape, whose harmonics (orders k / 2.4) fill the neighbours below the order
+    t, angle = _short_strokes()
+    speed = np.gradient(angle, t)
+    drag = np.sign(speed) * (0.2 + np.abs(speed) / np.max(np.abs(speed)))
+    orders = np.array([4.94, 6.14, 8.14])
+    threshold = OrderSpectralTest(0.01, 1.0, 3).threshold
+    found = {0.0: [], 3.0: []}
+    healthy = {0.0: [], 3.0: []}
+    for seed in range(20):
+        noise = np.random.default_rng(100 + seed).standard_normal(len(t))
+        for spot, kept in ((0.25, found), (0.0, healthy)):
+            x = noise + spot * (1.0 - np.cos(4.94 * angle)) * drag
+            x = x - x.mean()
+            weights, revolutions = order_test_weights(t, x, angle, drag, 1e-3, 50)
+            y = x * weights
+            for lowest in (0.0, 3.0):
+                test = OrderSpectralTest(0.01, 1.0, 3, lowest_neighbour=lowest)
+                kept[lowest].append(test.test(y - y.mean(), angle, orders, revolutions).ratios[0])
+    assert np.sum(np.array(found[0.0]) > threshold) <= 2
+    assert np.sum(np.array(found[3.0]) > threshold) >= 15
+    # without the spot the floor above the lowest order is no lower than the whole one
+    assert np.median(healthy[3.0]) == pytest.approx(np.median(healthy[0.0]), rel=0.2)
+
+
 @pytest.mark.parametrize(
     ("factory", "message"),
     [
@@ -231,6 +312,10 @@ def test_weighted_order_test_finds_a_ripple_a_slow_stretch_hid() -> None:
         (
             lambda: WindowChiSquare(window=2.5, false_alarm_rate=1.0, sample_rate=1.0),  # type: ignore[arg-type]
             "chi-square window: expected a whole number, got 2.5",
+        ),
+        (
+            lambda: OrderSpectralTest(1.0, 1.0, 3, lowest_neighbour=-2.0),
+            "order test: lowest_neighbour = -2.0 is outside the allowed range [0, inf] -",
         ),
     ],
 )
