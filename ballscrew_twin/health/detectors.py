@@ -43,7 +43,7 @@ from scipy.optimize import brentq
 from scipy.stats import chi2, f
 
 from ..errors import ConfigError
-from ..params import check_number, limits, positive
+from ..params import check_number, limits, not_negative, positive
 from .residuals import FloatArray
 
 #: Siegmund's correction of the CUSUM threshold for the overshoot of a normal increment [-].
@@ -392,7 +392,7 @@ class OrderSpectralTest:
         self.lowest_neighbour = float(
             check_number(
                 lowest_neighbour,
-                limits("-", 0.0, math.inf),
+                not_negative("-"),
                 "order test: lowest_neighbour",
                 text=False,
             )

@@ -162,9 +162,12 @@ def _slow_then_fast() -> tuple[np.ndarray, np.ndarray]:
     return t, np.concatenate([[0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))])
 
 
-def _weighted(t: np.ndarray, x: np.ndarray, angle: np.ndarray) -> tuple[np.ndarray, float]:
+def _weighted(
+    t: np.ndarray, x: np.ndarray, angle: np.ndarray, drag: np.ndarray | None = None
+) -> tuple[np.ndarray, float]:
     x = x - x.mean()
-    weights, revolutions = order_test_weights(t, x, angle, np.ones_like(t), 1e-3, 50)
+    drag = np.ones_like(t) if drag is None else drag
+    weights, revolutions = order_test_weights(t, x, angle, drag, 1e-3, 50)
     y = x * weights
     return y - y.mean(), revolutions
 
@@ -278,12 +281,10 @@ def test_a_sphere_spot_on_short_strokes_is_found_above_its_mean_in_the_low_order
         noise = np.random.default_rng(100 + seed).standard_normal(len(t))
         for spot, kept in ((0.25, found), (0.0, healthy)):
             x = noise + spot * (1.0 - np.cos(4.94 * angle)) * drag
-            x = x - x.mean()
-            weights, revolutions = order_test_weights(t, x, angle, drag, 1e-3, 50)
-            y = x * weights
+            y, revolutions = _weighted(t, x, angle, drag)
             for lowest in (0.0, 3.0):
                 test = OrderSpectralTest(0.01, 1.0, 3, lowest_neighbour=lowest)
-                kept[lowest].append(test.test(y - y.mean(), angle, orders, revolutions).ratios[0])
+                kept[lowest].append(test.test(y, angle, orders, revolutions).ratios[0])
     assert np.sum(np.array(found[0.0]) > threshold) <= 2
     assert np.sum(np.array(found[3.0]) > threshold) >= 15
     # without the spot the floor above the lowest order is no lower than the whole one
