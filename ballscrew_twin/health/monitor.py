@@ -228,7 +228,7 @@ class HealthMonitor:
         self.cusum = Cusum(s.cusum_shift, share, block_rate)
         #: The run's own residual per operating point and the CUSUM on its innovations
         #: (:mod:`.memory`), with the block times of those innovations.
-        self.memory = ResidualMemory(agreement=s.bin_agreement)
+        self.memory = ResidualMemory(agreement=s.bin_agreement, trend=s.bin_trend)
         self.local_cusum = Cusum(s.cusum_shift, share, block_rate)
         self._local_times: deque[float] = deque(maxlen=HISTORY_BLOCKS)
         self._local_stat = 0.0

@@ -71,6 +71,10 @@ class MonitorSettings:
         bin_agreement: largest z of each of a new memory bin's last blocks against their
             median for the bin to become the local test's reference [-] (:mod:`.memory`);
             inf takes a bin's first blocks as they come (the rule up to round 19).
+        bin_trend: largest |z| of the slope of those blocks against their order for the bin
+            to become a reference [-] (:func:`.memory.window_trend`: a bin whose first
+            blocks still settle after a speed step waits); inf sets no limit (the rule up to
+            round 39).
         cusum_min_weight: least weight of a block in the CUSUM [-]. A block's weight is the
             share of its sigma that a change of the drag would be seen against (without the
             inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1 weighs
@@ -163,6 +167,7 @@ class MonitorSettings:
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
+    bin_trend: float = math.inf
     cusum_min_weight: float = field(default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True))
     settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))
@@ -175,11 +180,12 @@ class MonitorSettings:
         """Reject values outside their meaning: the fields with limits through the package's
         one number check (:func:`~ballscrew_twin.params.validate_fields`: the message names
         the setting, its value, its unit and its range), the false-alarm rate, the detectors
-        and ``bin_agreement``, which may be infinite."""
+        and ``bin_agreement`` and ``bin_trend``, which may be infinite."""
         check_rate(self.false_alarm_rate, 1.0 / self.residual.block_duration)
         validate_fields(self, "health settings", ": ")
         check_detectors(self.detectors)
-        if not self.bin_agreement > 0.0:
-            raise ConfigError(
-                f"health settings: bin_agreement = {self.bin_agreement!r} sigma must be > 0"
-            )
+        for name in ("bin_agreement", "bin_trend"):
+            if not getattr(self, name) > 0.0:
+                raise ConfigError(
+                    f"health settings: {name} = {getattr(self, name)!r} sigma must be > 0"
+                )
