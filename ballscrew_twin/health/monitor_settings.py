@@ -73,8 +73,8 @@ class MonitorSettings:
             inf takes a bin's first blocks as they come (the rule up to round 19).
         bin_trend: largest |z| of the slope of those blocks against their order for the bin
             to become a reference [-] (:func:`.memory.window_trend`: a bin whose first
-            blocks still settle after a speed step waits); inf sets no limit (the rule up to
-            round 39).
+            blocks still settle after a speed step waits; held out in round 40 of issue 13);
+            inf sets no limit (the rule up to round 39).
         cusum_min_weight: least weight of a block in the CUSUM [-]. A block's weight is the
             share of its sigma that a change of the drag would be seen against (without the
             inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1 weighs
@@ -167,7 +167,7 @@ class MonitorSettings:
     detectors: tuple[str, ...] = ("cusum", "local", "spectral")
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
-    bin_trend: float = math.inf
+    bin_trend: float = 3.0
     cusum_min_weight: float = field(default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True))
     settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))

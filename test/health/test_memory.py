@@ -108,9 +108,9 @@ def test_a_bin_becomes_a_reference_only_when_its_last_blocks_agree() -> None:
     assert reference is not None
     assert reference[0] == pytest.approx(mean, rel=1e-12)
     assert reference[1] == pytest.approx(variance / 8 + FLOOR**2, rel=1e-12)
-    # the rule up to round 19 (agreement inf) starts from the median of the first five,
+    # the rule up to round 19 (agreement and trend inf) starts from the median of the first five,
     # 3.1 %, and every settled block differs from it by more than UPDATE_GATE sigma
-    eager = ResidualMemory(agreement=math.inf)
+    eager = ResidualMemory(agreement=math.inf, trend=math.inf)
     for k, q in enumerate(settling):
         eager.update(key, q, variance, 0.1 * k, 290.0, 2.2)
     first = eager.reference(key, 0.5, 290.0, 2.2)
@@ -211,12 +211,13 @@ def test_a_bin_still_settling_waits_until_its_blocks_stop_falling() -> None:
                 memory.update(key, q, v, 0.1 * k, 304.4, -2.1)
         return zs
 
-    # the old rule: the first five blocks agree, the bin starts at their median
+    # the rule up to round 39 (trend inf): the first five blocks agree, the bin starts at
+    # their median
     first = _learnt(blocks[:MIN_COUNT], variances[:MIN_COUNT])
-    assert abs(window_trend(first, FLOOR)) > 3.0
-    assert max(settled_z(ResidualMemory())) < -UPDATE_GATE
-    # with the trend's limit: the settled blocks agree with the bin
-    assert max(abs(z) for z in settled_z(ResidualMemory(trend=3.0))) < 1.5
+    assert abs(window_trend(first, FLOOR)) > UPDATE_GATE
+    assert max(settled_z(ResidualMemory(trend=math.inf))) < -UPDATE_GATE
+    # with the trend's limit (the default): the settled blocks agree with the bin
+    assert max(abs(z) for z in settled_z(ResidualMemory())) < 1.5
 
 
 def test_a_block_away_from_its_bins_speed_and_temperature_gets_the_slope_bounds() -> None:
