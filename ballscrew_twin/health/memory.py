@@ -259,7 +259,7 @@ class ResidualMemory:
             sigma = math.sqrt(each.variance + spread / MIN_COUNT + self.floor**2)
             if abs(each.residual - median) > self.agreement * sigma:
                 return
-        if math.isfinite(self.trend) and abs(window_trend(window, self.floor)) > self.trend:
+        if abs(window_trend(window, self.floor)) > self.trend:  # never beyond inf
             return
         b.mean, b.variance, b.count = median, spread, MIN_COUNT
         b.window = []

@@ -161,7 +161,9 @@ def test_the_window_trend_is_numpys_weighted_slope_over_its_standard_error() -> 
     floor = 0.003
     for _ in range(20):
         variances = list(rng.uniform(1e-6, 4e-4, MIN_COUNT))
-        residuals = list(rng.normal(0.0, 0.01, MIN_COUNT) + rng.normal(0.0, 0.004) * np.arange(5))
+        residuals = list(
+            rng.normal(0.0, 0.01, MIN_COUNT) + rng.normal(0.0, 0.004) * np.arange(MIN_COUNT)
+        )
         sigma = np.sqrt(np.array(variances) + floor**2)
         fit, cov = np.polyfit(np.arange(MIN_COUNT), residuals, 1, w=1.0 / sigma, cov="unscaled")
         expected = fit[0] / math.sqrt(cov[0, 0])
