@@ -116,7 +116,7 @@ def test_a_friction_change_accumulates_through_reversals() -> None:
     # operating points as 300 independent blocks and was sure of the friction scale to well
     # under 3 %; updated as the shared error it is, the uncommissioned twin's friction scale
     # stays as uncertain as its 3 % error after 30 s, and a 10 % change is 2.3 innovation
-    # sigmas, under the CUSUM's k = 2.5.)
+    # sigmas, under the CUSUM's k = 2.5 of then; 2 since round 41.)
     config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
     monitor = HealthMonitor(config, MonitorSettings(detectors=("cusum",)), twin=twin)
     feed(monitor, channels)

@@ -174,10 +174,14 @@ def test_compared_ramps_need_the_weighted_cusum(weight: float) -> None:
     # predicted); unweighted they take about k off the CUSUM each and the loss is not found;
     # weighted (the default floor of 0.5, or 0.01) it is found within a second. With half the
     # lag predicted (the default since round 38) the ramps keep half that term, and even the
-    # unweighted CUSUM finds it within a second.
+    # unweighted CUSUM finds it within a second. All at the k = 2.5 of rounds 2-40
+    # (cusum_shift 5), where the premise holds; test_a_smaller_allowance_finds_the_ramps_loss
+    # checks the default's k = 2.
     config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
     for prediction in (0.0, 0.5):
-        settings = _settings(0.5, weight, detectors=("cusum",), lag_prediction=prediction)
+        settings = _settings(
+            0.5, weight, detectors=("cusum",), lag_prediction=prediction, cusum_shift=5.0
+        )
         monitor = HealthMonitor(config, settings, twin=twin)
         feed(monitor, channels)
         if weight == 1.0 and prediction == 0.0:
@@ -185,3 +189,17 @@ def test_compared_ramps_need_the_weighted_cusum(weight: float) -> None:
             continue
         assert monitor.alarm is not None
         assert REVERSING_ONSET < monitor.alarm.time <= REVERSING_ONSET + 1.0
+
+
+@pytest.mark.parametrize("weight", [1.0, 0.5])
+def test_a_smaller_allowance_finds_the_ramps_loss(weight: float) -> None:
+    # The cycle and loss above with no lag predicted, at the default CUSUM allowance k = 2
+    # (cusum_shift 4 since round 41 of issue 13): a ramp block no longer takes a whole 2.5
+    # sigma off, and even the unweighted CUSUM finds the loss within a second.
+    assert MonitorSettings().cusum_shift == 4.0
+    config, twin, channels = _reversing(0.0, "raceway_defect", friction=0.85, period=1.2)
+    settings = _settings(0.5, weight, detectors=("cusum",), lag_prediction=0.0)
+    monitor = HealthMonitor(config, settings, twin=twin)
+    feed(monitor, channels)
+    assert monitor.alarm is not None
+    assert REVERSING_ONSET < monitor.alarm.time <= REVERSING_ONSET + 1.0
