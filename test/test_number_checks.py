@@ -267,6 +267,7 @@ def test_an_open_upper_end_refuses_the_end_and_shows_it_open() -> None:
             {"settling_lag_angles": 0.0},
             "settling_lag_angles = 0.0 is outside the allowed range (0, inf] -",
         ),
+        ({"local_settling": -1.0}, "local_settling = -1.0 is outside the allowed range [0, inf] -"),
         (
             {"standstill_shift": -0.1},
             "standstill_shift = -0.1 is outside the allowed range [0, inf] rad/s",

@@ -89,10 +89,6 @@ REPEAT_SHARE = 0.1
 #: Largest own relative sigma of a block for the local test [-]: beyond, the block is mostly
 #: inertia or lag and says little about the friction.
 LOUD_SIGMA = 0.3
-#: Screw rotation since the last reversal or stop, in multiples of the monitor's gate angle,
-#: before a block is tested or learnt: the gate angle is where the unit's presliding lag has
-#: fallen within twice the twin's error band (1-3 %), the local test resolves 0.3 % [-].
-SETTLING_FACTOR = 2.0
 
 
 @dataclass(frozen=True)

@@ -56,7 +56,6 @@ from .detectors import (
 from .memory import (
     LOUD_SIGMA,
     REPEAT_SHARE,
-    SETTLING_FACTOR,
     UPDATE_GATE,
     ResidualMemory,
     bin_key,
@@ -616,14 +615,14 @@ class HealthMonitor:
         motion (:mod:`.memory`), and the block's residual less its bin's healthy residual
         [N m] with that difference's variance [N^2 m^2]; (None, None) when the block is mostly
         inertia or lag (``own``, the transient sigma [N m], beyond LOUD_SIGMA of the drag), is
-        within SETTLING_FACTOR gate angles of a reversal, or its bin is new. A healthy block
-        updates its bin."""
+        within the settings' ``local_settling`` gate angles of a reversal or stop, or its bin is
+        new. A healthy block updates its bin."""
         scale = self.baseline.torque_gain * abs(drag)
         change = block.mean_acceleration * block.span
         key = bin_key(speed, block.temperature, block.preload, change)
         if key is None or scale <= 0.0:
             return None, None
-        if self.gate.block_travel < SETTLING_FACTOR * self.gate.settings.gate_angle:
+        if self.gate.block_travel < self.settings.local_settling * self.gate.settings.gate_angle:
             return None, None
         if own > LOUD_SIGMA * scale:
             return None, None

@@ -82,6 +82,14 @@ class MonitorSettings:
             to become a reference [-] (:func:`.memory.window_trend`: a bin whose first
             blocks still settle after a speed step waits; held out in round 40 of issue 13);
             inf sets no limit (the rule up to round 39).
+        local_settling: screw rotation since the last reversal or stop, in gate angles,
+            before a block is tested against this run's memory or taught to it [-]
+            (:meth:`.monitor.HealthMonitor._local`; at least the gate itself, 1, whatever
+            the value). The gate angle is where the unit's presliding lag has fallen within
+            twice the twin's error band (1-3 %), while the local test resolves 0.3 %; but a
+            bin holds the same part of a motion that comes round again (the sign and size of
+            its speed change), whose lag repeats. Default 2 (the rule up to round 42 of
+            issue 13).
         cusum_min_weight: least weight of a block in the CUSUM [-]. A block's weight is the
             share of its sigma that a change of the drag would be seen against (without the
             inertia, lag and standstill terms; :meth:`.detectors.Cusum.update`); 1 weighs
@@ -176,6 +184,7 @@ class MonitorSettings:
     inertia_gate: float = field(default=1.0, metadata=positive("-"))
     bin_agreement: float = 3.0
     bin_trend: float = 3.0
+    local_settling: float = field(default=2.0, metadata=not_negative("-"))
     cusum_min_weight: float = field(default=0.5, metadata=limits("-", 0.0, 1.0, lo_open=True))
     settling_lag_angles: float = field(default=3.0, metadata=positive("-"))
     standstill_shift: float = field(default=0.5, metadata=not_negative("rad/s"))

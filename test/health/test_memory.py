@@ -28,6 +28,7 @@ from ballscrew_twin.health.memory import (
 from ballscrew_twin.health.monitor import HealthMonitor, feed
 from ballscrew_twin.health.monitor_settings import MonitorSettings
 from ballscrew_twin.health.residuals import UnitTwin
+from ballscrew_twin.health.verdicts import Alarm
 from ballscrew_twin.params import load_config
 
 from .synthetic import bench_channels
@@ -297,6 +298,33 @@ def test_a_small_change_is_seen_at_a_revisited_operating_point() -> None:
     assert monitor.alarm is not None and monitor.alarm.detector == "local"
     assert 60.0 <= monitor.alarm.time < 62.0
     assert 59.0 <= monitor.alarm.onset <= monitor.alarm.time
+
+
+def test_short_strokes_are_learnt_from_the_settings_rotation_after_a_reversal() -> None:
+    """A sine of +-6 rad/s every 2 s turns the screw 3.8 rad a stroke: never two gate angles
+    (2 rad each, the default) past its reversal, past one for about 0.4 s of each stroke. A
+    1.5 % change at 60 s, inside the twin's band: the default local test has no block to
+    learn; with ``local_settling`` 1 it learns the strokes' ends and sees the change, and
+    sees no change where there is none."""
+    config = load_config(None)
+    twin = UnitTwin(config)
+    t = np.arange(0.0, 120.0, 1e-3)
+    w = 6.0 * np.sin(np.pi * t)
+    rng = np.random.default_rng(7)
+    inertia = config.screw.screw_inertia * np.gradient(w, t) + rng.normal(0.0, 2e-4, len(t))
+    found: dict[tuple[float, float], tuple[int, Alarm | None]] = {}
+    for change in (0.0, 0.015):
+        friction = 1.02 * twin.drag(w, 293.15, 1500.0) * np.where(t >= 60.0, 1.0 - change, 1.0)
+        channels = bench_channels(t, friction + inertia, w)
+        for settling in (2.0, 1.0):
+            monitor = HealthMonitor(config, MonitorSettings(local_settling=settling), twin=twin)
+            feed(monitor, channels)
+            found[change, settling] = (len(monitor.memory), monitor.alarm)
+    assert found[0.015, 2.0] == (0, None)
+    assert found[0.0, 1.0][0] > 0 and found[0.0, 1.0][1] is None
+    memory, alarm = found[0.015, 1.0]
+    assert memory > 0 and alarm is not None and alarm.detector == "local"
+    assert 60.0 <= alarm.onset <= alarm.time < 64.0
 
 
 def test_the_floor_must_be_finite_and_not_negative() -> None:
